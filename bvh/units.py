@@ -1,0 +1,116 @@
+"""Units and up-axis: detection from a skeleton's layout, and conversion of motions.
+
+A BVH file does not say its units or which axis is up; these guesses use the rest pose of a
+human-like skeleton (standing height, head above feet).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SkeletonError
+from .motion import Motion
+from .rotations import from_rotation, quat_mul, quat_conj, quat_rotate, to_rotation
+from .skeleton import Skeleton
+
+#: metres per unit for the unit names accepted by :func:`unit_scale`
+UNIT_SCALES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}
+AXIS_VECTORS = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}
+
+
+def unit_scale(unit: str) -> float:
+    """Metres per ``unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``)."""
+    try:
+        return UNIT_SCALES[unit.lower()]
+    except KeyError:
+        raise SkeletonError(f"unknown unit {unit!r}; expected one of {sorted(UNIT_SCALES)}") from None
+
+
+def _extent_points(skeleton: Skeleton) -> np.ndarray:
+    pts = skeleton.rest_positions()
+    if skeleton.n_end_sites:
+        pts = np.concatenate([pts, skeleton.rest_end_sites()])
+    return pts
+
+
+def guess_up_axis(skeleton: Skeleton) -> str:
+    """``"y"`` or ``"z"`` (or ``"x"``): the axis along which the rest pose is tallest.
+
+    A standing T-pose is taller than it is deep; arms may make it as wide as tall, so the two
+    horizontal candidates are told apart by depth: the axis with the largest extent among
+    those orthogonal to the arm span is up.
+    """
+    pts = _extent_points(skeleton)
+    ext = pts.max(axis=0) - pts.min(axis=0)
+    order = np.argsort(ext)[::-1]
+    # the smallest extent is depth (front-back); of the other two, prefer the one in which
+    # the root lies between the extremes asymmetrically (legs longer below than head above)
+    a, b = order[0], order[1]
+    root = skeleton.rest_positions()[0]
+
+    def asym(ax: int) -> float:
+        lo, hi = pts[:, ax].min(), pts[:, ax].max()
+        span = max(hi - lo, 1e-12)
+        return abs((root[ax] - lo) - (hi - root[ax])) / span  # arms are symmetric, legs/head not
+
+    up = a if asym(a) >= asym(b) else b
+    return "xyz"[int(up)]
+
+
+def guess_unit_scale(skeleton: Skeleton) -> float:
+    """Metres per file unit guessed from the standing height of the rest pose.
+
+    Heights near 1.7 are metres, near 170 centimetres, near 67 inches, near 1700 millimetres.
+    """
+    pts = _extent_points(skeleton)
+    ax = "xyz".index(guess_up_axis(skeleton))
+    height = float(pts[:, ax].max() - pts[:, ax].min())
+    if height <= 0:
+        raise SkeletonError("cannot guess units: the skeleton has no height (all joints coincide)")
+    candidates = {"m": 1.0, "cm": 0.01, "in": 0.0254, "mm": 0.001, "dm": 0.1}
+    # pick the unit that makes the skeleton closest (in log scale) to 1.6 m tall
+    name = min(candidates, key=lambda u: abs(np.log(height * candidates[u] / 1.6)))
+    return candidates[name]
+
+
+def up_axis_rotation(from_up: str, to_up: str = "z") -> np.ndarray:
+    """wxyz quaternion ``(4,)`` of the change of basis taking ``from_up`` to ``to_up``.
+
+    Y-up to Z-up is +90 degrees about X (Y -> Z, Z -> -Y), which also keeps a character facing
+    +Z in Y-up facing -Y in Z-up; callers that need a particular facing rotate further.
+    """
+    a, b = AXIS_VECTORS[from_up.lower()], AXIS_VECTORS[to_up.lower()]
+    if np.allclose(a, b):
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    axis = np.cross(a, b)
+    axis /= np.linalg.norm(axis)
+    return np.array([np.cos(np.pi / 4), *(np.sin(np.pi / 4) * axis)])
+
+
+def transform_motion(motion: Motion, scale: float = 1.0, rotation: np.ndarray | None = None) -> Motion:
+    """Express ``motion`` in other units and axes: new world = ``scale * R * old world``.
+
+    Offsets, translations and end sites are scaled and rotated; local rotations are conjugated
+    (``R q R^-1``), so forward kinematics of the result equals the old one transformed.
+    ``rotation``: wxyz quaternion ``(4,)`` or ``None`` for no rotation.
+    """
+    q = np.array([1.0, 0, 0, 0]) if rotation is None else np.asarray(rotation, dtype=float)
+    sk = motion.skeleton.copy()
+    sk.offsets = scale * quat_rotate(q, sk.offsets)
+    sk.end_site_offsets = scale * quat_rotate(q, sk.end_site_offsets)
+    pos = scale * quat_rotate(q, motion.local_positions)
+    rot = quat_mul(quat_mul(q, motion.rotations), quat_conj(q))
+    return Motion(sk, motion.frame_time, pos, rot)
+
+
+def to_metres(motion: Motion, unit: str | float | None = None, up: str | None = None,
+              to_up: str = "y") -> Motion:
+    """Motion in metres with ``to_up`` as the up axis (units/up guessed when ``None``)."""
+    scale = guess_unit_scale(motion.skeleton) if unit is None else (
+        unit_scale(unit) if isinstance(unit, str) else float(unit))
+    up = up or guess_up_axis(motion.skeleton)
+    return transform_motion(motion, scale, up_axis_rotation(up, to_up))
+
+
+__all__ = ["unit_scale", "guess_up_axis", "guess_unit_scale", "up_axis_rotation",
+           "transform_motion", "to_metres", "from_rotation", "to_rotation"]
