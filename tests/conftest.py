@@ -1,0 +1,31 @@
+"""Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
+SHARED_CLIPS = ["walk60.bvh", "idle.bvh", "walk_forward.bvh", "walk_and_turn_right.bvh"]
+
+
+def shared_clip(name: str) -> Path:
+    """Path of a shared clip; skips the calling test with a clear message when it is absent."""
+    path = SHARED_BVH / name
+    if not path.is_file():
+        pytest.skip(f"shared motion data not found at {path} (a clone outside the mjchar "
+                    f"workplace has no ../shared/data); this test needs it")
+    return path
+
+
+@pytest.fixture(params=SHARED_CLIPS)
+def shared_clip_path(request) -> Path:
+    """Each shared clip in turn."""
+    return shared_clip(request.param)
+
+
+@pytest.fixture
+def walk60() -> Path:
+    return shared_clip("walk60.bvh")
