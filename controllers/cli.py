@@ -1,43 +1,37 @@
-"""The ``mjchar`` command line.
+"""mjchar: physics-based character control on MuJoCo.
 
-Each subcommand lives in the module that owns the work and registers itself here through a
-``add_parser(subparsers)`` function; this module only dispatches and turns project errors into
-one-line messages with a non-zero exit status.
+This module only builds the parser from the subcommand modules listed in
+:mod:`controllers.commands` and turns project errors into one-line messages with exit status 2.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 from bvh.errors import MjcharError
 
+from .commands import COMMANDS
 
-def _info(args: argparse.Namespace) -> int:
-    import numpy as np
 
-    import bvh
-
-    motion = bvh.load(args.file)
-    sk = motion.skeleton
-    fk = bvh.forward_kinematics(motion)
-    lo = fk.positions.reshape(-1, 3).min(axis=0)
-    hi = fk.positions.reshape(-1, 3).max(axis=0)
-    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
-          f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
-    print(f"  up axis (guessed): {bvh.units.guess_up_axis(sk)}, "
-          f"metres per unit (guessed): {bvh.units.guess_unit_scale(sk):g}")
-    print(f"  bounding box: {np.round(lo, 3)} .. {np.round(hi, 3)}")
-    print("  joints: " + ", ".join(sk.names))
-    return 0
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit status 2 (argparse's own convention)
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mjchar", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    p = sub.add_parser("info", help="summarise a BVH file (joints, frames, units, axes)")
-    p.add_argument("file", help="BVH file")
-    p.set_defaults(func=_info)
+    parser = _Parser(prog="mjchar", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_Parser)
+    for name in COMMANDS:
+        try:
+            module = importlib.import_module(f"controllers.commands.{name}")
+        except ModuleNotFoundError as e:
+            if e.name == f"controllers.commands.{name}":
+                continue  # subcommand not built yet
+            raise
+        module.register(sub)
     return parser
 
 

@@ -1,0 +1,30 @@
+"""``mjchar info FILE.bvh``: summarise a BVH file."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("info", help="summarise a BVH file (joints, frames, units, axes)")
+    p.add_argument("file", help="BVH file")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    import bvh
+
+    motion = bvh.load(args.file)
+    sk = motion.skeleton
+    fk = bvh.forward_kinematics(motion)
+    lo = fk.positions.reshape(-1, 3).min(axis=0)
+    hi = fk.positions.reshape(-1, 3).max(axis=0)
+    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
+          f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
+    print(f"  up axis (guessed): {bvh.units.guess_up_axis(sk)}, "
+          f"metres per unit (guessed): {bvh.units.guess_unit_scale(sk):g}")
+    print(f"  bounding box: {np.round(lo, 3)} .. {np.round(hi, 3)}")
+    print("  joints: " + ", ".join(sk.names))
+    return 0
