@@ -1,0 +1,98 @@
+"""The bundled assets: the default humanoid model and its motions.
+
+``assets/mjcf/humanoid.xml`` is the converter's output for the project-authored skeleton
+(:mod:`bvh.humanoid_skeleton`) at the default options; ``assets/motions/<name>.bvh`` are motions
+authored for that skeleton. Regenerate everything with::
+
+    python -m bvh.assets
+
+A test checks that the checked-in model equals a fresh conversion byte for byte.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from .errors import MjcharError
+
+#: the project root (holds ``assets/``)
+ROOT = Path(__file__).resolve().parents[1]
+ASSETS = ROOT / "assets"
+HUMANOID_XML = ASSETS / "mjcf" / "humanoid.xml"
+MOTIONS = ASSETS / "motions"
+
+#: options the bundled humanoid is converted with
+HUMANOID_OPTIONS = {"total_mass": 70.0, "joint_model": "hinge", "model_name": "humanoid"}
+
+
+class AssetError(MjcharError):
+    """A bundled asset is missing (regenerate with ``python -m bvh.assets``)."""
+
+
+def humanoid_path() -> Path:
+    """Path of the bundled humanoid model ``assets/mjcf/humanoid.xml``."""
+    if not HUMANOID_XML.is_file():
+        raise AssetError(f"{HUMANOID_XML} is missing; regenerate it with `python -m bvh.assets`")
+    return HUMANOID_XML
+
+
+def motion_path(name: str) -> Path:
+    """Path of a bundled motion, ``assets/motions/<name>.bvh`` (e.g. ``"idle"``, ``"walk"``)."""
+    path = MOTIONS / f"{name}.bvh"
+    if not path.is_file():
+        have = sorted(p.stem for p in MOTIONS.glob("*.bvh")) if MOTIONS.is_dir() else []
+        raise AssetError(f"no bundled motion {name!r} at {path}; available: "
+                         f"{', '.join(have) or 'none'} (regenerate with `python -m bvh.assets`)")
+    return path
+
+
+def build_humanoid():
+    """Convert the project skeleton with :data:`HUMANOID_OPTIONS` -> ``ConvertedModel``."""
+    from .humanoid_skeleton import humanoid_skeleton
+    from .mjcf import convert
+
+    return convert(humanoid_skeleton(), **HUMANOID_OPTIONS)
+
+
+def regenerate(out_root: str | os.PathLike | None = None, motions: bool = True) -> list[Path]:
+    """Write the humanoid model (and the bundled motions when their author module exists).
+
+    Args:
+        out_root: folder standing for ``assets/`` (default: the project's ``assets/``).
+        motions: also write ``motions/*.bvh`` via ``bvh.authored.write_bundled_motions``.
+
+    Returns:
+        The paths written.
+    """
+    root = Path(out_root) if out_root is not None else ASSETS
+    written = []
+    converted = build_humanoid()
+    xml_path = root / "mjcf" / "humanoid.xml"
+    converted.save(xml_path)
+    written.append(xml_path)
+    if motions:
+        try:
+            from .authored import write_bundled_motions
+        except ImportError:
+            write_bundled_motions = None
+        if write_bundled_motions is not None:
+            from .humanoid_skeleton import humanoid_skeleton
+
+            out = write_bundled_motions(humanoid_skeleton(), root / "motions")
+            paths = out.values() if isinstance(out, dict) else (out or [])
+            written.extend(Path(p) for p in paths)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m bvh.assets [--no-motions]``: regenerate the bundled assets."""
+    argv = sys.argv[1:] if argv is None else argv
+    for p in regenerate(motions="--no-motions" not in argv):
+        print(f"wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,97 @@
+"""``mjchar convert INPUT.bvh -o OUTPUT.xml``: build a simulated humanoid from a BVH skeleton."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "convert", help="convert a BVH skeleton into a MuJoCo humanoid (MJCF)",
+        description="Convert a BVH skeleton into a MuJoCo humanoid (MJCF). Units and the up axis "
+                    "are detected unless given; fingers and end markers are dropped and "
+                    "zero-length helper joints fused by default (see docs/converter.md).")
+    p.add_argument("input", help="BVH file")
+    p.add_argument("-o", "--output", help="MJCF file to write (default: INPUT with .xml)")
+    p.add_argument("--mass", type=float, default=70.0, help="total mass in kg (default 70)")
+    p.add_argument("--joint-model", default="hinge", metavar="{hinge,full,ball}",
+                   help="hinge: hinge triplets, one hinge for knees/elbows, anatomical ranges "
+                        "(default); full: hinge triplets everywhere, no ranges, exact replay; "
+                        "ball: ball joints with motors")
+    p.add_argument("--unit", help="file unit: m, cm, mm, in, ft or metres per unit "
+                                  "(default: guessed from the height)")
+    p.add_argument("--up", choices=["x", "y", "z"], help="up axis of the file (default: guessed)")
+    p.add_argument("--drop", help="comma-separated joints to remove with their subtrees; "
+                                  "'default' adds the defaults, 'none' drops nothing")
+    p.add_argument("--fuse", help="comma-separated joints to merge into their parent body; "
+                                  "'default' adds the defaults, 'none' fuses nothing")
+    p.add_argument("--gains", metavar="FILE.json",
+                   help="gains overrides: {joint name | role | base role | default: "
+                        "{kp, kd, torque, armature, damping}}")
+    p.add_argument("--verify", action="store_true",
+                   help="replay the file's motion in the model and report joint and "
+                        "end-effector position errors (mm)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (errors with --verify, mass, sizes, dropped)")
+    p.set_defaults(func=run)
+
+
+def _split(value: str | None) -> list[str] | None:
+    if value is None:
+        return None
+    return [v.strip() for v in value.split(",") if v.strip()]
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+    import os
+
+    from bvh.mjcf import convert
+
+    converted = convert(
+        args.input, total_mass=args.mass, joint_model=args.joint_model, unit=args.unit,
+        up_axis=args.up, drop=_split(args.drop), fuse=_split(args.fuse), gains=args.gains)
+    output = args.output or os.path.splitext(args.input)[0] + ".xml"
+    model = converted.compile()
+    converted.save(output)
+    s = converted.summary
+    errors = None
+    if args.verify:
+        from bvh.reference import replay_errors
+
+        errors = replay_errors(model, converted.motion)
+    if args.json:
+        out = {
+            "output": output,
+            "worst_error_mm": errors["max_mm"] if errors else None,
+            "worst_end_effector_error_mm": errors["end_effector_max_mm"] if errors else None,
+            "total_mass_kg": round(float(model.body_mass.sum()), 6),
+            "n_bodies": int(model.nbody - 1),
+            "n_dofs": int(model.nv),
+            "n_actuators": int(model.nu),
+            "joint_model": args.joint_model,
+            "dropped_joints": converted.info.dropped,
+            "fused_joints": s["fused"],
+            "warnings": converted.warnings,
+        }
+        if errors:
+            out["joint_errors_mm"] = errors["joints_mm"]
+            out["end_effector_errors_mm"] = errors["end_effectors_mm"]
+        print(json.dumps(out))
+        return 0
+    info = converted.info
+    print(f"{args.input} -> {output}")
+    print(f"  {s['n_bodies']} bodies, {model.nv} dofs ({model.nv - 6} joint dofs + free root), "
+          f"{model.nu} actuators, joint model {args.joint_model}")
+    print(f"  total mass {model.body_mass.sum():.3f} kg, height {s['height_m']:.3f} m, "
+          f"{info.unit_scale:g} m per unit, up axis {info.up_axis}")
+    print(f"  dropped: {', '.join(info.dropped) or 'none'}")
+    for w in converted.warnings:
+        print(f"  warning: {w}")
+    if errors:
+        print(f"  replay ({errors['n_frames']} frames): worst joint error "
+              f"{errors['max_mm']:.3f} mm ({errors['max_joint']}), worst end-effector error "
+              f"{errors['end_effector_max_mm']:.3f} mm ({errors['end_effector']})")
+        for name, err in errors["joints_mm"].items():
+            print(f"    {name:24s} {err:9.3f} mm")
+    return 0
