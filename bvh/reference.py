@@ -1,0 +1,954 @@
+"""Reference motions: a BVH clip expressed in a converted model's coordinates (qpos, qvel, sites).
+
+:class:`ReferenceMotion` turns a :class:`~bvh.motion.Motion` (file units and axes) into the
+generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-contract.md``):
+
+1. **Units and axes.** ``transform_motion(motion, info.unit_scale, info.basis)`` gives the clip in
+   metres in the MuJoCo world (Z up, facing +X). Forward kinematics of that motion gives the BVH
+   joints' global positions ``p_j`` ``(F, J, 3)`` and orientations ``G_j`` ``(F, J, 4)``.
+2. **Joint map.** Every kept BVH joint ``j`` owns a body whose rest frame is world-aligned at the
+   joint's rest position. With ``a`` the kept BVH joint of the model parent body (dropped or fused
+   joints in between are folded in), the body's local rotation is ``L_j = G_a^-1 G_j``. Then
+
+   - free root: ``qpos = (p_j, G_j)``;
+   - ball: ``qpos = L_j``;
+   - three hinges with axes ``a1, a2, a3`` (kinematic order): the intrinsic Euler angles of
+     ``L_j = R_a1(t1) R_a2(t2) R_a3(t3)``, continuous over frames (unwrapped, branch-consistent);
+   - one hinge (knees, elbows of the ``hinge`` model): the twist of ``L_j`` about the axis
+     (swing-twist projection, ``t = 2 atan2(v . a, w)``); two hinges: the first two Euler angles.
+
+3. **Projection IK** (``project=True``, only when some body has fewer than three rotational dofs).
+   Real knees and elbows are not hinges, so the projection alone moves ankles and wrists by
+   centimetres. Per frame, damped least squares in the model's joint space,
+   ``dq = (J^T W J + lambda^2 I + M)^-1 (J^T W e + M (q_proj - q))``, over the limb's dofs (the
+   parent joint when it only carries this limb, the hinge itself, the child joint) with ``J``
+   from ``mj_jacBody``, the error ``e`` stacking the child body's position and orientation
+   (``log(G_target R^T)``, world frame) and, with a lower weight, the hinge body's position;
+   ``M`` is a small regulariser on the parent's dofs that keeps the limb's swivel smooth where
+   the clip's limb is nearly straight (see :meth:`ReferenceMotion._project_ik`). Frames are
+   solved in order, each warm-started with the previous frame's correction.
+4. **Floor.** The clip is shifted vertically so the lowest foot point over the clip (foot box
+   corners, or foot sites) is at ``z = 0``.
+5. **Loops.** A cyclic clip (given, or detected when its first and last poses agree within
+   :data:`CYCLIC_POSE_TOLERANCE` once heading and horizontal position are removed) repeats with
+   period ``duration = (F - 1) frame_time`` (the last frame is the first of the next cycle). Each
+   cycle applies the rigid horizontal transform ``M`` that takes the root from frame 0 to frame
+   ``F - 1``: a translation, plus the heading change when the clip turns by more than
+   :data:`TURN_THRESHOLD`.
+
+Times: ``qpos(t)`` interpolates between frames with ``mj_integratePos``/``mj_differentiatePos``
+semantics (linear for positions and hinge angles, slerp for quaternions); ``qvel(t)`` interpolates
+per-frame central differences (``mj_differentiatePos`` semantics: free-joint linear velocity in
+the world frame, angular velocities in the body frame). A non-cyclic clip holds its first/last
+pose outside ``[0, duration]`` with zero velocity.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from .errors import MjcharError
+from .kinematics import end_site_positions, forward_kinematics
+from .motion import Motion
+from .rotations import (
+    heading_angle,
+    quat_conj,
+    quat_fix_continuity,
+    quat_from_rotvec,
+    quat_mul,
+    quat_normalize,
+    quat_rotate,
+    quat_slerp,
+    quat_to_rotvec,
+    to_rotation,
+)
+from .units import transform_motion
+
+__all__ = [
+    "ReferenceMotion",
+    "ReferenceMotionError",
+    "replay_errors",
+    "CYCLIC_POSE_TOLERANCE",
+    "TURN_THRESHOLD",
+    "END_EFFECTOR_ROLES",
+]
+
+#: metres: first and last poses (root-relative, heading-aligned) closer than this make a clip cyclic
+CYCLIC_POSE_TOLERANCE = 0.025
+#: radians: a cyclic clip whose heading changes less than this per cycle loops without turning
+TURN_THRESHOLD = np.radians(10.0)
+#: roles whose joints (and the end sites below them) count as end effectors in error reports
+END_EFFECTOR_ROLES = ("head", "left_wrist", "right_wrist", "left_ankle", "right_ankle",
+                      "left_toe", "right_toe")
+FOOT_SIDES = ("left", "right")
+
+# projection IK: Levenberg damping (m), swivel regulariser toward the projection (m^2/rad^2),
+# weight of the knee/elbow position, iteration cap, stop when no dof moves more than this (rad),
+# orientation weight (m/rad), largest step (rad)
+_IK_DAMPING = 1e-3
+_IK_REG = 1e-4
+_IK_MID_WEIGHT = 0.3
+_IK_MAX_ITER = 40
+_IK_STEP_TOL = 1e-5
+_IK_ROT_WEIGHT = 0.3
+_IK_MAX_STEP = 0.5
+
+_AXIS_LETTERS = "XYZ"
+
+# MuJoCo enum values as plain ints (numpy ints and pybind enums do not compare inside ``in``)
+_FREE, _BALL, _SLIDE, _HINGE = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL),
+                                int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE))
+_PLANE, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX = (
+    int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_SPHERE),
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX))
+
+
+class ReferenceMotionError(MjcharError):
+    """A motion cannot be expressed in a model (joint missing, unsupported joint layout, ...)."""
+
+
+# --------------------------------------------------------------------------------------------
+# joint map
+# --------------------------------------------------------------------------------------------
+@dataclass
+class _Slot:
+    """One kept BVH joint and the model joints of its body."""
+
+    name: str
+    bvh: int                    # index in the (converted) motion's skeleton
+    body: int                   # model body id
+    parent_bvh: int             # kept BVH joint owning the model parent body, -1 for the world
+    kind: str                   # "free", "ball", "hinge" or "fixed"
+    qadr: np.ndarray            # qpos addresses of the rotation joints, kinematic order
+    dadr: np.ndarray            # dof addresses of the rotation joints
+    axes: np.ndarray            # (n, 3) hinge axes in the body frame
+    slide_qadr: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    slide_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    @property
+    def n_rot(self) -> int:
+        return {"free": 3, "ball": 3, "fixed": 0}.get(self.kind, len(self.qadr))
+
+
+def _model_info(model: mujoco.MjModel):
+    from .mjcf import ModelInfo  # imported late: bvh.mjcf may import this module's users
+
+    return ModelInfo.from_model(model)
+
+
+def _name2id(model: mujoco.MjModel, obj, name: str, what: str) -> int:
+    i = mujoco.mj_name2id(model, obj, name)
+    if i < 0:
+        raise ReferenceMotionError(f"the model has no {what} named {name!r} (joint map and model "
+                                   f"disagree; was the model written by bvh.mjcf?)")
+    return int(i)
+
+
+def _build_slots(model: mujoco.MjModel, info, skeleton) -> list[_Slot]:
+    names = list(info.joints)
+    missing = [n for n in names if n not in skeleton.names]
+    if missing:
+        raise ReferenceMotionError(
+            f"the motion lacks joints the model was built with: {', '.join(missing)} (the motion's "
+            f"skeleton has {', '.join(skeleton.names)})")
+    body_of = {n: _name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[n].body, "body")
+               for n in names}
+    bvh_of_body = {b: skeleton.index(n) for n, b in body_of.items()}
+    slots = []
+    for n in names:
+        b = body_of[n]
+        pb = int(model.body_parentid[b])
+        while pb != 0 and pb not in bvh_of_body:
+            pb = int(model.body_parentid[pb])
+        parent_bvh = bvh_of_body.get(pb, -1)
+        jids = np.flatnonzero(model.jnt_bodyid == b)
+        types = model.jnt_type[jids].astype(int)
+        slide = jids[types == _SLIDE]
+        rot = jids[types != _SLIDE]
+        if len(slide) and len(rot) and slide.max() > rot.min():
+            raise ReferenceMotionError(f"body {info.joints[n].body!r}: slide joints after rotation "
+                                       f"joints are not supported")
+        kinds = {int(k) for k in types[types != _SLIDE]}
+        if not len(rot):
+            kind = "fixed"
+        elif kinds == {_FREE} and len(rot) == 1:
+            kind = "free"
+        elif kinds == {_BALL} and len(rot) == 1:
+            kind = "ball"
+        elif kinds == {_HINGE} and len(rot) <= 3:
+            kind = "hinge"
+        else:
+            raise ReferenceMotionError(f"body {info.joints[n].body!r}: unsupported joint layout "
+                                       f"(types {sorted(int(k) for k in kinds)})")
+        axes = model.jnt_axis[rot].copy() if kind == "hinge" else np.zeros((0, 3))
+        axes /= np.maximum(np.linalg.norm(axes, axis=1, keepdims=True), 1e-300)
+        if kind == "hinge" and len(rot) >= 2 and not np.allclose(np.abs(axes).max(axis=1), 1.0,
+                                                                 atol=1e-6):
+            raise ReferenceMotionError(f"body {info.joints[n].body!r}: hinge triplets must turn "
+                                       f"about the body axes, got {axes.tolist()}")
+        slots.append(_Slot(
+            name=n, bvh=skeleton.index(n), body=b, parent_bvh=parent_bvh, kind=kind,
+            qadr=model.jnt_qposadr[rot].astype(int), dadr=model.jnt_dofadr[rot].astype(int),
+            axes=axes, slide_qadr=model.jnt_qposadr[slide].astype(int),
+            slide_axes=model.jnt_axis[slide].copy(),
+        ))
+    roots = [s for s in slots if s.kind == "free"]
+    if len(roots) != 1:
+        raise ReferenceMotionError(f"expected exactly one free (root) joint among the mapped "
+                                   f"bodies, found {len(roots)}")
+    return slots
+
+
+def _euler_continuous(q: np.ndarray, order: str) -> np.ndarray:
+    """``(F, 3)`` intrinsic Euler angles (radians, ``order`` like ``"ZXY"``) of ``(F, 4)`` quats,
+    continuous over frames: unwrapped, and on the Euler branch nearest the previous frame."""
+    r = to_rotation(q)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # gimbal lock: the angles still compose to r
+        a = r.as_euler(order)
+    if len(a) < 2:
+        return a
+    un = np.unwrap(a, axis=0)
+    if np.max(np.abs(np.diff(un, axis=0))) < np.pi / 2:
+        return un
+    b = np.stack([a[:, 0] + np.pi, np.pi - a[:, 1], a[:, 2] + np.pi], axis=1)
+    if order[0] == order[2]:  # proper Euler angles
+        b[:, 1] = -a[:, 1]
+    out = np.empty_like(a)
+    prev = a[0]
+    for f in range(len(a)):  # rare (gimbal crossings): greedy branch + 2 pi shift choice
+        cands = np.stack([a[f], b[f]])
+        cands = cands + 2 * np.pi * np.round((prev - cands) / (2 * np.pi))
+        prev = out[f] = cands[np.argmin(np.sum((cands - prev) ** 2, axis=1))]
+    return out
+
+
+def _centre_turns(angles: np.ndarray) -> np.ndarray:
+    """Shift each column of ``(F, n)`` unwrapped angles by whole turns so its median is in
+    ``(-pi, pi]``."""
+    med = np.median(angles, axis=0)
+    return angles - 2 * np.pi * np.round(med / (2 * np.pi))
+
+
+def _hinge_angles(slot: _Slot, local: np.ndarray) -> np.ndarray:
+    """``(F, n)`` hinge angles (radians) of a body with ``n`` hinges for local rotations ``(F, 4)``.
+    Exact for three hinges; the swing-twist (one hinge) or Euler (two hinges) projection else."""
+    n = len(slot.qadr)
+    if n == 1:
+        a = slot.axes[0]
+        ang = 2.0 * np.arctan2(local[:, 1:] @ a, local[:, 0])
+        return _centre_turns(np.unwrap(ang)[:, None])
+    idx = np.argmax(np.abs(slot.axes), axis=1)
+    sign = np.sign(slot.axes[np.arange(n), idx])
+    order = "".join(_AXIS_LETTERS[i] for i in idx)
+    if n == 2:
+        order += next(c for c in _AXIS_LETTERS if c not in order)
+    ang = _euler_continuous(local, order)[:, :n] * sign
+    return _centre_turns(ang)
+
+
+# --------------------------------------------------------------------------------------------
+# vectorised qpos algebra (mj_differentiatePos / mj_integratePos semantics)
+# --------------------------------------------------------------------------------------------
+class _QposAlgebra:
+    """Differences and interpolation of stacks of qpos vectors ``(N, nq)`` for one model."""
+
+    def __init__(self, model: mujoco.MjModel):
+        self.nq, self.nv = model.nq, model.nv
+        lin_q, lin_v, quat_q, quat_v = [], [], [], []
+        for j in range(model.njnt):
+            qa, va, t = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_type[j])
+            if t == _FREE:
+                lin_q += [qa, qa + 1, qa + 2]
+                lin_v += [va, va + 1, va + 2]
+                quat_q.append(qa + 3)
+                quat_v.append(va + 3)
+            elif t == _BALL:
+                quat_q.append(qa)
+                quat_v.append(va)
+            else:
+                lin_q.append(qa)
+                lin_v.append(va)
+        self.lin_q, self.lin_v = np.array(lin_q, int), np.array(lin_v, int)
+        self.quat_q = np.array(quat_q, int)[:, None] + np.arange(4)
+        self.quat_v = np.array(quat_v, int)[:, None] + np.arange(3)
+
+    def diff(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """``(N, nv)`` velocity taking ``q0`` to ``q1`` in unit time (``mj_differentiatePos``)."""
+        v = np.zeros((*q0.shape[:-1], self.nv))
+        v[..., self.lin_v] = q1[..., self.lin_q] - q0[..., self.lin_q]
+        if len(self.quat_q):
+            a, b = q0[..., self.quat_q], q1[..., self.quat_q]
+            v[..., self.quat_v] = quat_to_rotvec(quat_mul(quat_conj(quat_normalize(a)),
+                                                          quat_normalize(b)))
+        return v
+
+    def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``(N, nq)`` result of moving ``q`` with velocity ``v`` for unit time
+        (``mj_integratePos``)."""
+        out = np.array(q, dtype=float, copy=True)
+        out[..., self.lin_q] += v[..., self.lin_v]
+        if len(self.quat_q):
+            out[..., self.quat_q] = quat_normalize(
+                quat_mul(out[..., self.quat_q], quat_from_rotvec(v[..., self.quat_v])))
+        return out
+
+    def interpolate(self, q0: np.ndarray, q1: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+        """``(N, nq)``: ``integrate(q0, alpha * diff(q0, q1))`` (linear angles, slerp quats)."""
+        out = np.array(q0, dtype=float, copy=True)
+        a = np.asarray(alpha, dtype=float)
+        out[..., self.lin_q] += a[..., None] * (q1[..., self.lin_q] - q0[..., self.lin_q])
+        if len(self.quat_q):
+            out[..., self.quat_q] = quat_slerp(q0[..., self.quat_q], q1[..., self.quat_q],
+                                               a[..., None])
+        return out
+
+
+# --------------------------------------------------------------------------------------------
+# feet
+# --------------------------------------------------------------------------------------------
+def _subtree_bodies(model: mujoco.MjModel, body: int) -> list[int]:
+    out = []
+    for b in range(model.nbody):
+        c = b
+        while c > 0 and c != body:
+            c = int(model.body_parentid[c])
+        if c == body:
+            out.append(b)
+    return out
+
+
+def _geom_local_points(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """``(P, 3)`` points in the geom frame whose lowest one bounds the geom from below (corners
+    of a box; ends of a capsule/cylinder; centre of a sphere), radius handled by the caller."""
+    s = model.geom_size[g]
+    t = int(model.geom_type[g])
+    if t in (_BOX, _ELLIPSOID):
+        sign = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+        return sign * s
+    if t in (_CAPSULE, _CYLINDER):
+        return np.array([[0.0, 0.0, -s[1]], [0.0, 0.0, s[1]]])
+    return np.zeros((1, 3))
+
+
+def _geom_drop(model: mujoco.MjModel, g: int) -> float:
+    """How far below its points the geom reaches (the radius of round geoms)."""
+    t = int(model.geom_type[g])
+    if t in (_CAPSULE, _SPHERE, _CYLINDER):
+        return float(model.geom_size[g][0])
+    if t in (_BOX, _ELLIPSOID):
+        return 0.0
+    return float(model.geom_rbound[g])
+
+
+class _FootPoints:
+    """Where to look for the feet: geoms (per side) or sites, as points sampled per frame."""
+
+    def __init__(self, model: mujoco.MjModel, info):
+        self.sides: dict[str, list[tuple[str, int]]] = {}
+        roles = dict(getattr(info, "roles", {}) or {})
+        for side in FOOT_SIDES:
+            items: list[tuple[str, int]] = []
+            for role in (f"{side}_ankle", f"{side}_toe"):
+                joint = roles.get(role)
+                if isinstance(joint, str) and joint in info.joints:
+                    b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[joint].body)
+                    if b < 0:
+                        continue
+                    for bb in _subtree_bodies(model, b):
+                        for g in np.flatnonzero(model.geom_bodyid == bb):
+                            if int(model.geom_type[g]) != _PLANE and \
+                                    ("geom", int(g)) not in items:
+                                items.append(("geom", int(g)))
+            boxes = [it for it in items if int(model.geom_type[it[1]]) == _BOX]
+            items = boxes or items
+            if not items:
+                for sname in (f"{side}_foot", f"{side}_toe"):
+                    s = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, sname)
+                    if s >= 0:
+                        items.append(("site", int(s)))
+            if items:
+                self.sides[side] = items
+        self.fallback: list[tuple[str, int]] = []
+        if not self.sides:  # no feet known: every non-plane geom bounds the character from below
+            self.fallback = [("geom", int(g)) for g in range(model.ngeom)
+                             if int(model.geom_type[g]) != _PLANE
+                             and model.geom_bodyid[g] != 0]
+        self._local = {}
+        for items in [*self.sides.values(), self.fallback]:
+            for kind, i in items:
+                if kind == "geom":
+                    self._local[i] = (_geom_local_points(model, i), _geom_drop(model, i))
+
+    def sample(self, data: mujoco.MjData, items) -> np.ndarray:
+        """``(P, 3)`` world points of ``items`` in the current ``data`` kinematics."""
+        pts = []
+        for kind, i in items:
+            if kind == "site":
+                pts.append(data.site_xpos[i][None].copy())
+            else:
+                loc, drop = self._local[i]
+                p = data.geom_xpos[i] + loc @ data.geom_xmat[i].reshape(3, 3).T
+                p[:, 2] -= drop
+                pts.append(p)
+        return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+# --------------------------------------------------------------------------------------------
+# the reference motion
+# --------------------------------------------------------------------------------------------
+class ReferenceMotion:
+    """A BVH motion expressed in a converted model's coordinates, sampled at any time.
+
+    Args:
+        model: compiled ``mujoco.MjModel`` of a model written by :func:`bvh.mjcf.convert`.
+        motion: :class:`~bvh.motion.Motion` in file units and axes, with (at least) every BVH joint
+            the model keeps, matched by name (joint order may differ from the model's source).
+        info: the model's ``ModelInfo``; read from ``model`` when ``None``.
+        cyclic: loop the clip; ``None`` detects it (first and last poses agree within
+            :data:`CYCLIC_POSE_TOLERANCE` metres after removing root heading and position).
+        project: for bodies with fewer rotational dofs than the BVH joint (the ``hinge`` model's
+            knees and elbows), correct the projected angles with damped-least-squares IK so the
+            limb's joints land where the clip puts them. ``False``: projection only.
+
+    Attributes:
+        model, info: the model and its metadata.
+        motion: the clip in metres and MuJoCo axes (before floor placement), a ``Motion``.
+        frame_time: seconds per frame; ``n_frames``: ``F``; ``duration``: ``(F-1) frame_time``
+            seconds, also the loop period of a cyclic clip; ``cyclic``: bool.
+        frame_qpos: ``(F, nq)`` qpos per frame; ``frame_qvel``: ``(F, nv)`` per-frame velocities.
+        joint_names: ``(K,)`` kept BVH joints (bodies) in the model's joint-map order;
+            ``joint_body_ids``: ``(K,)`` their body ids.
+        z_offset: metres added to every height to put the lowest foot point at ``z = 0``.
+        cycle_heading: radians turned per cycle; ``cycle_displacement``: ``(2,)`` metres the root
+            moves per cycle (frame ``F-1`` minus frame 0, horizontal).
+    """
+
+    def __init__(self, model: mujoco.MjModel, motion: Motion, *, info=None,
+                 cyclic: bool | None = None, project: bool = True):
+        if not isinstance(model, mujoco.MjModel):
+            raise ReferenceMotionError(
+                f"model must be a mujoco.MjModel, got {type(model).__name__}")
+        if not isinstance(motion, Motion):
+            raise ReferenceMotionError(f"motion must be a bvh.Motion, got {type(motion).__name__}")
+        if motion.n_frames < 1:
+            raise ReferenceMotionError("the motion has no frames")
+        self.model = model
+        self.info = info if info is not None else _model_info(model)
+        self._data = mujoco.MjData(model)
+        self._alg = _QposAlgebra(model)
+        basis = np.asarray(self.info.basis, dtype=float).reshape(4)
+        self.motion = transform_motion(motion, float(self.info.unit_scale), basis)
+        self.frame_time = float(motion.frame_time)
+        self.n_frames = int(motion.n_frames)
+        sk = self.motion.skeleton
+        self._slots = _build_slots(model, self.info, sk)
+        self._root = next(s for s in self._slots if s.kind == "free")
+        self.joint_names = [s.name for s in self._slots]
+        self.joint_body_ids = np.array([s.body for s in self._slots], dtype=int)
+        self._joint_bvh = np.array([s.bvh for s in self._slots], dtype=int)
+
+        fk = forward_kinematics(self.motion)
+        qpos = self._map_frames(fk)
+        self._initial_qpos = qpos.copy()
+        self.projected_joints = [s.name for s in self._slots
+                                 if s.kind == "hinge" and len(s.qadr) < 3]
+        self.ik_iterations = np.zeros(self.n_frames, dtype=int)
+        if project and self.projected_joints:
+            qpos = self._project_ik(qpos, fk)
+
+        # floor placement: lowest foot point over the clip at z = 0
+        self._feet = _FootPoints(model, self.info)
+        pts = self._sample_points(qpos)
+        all_pts = np.concatenate([p for p in pts.values()], axis=1)
+        self.z_offset = float(-np.min(all_pts[..., 2])) if all_pts.size else 0.0
+        qpos[:, self._root.qadr[0] + 2] += self.z_offset
+        self._foot_pts = {k: v + np.array([0.0, 0.0, self.z_offset]) for k, v in pts.items()
+                          if k in FOOT_SIDES}
+        shift = np.array([0.0, 0.0, self.z_offset])
+        self._joint_pos = fk.positions + shift                       # (F, J, 3) all BVH joints
+        self._end_sites = end_site_positions(self.motion, fk) + shift  # (F, E, 3)
+        self.frame_qpos = qpos
+
+        # loops
+        rq = qpos[:, self._root.qadr[0] + 3: self._root.qadr[0] + 7]
+        heading = heading_angle(rq, up="z")
+        rxy = qpos[:, self._root.qadr[0]: self._root.qadr[0] + 2]
+        self.cyclic = bool(self._looks_cyclic(heading)) if cyclic is None else bool(cyclic)
+        if self.cyclic and self.n_frames < 3:
+            raise ReferenceMotionError("a cyclic clip needs at least 3 frames")
+        dpsi = float(np.angle(np.exp(1j * (heading[-1] - heading[0]))))
+        self.cycle_heading = dpsi if (self.cyclic and abs(dpsi) >= TURN_THRESHOLD) else 0.0
+        self.cycle_displacement = (rxy[-1] - rxy[0]).copy() if self.cyclic else np.zeros(2)
+        r = np.exp(1j * self.cycle_heading)
+        p0, pf = complex(*rxy[0]), complex(*rxy[-1])
+        self._cycle_b = pf - r * p0  # M(p) = r p + b (complex horizontal coordinates)
+        self.frame_qvel = self._frame_velocities(qpos)
+
+    # -- construction helpers ----------------------------------------------------------------------
+    def _map_frames(self, fk) -> np.ndarray:
+        """``(F, nq)`` qpos from the global BVH transforms (exact except for reduced bodies)."""
+        n_f = self.n_frames
+        qpos = np.tile(self.model.qpos0, (n_f, 1))
+        sk = self.motion.skeleton
+        rest = sk.rest_positions()
+        for s in self._slots:
+            g = fk.orientations[:, s.bvh]
+            if s.parent_bvh >= 0:
+                gp = fk.orientations[:, s.parent_bvh]
+                local = quat_mul(quat_conj(gp), g)
+            else:
+                gp = None
+                local = g
+            local = quat_fix_continuity(quat_normalize(local), axis=0)
+            if s.kind == "free":
+                qpos[:, s.qadr[0]: s.qadr[0] + 3] = fk.positions[:, s.bvh]
+                qpos[:, s.qadr[0] + 3: s.qadr[0] + 7] = local
+            elif s.kind == "ball":
+                qpos[:, s.qadr[0]: s.qadr[0] + 4] = local
+            elif s.kind == "hinge":
+                qpos[:, s.qadr] = _hinge_angles(s, local)
+            if len(s.slide_qadr) and s.parent_bvh >= 0:
+                # translation of the joint in its parent's frame beyond the rest offset
+                d = quat_rotate(quat_conj(gp),
+                                fk.positions[:, s.bvh] - fk.positions[:, s.parent_bvh])
+                d = d - (rest[s.bvh] - rest[s.parent_bvh])
+                qpos[:, s.slide_qadr] = d @ s.slide_axes.T
+        return qpos
+
+    def _model_geometry_positions(self, fk) -> np.ndarray:
+        """``(F, J, 3)`` positions of the kept joints when the clip's global orientations drive
+        the *model's* bones (its body offsets): the targets of the projection IK. Equal to the
+        clip's positions when the model was converted from the clip's skeleton; for a model of
+        other proportions, what the clip's pose looks like on this model."""
+        pos = fk.positions.copy()
+        for s in self._slots:  # parents first (joint-map order is BVH order)
+            if s.parent_bvh >= 0:
+                pos[:, s.bvh] = pos[:, s.parent_bvh] + quat_rotate(
+                    fk.orientations[:, s.parent_bvh], self.model.body_pos[s.body])
+        return pos
+
+    def _project_ik(self, qpos: np.ndarray, fk) -> np.ndarray:
+        """Damped-least-squares correction of the limbs around reduced (1-2 hinge) bodies.
+
+        Per frame, Gauss-Newton with Levenberg damping on
+
+            |e_end|^2 + |w_rot e_rot|^2 + |w_mid e_mid|^2 + mu |q_parent - q_proj|^2
+
+        over the limb dofs (parent triplet, hinge, child triplet): ``e_end``/``e_rot`` are the
+        child body's (ankle's, wrist's) position and orientation errors, ``e_mid`` the hinge
+        body's (knee's, elbow's) position error. The limb can always put its end exactly (hip +
+        knee reach the ankle, the ankle triplet turns the foot); the knee then lies on a circle
+        about the hip-ankle line (the swivel). Matching the clip's knee exactly on it needs a hip
+        twist of up to 90 degrees when the clip's knee is nearly straight but bent off the hinge
+        plane, flipping from frame to frame; the small regulariser on the parent's dofs (toward
+        the projected angles) trades a few millimetres of knee error for a smooth twist there,
+        and vanishes in effect when the knee is bent (then the knee term decides).
+        """
+        m, d = self.model, self._data
+        by_body = {s.body: s for s in self._slots}
+        children: dict[int, list[int]] = {}
+        for b in range(1, m.nbody):
+            children.setdefault(int(m.body_parentid[b]), []).append(b)
+        dofs: list[int] = []
+        swivel: list[int] = []  # the parent joint's dofs: where the limb's free swivel lives
+        targets: list[tuple[str, int, int]] = []  # (kind, body, bvh joint)
+        for s in self._slots:
+            if not (s.kind == "hinge" and len(s.qadr) < 3):
+                continue
+            kids = [by_body[c] for c in children.get(s.body, []) if c in by_body]
+            child = max(kids, key=lambda k: len(_subtree_bodies(m, k.body)), default=None)
+            parent = by_body.get(int(m.body_parentid[s.body]))
+            chain = [s]
+            if parent is not None and parent.kind in ("hinge", "ball") and \
+                    len(children.get(parent.body, [])) == 1:
+                chain.insert(0, parent)
+            if child is not None and child.kind in ("hinge", "ball"):
+                chain.append(child)
+            for c in chain:
+                dd = [int(x) for x in (c.dadr if c.kind == "hinge" else c.dadr[0] + np.arange(3))]
+                dofs += dd
+                if c is parent:
+                    swivel += dd
+            eff = child if child is not None else s
+            if eff is not s:
+                targets.append(("mid", s.body, s.bvh))
+            targets.append(("pos", eff.body, eff.bvh))
+            targets.append(("rot", eff.body, eff.bvh))
+        dofs = sorted(set(dofs))
+        if not dofs:
+            return qpos
+        pos_t, rot_t = self._model_geometry_positions(fk), fk.orientations
+        jacp = np.zeros((3, m.nv))
+        jacr = np.zeros((3, m.nv))
+        n_rows = 3 * len(targets)
+        out = qpos.copy()
+        prev_delta = np.zeros(m.nv)
+        reg = np.where(np.isin(dofs, swivel), _IK_REG, 0.0)
+        lm = np.diag(reg + _IK_DAMPING ** 2)
+        for f in range(self.n_frames):
+            q_ref = qpos[f]
+            q = self._alg.integrate(q_ref, prev_delta) if f else q_ref.copy()
+            for it in range(_IK_MAX_ITER + 1):
+                d.qpos[:] = q
+                mujoco.mj_kinematics(m, d)
+                mujoco.mj_comPos(m, d)
+                e = np.empty(n_rows)
+                jac = np.empty((n_rows, m.nv))
+                for k, (kind, body, j) in enumerate(targets):
+                    if kind == "mid":
+                        mujoco.mj_jacBody(m, d, jacp, None, body)
+                        e[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * (pos_t[f, j] - d.xpos[body])
+                        jac[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * jacp
+                    elif kind == "pos":
+                        mujoco.mj_jacBody(m, d, jacp, jacr, body)
+                        e[3 * k: 3 * k + 3] = pos_t[f, j] - d.xpos[body]
+                        jac[3 * k: 3 * k + 3] = jacp
+                    else:  # same body as the "pos" row before it: jacr is current
+                        err = quat_to_rotvec(quat_mul(rot_t[f, j], quat_conj(d.xquat[body])))
+                        e[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * err
+                        jac[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * jacr
+                if it == _IK_MAX_ITER:
+                    break
+                jd = jac[:, dofs]
+                back = self._alg.diff(q, q_ref)[dofs]
+                dq = np.linalg.solve(jd.T @ jd + lm, jd.T @ e + reg * back)
+                step = np.abs(dq).max()
+                if step > _IK_MAX_STEP:
+                    dq *= _IK_MAX_STEP / step
+                v = np.zeros(m.nv)
+                v[dofs] = dq
+                q = self._alg.integrate(q, v)
+                if step < _IK_STEP_TOL:
+                    break
+            self.ik_iterations[f] = it
+            out[f] = q
+            prev_delta = self._alg.diff(q_ref, q)
+        return out
+
+    def _sample_points(self, qpos: np.ndarray) -> dict[str, np.ndarray]:
+        """Foot points per side ``(F, P, 3)`` (and ``"all"`` when no feet are known)."""
+        m, d = self.model, self._data
+        groups = dict(self._feet.sides)
+        if not groups:
+            groups = {"all": self._feet.fallback}
+        out = {k: [] for k in groups}
+        for f in range(len(qpos)):
+            d.qpos[:] = qpos[f]
+            mujoco.mj_kinematics(m, d)
+            for k, items in groups.items():
+                out[k].append(self._feet.sample(d, items))
+        return {k: np.array(v) for k, v in out.items()}
+
+    def _looks_cyclic(self, heading: np.ndarray) -> bool:
+        if self.n_frames < 4:
+            return False
+        pts = np.concatenate([self._joint_pos[:, self._joint_bvh], self._end_sites], axis=1)
+        root = self._joint_pos[:, self._root.bvh]
+        rel = pts - root[:, None] * np.array([1.0, 1.0, 0.0])
+        c = np.exp(-1j * heading[[0, -1]])
+        xy = (rel[[0, -1], :, 0] + 1j * rel[[0, -1], :, 1]) * c[:, None]
+        diff_xy = np.abs(xy[0] - xy[1])
+        diff_z = np.abs(rel[0, :, 2] - rel[-1, :, 2])
+        return bool(np.max(np.hypot(diff_xy, diff_z)) < CYCLIC_POSE_TOLERANCE)
+
+    def _cycle_apply_qpos(self, q: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Apply ``M^k`` (per row) to the root of qpos rows ``(N, nq)``."""
+        k = np.asarray(k)
+        if not np.any(k):
+            return q
+        q = q.copy()
+        a = self._root.qadr[0]
+        ang, off = self._cycle_powers(k)
+        z = (q[:, a] + 1j * q[:, a + 1]) * np.exp(1j * ang) + off
+        q[:, a], q[:, a + 1] = z.real, z.imag
+        yaw = np.zeros((len(k), 4))
+        yaw[:, 0], yaw[:, 3] = np.cos(ang / 2), np.sin(ang / 2)
+        q[:, a + 3: a + 7] = quat_mul(yaw, q[:, a + 3: a + 7])
+        return q
+
+    def _cycle_powers(self, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Heading ``k * dpsi`` and complex offset of ``M^k(p) = e^{i k dpsi} p + off_k``."""
+        k = np.asarray(k, dtype=float)
+        ang = k * self.cycle_heading
+        r = np.exp(1j * self.cycle_heading)
+        if abs(self.cycle_heading) < 1e-12:
+            off = k * self._cycle_b
+        else:
+            off = self._cycle_b * (1 - np.exp(1j * ang)) / (1 - r)
+        return ang, off
+
+    def _frame_velocities(self, qpos: np.ndarray) -> np.ndarray:
+        """``(F, nv)`` central-difference velocities (one-sided at the ends of non-cyclic clips;
+        across the seam for cyclic ones)."""
+        n_f, dt = self.n_frames, self.frame_time
+        if n_f < 2:
+            return np.zeros((n_f, self.model.nv))
+        fwd = self._alg.diff(qpos[:-1], qpos[1:]) / dt  # (F-1, nv)
+        v = np.empty((n_f, self.model.nv))
+        v[1:-1] = 0.5 * (fwd[:-1] + fwd[1:])
+        if self.cyclic:
+            before = self._cycle_apply_qpos(qpos[-2:-1], np.array([-1]))[0]
+            after = self._cycle_apply_qpos(qpos[1:2], np.array([1]))[0]
+            v[0] = 0.5 * (self._alg.diff(before, qpos[0]) / dt + fwd[0])
+            v[-1] = 0.5 * (fwd[-1] + self._alg.diff(qpos[-1], after) / dt)
+        else:
+            v[0], v[-1] = fwd[0], fwd[-1]
+        return v
+
+    # -- time lookup -------------------------------------------------------------------------------
+    def _locate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple]:
+        """Frame index ``i``, fraction ``a``, cycle ``k`` and in-range mask for times ``t``."""
+        t = np.asarray(t, dtype=float)
+        shape = t.shape
+        t = t.reshape(-1)
+        if not np.all(np.isfinite(t)):
+            raise ReferenceMotionError("times must be finite numbers of seconds")
+        n_f, dt = self.n_frames, self.frame_time
+        inside = np.ones(len(t), dtype=bool)
+        if n_f == 1:
+            z = np.zeros(len(t), dtype=int)
+            return z, np.zeros(len(t)), z, inside, shape
+        T = self.duration
+        if self.cyclic:
+            k = np.floor(t / T)
+            tau = t - k * T
+        else:
+            k = np.zeros(len(t))
+            eps = 1e-9 * max(T, 1.0)
+            inside = (t >= -eps) & (t <= T + eps)
+            tau = np.clip(t, 0.0, T)
+        s = tau / dt
+        i = np.clip(np.floor(s), 0, n_f - 2).astype(int)
+        a = np.clip(s - i, 0.0, 1.0)
+        return i, a, k.astype(int), inside, shape
+
+    # -- public sampling ---------------------------------------------------------------------------
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame (the loop period of a cyclic clip)."""
+        return (self.n_frames - 1) * self.frame_time
+
+    @property
+    def times(self) -> np.ndarray:
+        """``(F,)`` frame times in seconds."""
+        return np.arange(self.n_frames) * self.frame_time
+
+    def qpos(self, t) -> np.ndarray:
+        """Generalised positions at time(s) ``t`` (seconds, any shape): ``(*t.shape, nq)``.
+
+        Between frames: linear hinge angles and root position, slerped quaternions. Cyclic clips
+        continue past ``duration`` with the accumulated root displacement (and heading)."""
+        i, a, k, _, shape = self._locate(t)
+        q = self.frame_qpos
+        if self.n_frames == 1:
+            out = q[i]
+        else:
+            out = self._alg.interpolate(q[i], q[i + 1], a)
+        out = self._cycle_apply_qpos(out, k)
+        return out.reshape((*shape, self.model.nq))
+
+    def qvel(self, t) -> np.ndarray:
+        """Generalised velocities at time(s) ``t``: ``(*t.shape, nv)`` (rad/s, m/s).
+
+        Per-frame central differences (``mj_differentiatePos`` semantics: root linear velocity in
+        the world frame, angular velocities in the body frame) interpolated linearly; zero outside
+        ``[0, duration]`` for non-cyclic clips."""
+        i, a, k, inside, shape = self._locate(t)
+        v = self.frame_qvel
+        if self.n_frames == 1:
+            out = v[i].copy()
+        else:
+            out = v[i] + a[:, None] * (v[i + 1] - v[i])
+        if np.any(k) and self.cycle_heading:
+            ra = self._root.dadr[0]
+            ang = k * self.cycle_heading
+            z = (out[:, ra] + 1j * out[:, ra + 1]) * np.exp(1j * ang)
+            out[:, ra], out[:, ra + 1] = z.real, z.imag
+        out[~inside] = 0.0
+        return out.reshape((*shape, self.model.nv))
+
+    def _kinematics(self, t, attr: str) -> np.ndarray:
+        q = self.qpos(t)
+        shape = q.shape[:-1]
+        q = q.reshape(-1, self.model.nq)
+        d = self._data
+        rows = []
+        for row in q:
+            d.qpos[:] = row
+            mujoco.mj_kinematics(self.model, d)
+            rows.append(getattr(d, attr).copy())
+        n = getattr(d, attr).shape[0]
+        return np.array(rows).reshape((*shape, n, 3))
+
+    def body_positions(self, t) -> np.ndarray:
+        """World positions of every model body (index = body id, 0 the world) at ``t``:
+        ``(*t.shape, nbody, 3)`` metres, from ``mj_kinematics`` on :meth:`qpos`."""
+        return self._kinematics(t, "xpos")
+
+    def site_positions(self, t) -> np.ndarray:
+        """World positions of every model site (index = site id) at ``t``: ``(*t.shape, nsite,
+        3)`` metres."""
+        return self._kinematics(t, "site_xpos")
+
+    def joint_positions(self, t) -> np.ndarray:
+        """Positions of the kept BVH joints (:attr:`joint_names`) in the model frame, as the clip
+        has them (not the model): ``(*t.shape, K, 3)`` metres, linear between frames, placed on the
+        floor and looped like :meth:`qpos`. Compare with ``body_positions(t)[..., joint_body_ids,
+        :]`` for tracking errors."""
+        i, a, k, _, shape = self._locate(t)
+        p = self._joint_pos[:, self._joint_bvh]
+        out = p[i] if self.n_frames == 1 else p[i] + a[:, None, None] * (p[i + 1] - p[i])
+        out = self._cycle_apply_points(out, k)
+        return out.reshape((*shape, len(self._joint_bvh), 3))
+
+    def _cycle_apply_points(self, pts: np.ndarray, k: np.ndarray) -> np.ndarray:
+        if not np.any(k):
+            return pts
+        ang, off = self._cycle_powers(k)
+        z = (pts[..., 0] + 1j * pts[..., 1]) * np.exp(1j * ang)[:, None] + off[:, None]
+        out = pts.copy()
+        out[..., 0], out[..., 1] = z.real, z.imag
+        return out
+
+    def frame_contacts(self, height: float = 0.1, speed: float = 0.5) -> np.ndarray:
+        """``(F, 2)`` bool foot-contact labels per frame, columns (left, right).
+
+        A foot is in contact when one of its lowest points (foot and toe box corners, or foot
+        sites) is below ``height`` metres and moves slower than ``speed`` m/s (3-D speed, central
+        differences; across the seam for cyclic clips). Speed does most of the work: a swing foot
+        moves at metres per second, a stance foot's contact points barely move. The height bound
+        is generous because mocap feet are rarely level with the floor all through stance (the
+        shared clips' stance feet float up to ~9 cm above the placed floor at heel strike).
+        """
+        if set(self._foot_pts) != set(FOOT_SIDES):
+            raise ReferenceMotionError("the model has no recognisable left/right feet (no ankle "
+                                       "roles with geoms, no left_foot/right_foot sites)")
+        out = np.zeros((self.n_frames, 2), dtype=bool)
+        dt = self.frame_time
+        for c, side in enumerate(FOOT_SIDES):
+            p = self._foot_pts[side]  # (F, P, 3)
+            if self.n_frames > 1:
+                vel = np.gradient(p, dt, axis=0)
+                if self.cyclic:  # central differences across the seam
+                    before = self._cycle_apply_points(p[-2][None], np.array([-1]))[0]
+                    after = self._cycle_apply_points(p[1][None], np.array([1]))[0]
+                    vel[0] = (p[1] - before) / (2 * dt)
+                    vel[-1] = (after - p[-2]) / (2 * dt)
+                sp = np.linalg.norm(vel, axis=-1)
+            else:
+                sp = np.zeros(p.shape[:2])
+            out[:, c] = np.any((p[..., 2] < height) & (sp < speed), axis=1)
+        return out
+
+    def foot_contacts(self, t, height: float = 0.1, speed: float = 0.5) -> np.ndarray:
+        """Foot-contact labels at ``t`` (nearest frame): ``(*t.shape, 2)`` bool, (left, right).
+        See :meth:`frame_contacts` for ``height`` (m) and ``speed`` (m/s)."""
+        i, a, _, _, shape = self._locate(t)
+        idx = np.minimum(i + (a >= 0.5), self.n_frames - 1)
+        return self.frame_contacts(height, speed)[idx].reshape((*shape, 2))
+
+    # -- errors ------------------------------------------------------------------------------------
+    def end_effectors(self) -> dict[str, tuple[int, np.ndarray, int, int]]:
+        """End effectors compared by :meth:`replay_errors`: name -> ``(body id, offset (3,) in the
+        body frame, BVH joint index or -1, end site index or -1)``. They are the joints with the
+        roles in :data:`END_EFFECTOR_ROLES` and every end site hanging from a kept joint."""
+        sk = self.motion.skeleton
+        rest = sk.rest_positions()
+        rest_es = sk.rest_end_sites() if sk.n_end_sites else np.zeros((0, 3))
+        by_bvh = {s.bvh: s for s in self._slots}
+        roles = dict(getattr(self.info, "roles", {}) or {})
+        out = {}
+        for role in END_EFFECTOR_ROLES:
+            name = roles.get(role)
+            if isinstance(name, str) and name in self.joint_names:
+                s = self._slots[self.joint_names.index(name)]
+                out[name] = (s.body, np.zeros(3), s.bvh, -1)
+        for e, (par, nm) in enumerate(zip(sk.end_site_parents, sk.end_site_names, strict=True)):
+            if int(par) in by_bvh:
+                s = by_bvh[int(par)]
+                out[nm] = (s.body, rest_es[e] - rest[s.bvh], -1, e)
+        return out
+
+    def replay_errors(self) -> dict:
+        """Model kinematics of every frame's qpos against the clip's joint positions.
+
+        Returns a dict (distances in millimetres)::
+
+            n_frames, max_mm, max_joint, worst_frame, mean_mm,
+            joints_mm {joint: worst over frames},
+            end_effector_max_mm, end_effector, end_effectors_mm {name: worst over frames}
+        """
+        m, d = self.model, self._data
+        ee = self.end_effectors()
+        ee_names = list(ee)
+        n_f, k = self.n_frames, len(self._slots)
+        model_j = np.empty((n_f, k, 3))
+        model_e = np.empty((n_f, len(ee_names), 3))
+        for f in range(n_f):
+            d.qpos[:] = self.frame_qpos[f]
+            mujoco.mj_kinematics(m, d)
+            model_j[f] = d.xpos[self.joint_body_ids]
+            for c, nm in enumerate(ee_names):
+                body, off, _, _ = ee[nm]
+                model_e[f, c] = d.xpos[body] + d.xmat[body].reshape(3, 3) @ off
+        ref_j = self._joint_pos[:, self._joint_bvh]
+        ref_e = np.empty_like(model_e)
+        for c, nm in enumerate(ee_names):
+            _, _, j, e = ee[nm]
+            ref_e[:, c] = self._joint_pos[:, j] if j >= 0 else self._end_sites[:, e]
+        err_j = 1000.0 * np.linalg.norm(model_j - ref_j, axis=-1)  # (F, K)
+        err_e = 1000.0 * np.linalg.norm(model_e - ref_e, axis=-1)
+        worst = np.unravel_index(int(np.argmax(err_j)), err_j.shape)
+        per_j = err_j.max(axis=0)
+        per_e = err_e.max(axis=0) if err_e.size else np.zeros(0)
+        return {
+            "n_frames": n_f,
+            "max_mm": float(err_j.max()),
+            "max_joint": self.joint_names[int(worst[1])],
+            "worst_frame": int(worst[0]),
+            "mean_mm": float(err_j.mean()),
+            "joints_mm": {n: float(v) for n, v in zip(self.joint_names, per_j, strict=True)},
+            "end_effector_max_mm": float(per_e.max()) if per_e.size else 0.0,
+            "end_effector": ee_names[int(np.argmax(per_e))] if per_e.size else None,
+            "end_effectors_mm": {n: float(v) for n, v in zip(ee_names, per_e, strict=True)},
+        }
+
+
+def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
+    """Replay ``motion`` kinematically in a converted model and measure how far it lands.
+
+    Args:
+        model_or_converted: a ``mujoco.MjModel`` written by :mod:`bvh.mjcf`, or a
+            ``ConvertedModel`` (compiled here; its ``info`` is used).
+        motion: a :class:`~bvh.motion.Motion` in file units/axes, or a BVH path.
+        project: IK correction for reduced (hinge) joints, as in :class:`ReferenceMotion`.
+
+    Runs ``mj_kinematics`` on every frame's qpos (:class:`ReferenceMotion`, not looped) and
+    compares body positions with the clip's joint positions from ``bvh.forward_kinematics``,
+    converted to metres/MuJoCo axes and placed on the floor the same way; end effectors (hands,
+    feet, toes, head and the end sites below kept joints) are compared likewise. Returns the dict
+    of :meth:`ReferenceMotion.replay_errors` (millimetres: ``max_mm``, ``joints_mm``,
+    ``end_effector_max_mm``, ...).
+    """
+    if isinstance(motion, (str, os.PathLike)):
+        from .io import load
+
+        motion = load(motion)
+    info = None
+    if isinstance(model_or_converted, mujoco.MjModel):
+        model = model_or_converted
+    elif hasattr(model_or_converted, "compile") and hasattr(model_or_converted, "info"):
+        model = model_or_converted.compile()
+        info = model_or_converted.info
+    else:
+        raise ReferenceMotionError(f"expected a mujoco.MjModel or a ConvertedModel, got "
+                                   f"{type(model_or_converted).__name__}")
+    ref = ReferenceMotion(model, motion, info=info, cyclic=False, project=project)
+    return ref.replay_errors()
