@@ -1,0 +1,208 @@
+"""``mjchar run CONTROLLER``: run a controller in a scenario and report its metrics."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+CONTROLLERS = ("pd", "spd", "native_pd", "hand_of_god", "static_balance")
+SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
+DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
+                   "right": 270.0}
+
+
+def _positive(what: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"{what} must be positive, got {text!r}")
+        return v
+
+    parse.__name__ = what
+    return parse
+
+
+def _non_negative(what: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"{what} must be zero or positive, got {text!r}")
+        return v
+
+    parse.__name__ = what
+    return parse
+
+
+def _direction(text: str) -> float:
+    if text.lower() in DIRECTION_NAMES:
+        return DIRECTION_NAMES[text.lower()]
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"direction must be degrees or one of {', '.join(DIRECTION_NAMES)}, got {text!r}"
+        ) from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"direction must be finite, got {text!r}")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be an integer, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"seed must be non-negative, got {text!r}")
+    return v
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
+    p = sub.add_parser(
+        "run", help="run a controller in a scenario (stand, push, track, ...) and report metrics",
+        description="Run a controller on the simulated humanoid in a scenario and print a summary "
+                    "(or one JSON object). PD trackers and hand_of_god follow the reference "
+                    "motion in track/walk and hold the standing pose otherwise. Default "
+                    "scenario: track for hand_of_god, stand otherwise. Default motion: the "
+                    "bundled walk; default model: the bundled humanoid.")
+    p.add_argument("controller", choices=CONTROLLERS, metavar="CONTROLLER",
+                   help="one of: " + ", ".join(CONTROLLERS))
+    p.add_argument("--scenario", choices=SCENARIOS, metavar="S",
+                   help="one of: " + ", ".join(SCENARIOS))
+    p.add_argument("--motion", metavar="FILE.bvh",
+                   help="reference motion for track/walk and hand_of_god (default: bundled walk)")
+    p.add_argument("--model", metavar="FILE.xml",
+                   help="converted model (default: the bundled humanoid)")
+    p.add_argument("--duration", type=_positive("duration"), metavar="T",
+                   help="simulated seconds (default: per scenario; the clip for track/walk)")
+    p.add_argument("--push", type=_non_negative("push"), metavar="N",
+                   help="push force in newtons (push: required; random-push: default 10)")
+    p.add_argument("--direction", type=_direction, default=0.0, metavar="DEG",
+                   help="push direction in degrees from the facing direction (0 forward, "
+                        "90 left, 180 backward, 270 right) or a name; default forward")
+    p.add_argument("--push-duration", type=_positive("push duration"), default=0.2,
+                   metavar="S", help="push length in seconds (default 0.2)")
+    p.add_argument("--push-time", type=_non_negative("push time"), default=1.0, metavar="S",
+                   help="when the push starts in seconds (default 1)")
+    p.add_argument("--max-force", type=_positive("max force"), default=1000.0, metavar="N",
+                   help="push-search upper bound in newtons (default 1000)")
+    p.add_argument("--tolerance", type=_positive("tolerance"), default=5.0, metavar="N",
+                   help="push-search resolution in newtons (default 5)")
+    p.add_argument("--allow-steps", action="store_true",
+                   help="a push counts as survived even if a foot moved (stepping controllers)")
+    p.add_argument("--squat", type=_non_negative("squat depth"), metavar="M",
+                   help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
+                        "hold 1 s and rise again")
+    p.add_argument("--tracker", choices=("pd", "spd", "native_pd"), default="spd",
+                   help="PD variant hand_of_god wraps (default spd)")
+    p.add_argument("--timestep", type=_positive("timestep"), metavar="S",
+                   help="physics time step in seconds (default: 1/2000 for pd, the model's "
+                        "otherwise)")
+    p.add_argument("--control-dt", type=_positive("control dt"), metavar="S",
+                   help="seconds between control steps (default: every physics step)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="N",
+                   help="random seed (random-push directions; default 0)")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    p.add_argument("--render", metavar="OUT.mp4",
+                   help="write a video following the character (needs the video extra)")
+    p.add_argument("--fps", type=_positive("fps"), default=30.0, help="video frame rate")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the character, reference and controller, run the scenario, print the result."""
+    import json
+    import os
+    import sys
+
+    if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
+        os.environ.setdefault("MUJOCO_GL", "egl")
+
+    import bvh
+    from bvh.errors import MjcharError
+
+    from .. import scenarios as S
+    from ..character import Character
+
+    scenario = args.scenario or ("track" if args.controller == "hand_of_god" else "stand")
+    if scenario == "push" and args.push is None:
+        raise MjcharError("the push scenario needs --push NEWTONS")
+    if args.render and not args.render.lower().endswith(".mp4"):
+        raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+
+    character = Character(args.model)
+    timestep = args.timestep or S.DEFAULT_TIMESTEP.get(args.controller)
+    if timestep:
+        character.set_timestep(timestep)
+
+    reference = None
+    if scenario in ("track", "walk"):
+        from bvh.assets import motion_path
+        from bvh.reference import ReferenceMotion
+
+        path = args.motion or motion_path("walk")
+        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info)
+    elif args.motion:
+        raise MjcharError(f"--motion is used by the track and walk scenarios, not {scenario}")
+    # trackers follow the reference in track/walk, and hold the standing pose otherwise
+    target = reference if reference is not None else S.standing_pose(character)
+    options = {}
+    if args.controller == "hand_of_god":
+        options["tracker"] = args.tracker
+    if args.controller == "static_balance" and args.squat:
+        from ..static_balance import squat_profile
+
+        options["height"] = squat_profile(args.squat)
+    controller = S.make_controller(args.controller, character, target, **options)
+
+    kw: dict = {"control_dt": args.control_dt}
+    if args.duration is not None:
+        kw["duration"] = args.duration
+    progress = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+
+    video = None
+    if args.render:
+        from ..render import VideoRecorder
+
+        video = VideoRecorder(character, args.render, fps=args.fps)
+        kw["frame_callback"] = video.capture
+    try:
+        if scenario == "push":
+            result = S.push(character, controller, force=args.push, direction=args.direction,
+                            push_duration=args.push_duration, push_time=args.push_time,
+                            allow_steps=args.allow_steps, **kw)
+        elif scenario == "push-search":
+            result = S.push_search(character, controller, max_force=args.max_force,
+                                   tolerance=args.tolerance, allow_steps=args.allow_steps,
+                                   push_duration=args.push_duration, push_time=args.push_time,
+                                   progress=progress, **kw)
+        elif scenario == "random-push":
+            result = S.random_push(character, controller, seed=args.seed,
+                                   force=10.0 if args.push is None else args.push, **kw)
+        else:
+            result = S.run_scenario(scenario, character, controller, reference=reference, **kw)
+    finally:
+        if video is not None:
+            video.close()
+    result.seed = args.seed
+    if args.json:
+        out = result.to_dict()
+        out["model"] = str(args.model) if args.model else "bundled humanoid"
+        if reference is not None:
+            out["motion"] = str(args.motion) if args.motion else "bundled walk"
+        if video is not None:
+            out["video"] = args.render
+            out["video_frames"] = video.frames
+        print(json.dumps(out))
+    else:
+        print(result.summary())
+        if video is not None:
+            print(f"  video: {args.render} ({video.frames} frames)")
+    return 0

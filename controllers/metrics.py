@@ -1,0 +1,215 @@
+"""Metrics shared by every scenario: falls, the :class:`Result` record and what it aggregates.
+
+Every number the project reports about a controller is measured here, the same way for tests,
+the CLI, the benchmarks and the environments:
+
+- **fall**: the root (pelvis) drops below ``fall_height`` (default 0.55 x the standing root
+  height), or a body other than the feet (ankle and toe bodies) touches the floor. A diverging
+  simulation also counts as a fall (and sets ``diverged``).
+- **tracking error**: mean over time and over the BVH joints of the distance between the
+  simulated joint (body origin) and the same joint in the reference *as projected into the
+  model* (the model's kinematics of the reference qpos), in m; the **root error** is the same for
+  the root body alone.
+- **root force**: the magnitude of the external force the controller applied to the root (hand of
+  god), averaged over control steps; zero for controllers that stand on their own feet.
+- **distance / speed**: horizontal displacement of the root from start to end (or to the fall),
+  and that over the simulated time.
+- **foot travel**: largest horizontal displacement of either foot sole site from where it
+  started (a step or a slide when above a few centimetres).
+- **COM drop**: how far the centre of mass went below its starting height (a squat, a fall).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .character import Character
+
+#: fraction of the standing root height below which the character has fallen
+FALL_HEIGHT_FRACTION = 0.55
+#: horizontal foot displacement (m) that counts as taking a step (or sliding a foot away)
+STEP_DISTANCE = 0.05
+
+
+@dataclass
+class Result:
+    """The outcome of one scenario run (JSON-ready through :meth:`to_dict`).
+
+    Times in s, distances in m, speeds in m/s, forces in N. ``None`` where a metric does not
+    apply (no reference, no push).
+    """
+
+    controller: str
+    scenario: str
+    fell: bool
+    fall_time_s: float | None
+    sim_time_s: float
+    distance_m: float
+    mean_speed_mps: float
+    tracking_error_m: float | None
+    root_error_m: float | None
+    root_force_mean_N: float
+    root_force_max_N: float
+    root_torque_mean_Nm: float
+    max_push_N: float | None
+    wall_s: float
+    steps_per_s: float
+    timestep_s: float
+    control_dt_s: float
+    n_steps: int
+    seed: int | None = None
+    diverged: bool = False
+    fall_reason: str | None = None
+    foot_travel_m: float = 0.0
+    stepped: bool = False
+    com_drop_m: float = 0.0
+    push_N: float | None = None
+    push_direction_deg: float | None = None
+    max_push_by_direction_N: dict | None = None
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """A JSON-serialisable dict (non-finite floats become ``None``)."""
+
+        def clean(v):
+            if isinstance(v, float | np.floating):
+                v = float(v)
+                return v if math.isfinite(v) else None
+            if isinstance(v, np.integer):
+                return int(v)
+            if isinstance(v, np.bool_):
+                return bool(v)
+            if isinstance(v, dict):
+                return {str(k): clean(x) for k, x in v.items()}
+            if isinstance(v, list | tuple | np.ndarray):
+                return [clean(x) for x in v]
+            return v
+
+        return {k: clean(v) for k, v in asdict(self).items()}
+
+    def summary(self) -> str:
+        """A few readable lines."""
+        lines = [f"{self.controller} / {self.scenario}: "
+                 + (f"FELL at {self.fall_time_s:.2f} s ({self.fall_reason})" if self.fell
+                    else f"stood/ran {self.sim_time_s:.2f} s without falling")]
+        if self.diverged:
+            lines.append("  simulation diverged")
+        lines.append(f"  distance {self.distance_m:.3f} m, mean speed "
+                     f"{self.mean_speed_mps:.3f} m/s, foot travel {self.foot_travel_m:.3f} m, "
+                     f"COM drop {self.com_drop_m:.3f} m")
+        if self.tracking_error_m is not None:
+            lines.append(f"  tracking error {self.tracking_error_m:.4f} m (mean joint), root error "
+                         f"{self.root_error_m:.4f} m")
+        lines.append(f"  root force mean {self.root_force_mean_N:.1f} N (max "
+                     f"{self.root_force_max_N:.1f} N), root torque mean "
+                     f"{self.root_torque_mean_Nm:.1f} N m")
+        if self.push_N is not None:
+            where = ("random directions" if self.push_direction_deg is None
+                     else f"towards {self.push_direction_deg:g} deg")
+            lines.append(f"  push {self.push_N:.1f} N, {where}")
+        if self.max_push_by_direction_N:
+            per = ", ".join(f"{k} {v:.0f} N" for k, v in self.max_push_by_direction_N.items())
+            lines.append(f"  largest survived push (0.2 s, pelvis): {per}")
+        elif self.max_push_N is not None:
+            lines.append(f"  largest push survived {self.max_push_N:.1f} N")
+        lines.append(f"  {self.n_steps} steps of {self.timestep_s * 1000:.3g} ms in "
+                     f"{self.wall_s:.2f} s wall ({self.steps_per_s:.0f} steps/s)")
+        for k, v in self.extra.items():
+            lines.append(f"  {k}: {v}")
+        return "\n".join(lines)
+
+
+class FallDetector:
+    """Decides whether the character has fallen.
+
+    Args:
+        character: the character (its current pose gives the standing root height unless
+            ``fall_height`` is given).
+        fall_height: root height (m) below which it has fallen (default
+            :data:`FALL_HEIGHT_FRACTION` x the standing root height of the model's rest pose).
+    """
+
+    def __init__(self, character: Character, fall_height: float | None = None):
+        if fall_height is None:
+            standing = character.on_floor(character.model.qpos0)[character.root_qpos[2]]
+            fall_height = FALL_HEIGHT_FRACTION * float(standing)
+        self.fall_height = float(fall_height)
+
+    def check(self, character: Character) -> str | None:
+        """``None`` while standing, else the reason of the fall."""
+        h = character.root_height
+        if h < self.fall_height:
+            return f"root height {h:.3f} m below {self.fall_height:.3f} m"
+        bodies = character.non_foot_ground_contact()
+        if bodies:
+            return f"{', '.join(bodies)} touched the ground"
+        return None
+
+
+class Recorder:
+    """Collects what a run's :class:`Result` needs, one :meth:`record` per control step.
+
+    Joint and root positions are sampled at most ``sample_rate`` times per second (tracking
+    errors are computed against the reference once, at the end).
+    """
+
+    def __init__(self, character: Character, reference=None, sample_rate: float = 120.0):
+        self.reference = reference
+        self.sample_dt = 1.0 / sample_rate
+        self._next_sample = 0.0
+        self.times: list[float] = []
+        self.joint_positions: list[np.ndarray] = []
+        self.root_force: list[float] = []
+        self.root_torque: list[float] = []
+        self.start_root = character.root_position
+        self.root = self.start_root.copy()
+        self.start_feet = np.array([p[:2] for p in character.foot_sites()])
+        self.foot_travel = 0.0
+        self.start_com_z = float(character.com()[2])
+        self.com_min_z = self.start_com_z
+        self._sample(character)
+
+    def _sample(self, character: Character) -> None:
+        self.times.append(character.time)
+        self.joint_positions.append(character.joint_positions())
+        self._next_sample = character.time + self.sample_dt - 1e-9
+
+    def record(self, character: Character) -> None:
+        """Record the step just taken (root wrench of the last action, positions when due)."""
+        w = character.root_wrench
+        self.root_force.append(float(np.linalg.norm(w[:3])))
+        self.root_torque.append(float(np.linalg.norm(w[3:])))
+        self.root = character.root_position
+        if character.time >= self._next_sample:
+            self._sample(character)
+            feet = np.array([p[:2] for p in character.foot_sites()])
+            self.foot_travel = max(self.foot_travel,
+                                   float(np.linalg.norm(feet - self.start_feet, axis=1).max()))
+            self.com_min_z = min(self.com_min_z, float(character.com()[2]))
+
+    def tracking_errors(self, joint_body_index: int = 0) -> tuple[float | None, float | None]:
+        """``(mean joint error, mean root error)`` in m against the reference (``None`` without).
+
+        The reference joints are the model's kinematics of the reference qpos
+        (``ReferenceMotion.body_positions``), in the Character's joint order.
+        """
+        if self.reference is None or not self.times:
+            return None, None
+        t = np.asarray(self.times)
+        ref = self.reference.body_positions(t)[:, self.reference.joint_body_ids]
+        sim = np.asarray(self.joint_positions)
+        err = np.linalg.norm(sim - ref, axis=-1)  # (T, J)
+        return float(err.mean()), float(err[:, joint_body_index].mean())
+
+    def aggregates(self) -> dict:
+        """Distance (m), root force/torque statistics, foot travel and COM drop."""
+        d = float(np.linalg.norm((self.root - self.start_root)[:2]))
+        rf = np.asarray(self.root_force) if self.root_force else np.zeros(1)
+        rt = np.asarray(self.root_torque) if self.root_torque else np.zeros(1)
+        return {"distance_m": d, "root_force_mean_N": float(rf.mean()),
+                "root_force_max_N": float(rf.max()), "root_torque_mean_Nm": float(rt.mean()),
+                "foot_travel_m": self.foot_travel,
+                "com_drop_m": self.start_com_z - self.com_min_z}

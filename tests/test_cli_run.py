@@ -1,0 +1,101 @@
+"""``mjchar run``: one JSON object with --json, readable summaries, one-line errors with a
+non-zero exit for malformed options, and --render writing an MP4."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import shared_clip
+
+from controllers import scenarios as S
+from controllers.cli import main
+from controllers.commands import run as run_cmd
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def mjchar(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-m", "controllers.cli", *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_static_balance_json_is_exactly_one_object():
+    p = mjchar("run", "static_balance", "--json")
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)  # the whole stdout is one JSON document
+    assert isinstance(out, dict) and p.stdout.strip().count("\n") == 0
+    assert out["controller"] == "static_balance" and out["scenario"] == "stand"
+    assert out["fell"] is False and out["sim_time_s"] == pytest.approx(10.0)
+    assert out["root_force_mean_N"] == 0.0
+    for key in ("fall_time_s", "distance_m", "mean_speed_mps", "tracking_error_m",
+                "max_push_N", "wall_s", "steps_per_s", "seed"):
+        assert key in out
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["run", "static_balance", "--duration", "abc"], "duration must be a number"),
+    (["run", "static_balance", "--duration", "-2"], "duration must be positive"),
+    (["run", "wobbly"], "invalid choice"),
+    (["run", "spd", "--scenario", "dance"], "invalid choice"),
+    (["run", "spd", "--seed", "x"], "seed must be an integer"),
+    (["run", "spd", "--direction", "up"], "direction must be degrees"),
+    (["run", "spd", "--scenario", "push"], "needs --push"),
+    (["run", "spd", "--scenario", "track", "--motion", "/no/such.bvh"], "/no/such.bvh"),
+    (["run", "spd", "--render", "out.gif"], "MP4"),
+])
+def test_malformed_options_give_one_line_and_non_zero_exit(args, needle, capsys):
+    with pytest.raises(SystemExit) as e:
+        code = main(args)
+        raise SystemExit(code)
+    assert e.value.code != 0
+    err = capsys.readouterr().err
+    assert needle in err
+    assert "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_malformed_option_in_a_subprocess():
+    p = mjchar("run", "static_balance", "--push", "lots")
+    assert p.returncode == 2
+    assert p.stderr.strip().count("\n") == 0 and "Traceback" not in p.stderr
+
+
+def test_summary_of_a_push(capsys):
+    assert main(["run", "static_balance", "--scenario", "push", "--push", "50",
+                 "--direction", "backward", "--duration", "2.5"]) == 0
+    out = capsys.readouterr().out
+    assert "static_balance / push" in out and "without falling" in out
+    assert "push 50.0 N, towards 180 deg" in out
+
+
+def test_track_with_a_motion_file(capsys):
+    clip = shared_clip("walk60.bvh")
+    assert main(["run", "hand_of_god", "--motion", str(clip), "--json",
+                 "--duration", "1.0"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scenario"] == "track" and out["tracking_error_m"] < 0.05
+    assert out["root_force_mean_N"] > 0
+
+
+def test_names_match_the_scenarios_module():
+    assert run_cmd.CONTROLLERS == S.CONTROLLERS
+    assert run_cmd.SCENARIOS == S.SCENARIOS
+
+
+def test_render_writes_an_mp4(tmp_path):
+    pytest.importorskip("imageio_ffmpeg")
+    out = tmp_path / "stand.mp4"
+    p = mjchar("run", "native_pd", "--duration", "0.5", "--render", str(out), "--json")
+    if p.returncode != 0 and "OpenGL" in p.stderr:
+        pytest.skip(f"no OpenGL here: {p.stderr.strip()}")
+    assert p.returncode == 0, p.stderr
+    info = json.loads(p.stdout)
+    assert info["video_frames"] == 16  # 30 fps over 0.5 s, first frame at t = 0
+    assert out.is_file() and out.stat().st_size > 1000
+    assert out.read_bytes()[4:8] == b"ftyp"  # an MP4 container
