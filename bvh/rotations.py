@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .errors import SkeletonError
+
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -67,18 +69,113 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v + w * t + np.cross(u, t)
 
 
+def quat_from_euler(angles: np.ndarray, order: str, degrees: bool = True) -> np.ndarray:
+    """Unit wxyz quaternions ``(..., 4)`` of intrinsic Euler angles ``(..., len(order))``.
+
+    ``order`` is a string of 1-3 axis letters (``"ZXY"``, ``"XY"``, ``"zyx"``...), read as the
+    product ``R_order[0] R_order[1] ...`` (intrinsic rotations, the BVH convention); ``degrees``
+    says the unit of ``angles``. An empty ``order`` gives identities. Equivalent to scipy's
+    ``Rotation.from_euler(order.upper(), ...)`` but vectorised over any leading shape.
+    """
+    angles = np.asarray(angles, dtype=float)
+    if angles.shape[-1:] != (len(order),):
+        raise SkeletonError(
+            f"expected angles (..., {len(order)}) for order {order!r}, got {angles.shape}")
+    shape = angles.shape[:-1]
+    if not order:
+        return quat_identity(shape)
+    # cos and sin of the half angles from t = tan(angle / 4) (numpy's vectorised tan is several
+    # times faster than its sin and cos here; exact to an ulp or two, also at +-180 degrees)
+    t = np.moveaxis(angles, -1, 0) * (np.pi / 720.0 if degrees else 0.25)
+    np.tan(t, out=t)
+    one_plus_t2 = t * t
+    c = np.subtract(1.0, one_plus_t2)
+    one_plus_t2 += 1.0
+    c /= one_plus_t2  # cos(half) = (1 - t^2) / (1 + t^2)
+    t *= 2.0
+    t /= one_plus_t2
+    s = t  # sin(half) = 2 t / (1 + t^2)
+    # components as arrays, None meaning exactly zero (saves work on the first products)
+    k0 = AXES[order[0].lower()]
+    w: np.ndarray = c[0]
+    v: list[np.ndarray | None] = [None, None, None]
+    v[k0] = s[0]
+    for n in range(1, len(order)):
+        k = AXES[order[n].lower()]
+        i, j = (k + 1) % 3, (k + 2) % 3
+        ck, sk = c[n], s[n]
+        # (w, v) * (ck, sk e_k) = (w ck - sk v_k, w sk e_k + ck v + sk v x e_k)
+        vk, vi, vj = v[k], v[i], v[j]
+        w, v[k] = ((w * ck if vk is None else w * ck - vk * sk),
+                   (w * sk if vk is None else vk * ck + w * sk))
+        v[i] = _lin(vi, ck, vj, sk)
+        v[j] = _lin(vj, ck, vi, -sk)
+    zero = np.zeros(shape)
+    return np.stack([w, *(zero if x is None else x for x in v)], axis=-1)
+
+
+def quat_to_euler(q: np.ndarray, order: str, degrees: bool = True) -> np.ndarray:
+    """Intrinsic Euler angles ``(..., 3)`` of unit wxyz quaternions ``(..., 4)``.
+
+    ``order`` is three axis letters, Tait-Bryan (``"ZXY"``) or proper Euler (``"ZXZ"``), read
+    as ``R = R_order[0] R_order[1] R_order[2]`` (the inverse of :func:`quat_from_euler`).
+    Principal ranges: outer angles in [-180, 180], the middle one in [-90, 90] (Tait-Bryan) or
+    [0, 180] (proper). Uses the direct quaternion formulas of Bernardes & Viollet (2022)
+    without a gimbal-lock threshold, so rotations within 1e-9 degrees of gimbal lock still
+    come back to machine precision (scipy's ``as_euler`` snaps those to exact lock, losing
+    ~1e-9 rad); at exact lock the free angle is split evenly.
+    """
+    q = np.asarray(q, dtype=float)
+    if len(order) != 3 or order[1].lower() in (order[0].lower(), order[2].lower()):
+        raise SkeletonError(f"expected an Euler order of 3 axes like 'ZXY' or 'ZXZ', got {order!r}")
+    # intrinsic ABC is extrinsic CBA with the angles reversed
+    i, j, k = (AXES[a] for a in order.lower()[::-1])
+    proper = i == k
+    if proper:
+        k = 3 - i - j
+    sign = (i - j) * (j - k) * (k - i) // 2
+    w, v = q[..., 0], [q[..., 1], q[..., 2], q[..., 3]]
+    if proper:
+        a, b, c, d = w, v[i], v[j], v[k] * sign
+    else:
+        a, b, c, d = w - v[j], v[i] + v[k] * sign, v[j] + w, v[k] * sign - v[i]
+    middle = 2.0 * np.arctan2(np.hypot(c, d), np.hypot(a, b))
+    half_sum, half_diff = np.arctan2(b, a), np.arctan2(d, c)
+    first, third = half_sum - half_diff, half_sum + half_diff  # extrinsic 1st and 3rd
+    if not proper:
+        third = third * sign
+        middle = middle - np.pi / 2
+    out = np.stack([third, middle, first], axis=-1)  # back to the intrinsic order
+    out = (out + np.pi) % (2 * np.pi) - np.pi
+    return np.rad2deg(out) if degrees else out
+
+
+def _lin(a: np.ndarray | None, ca: np.ndarray, b: np.ndarray | None,
+         cb: np.ndarray) -> np.ndarray | None:
+    """``a * ca + b * cb`` with ``None`` standing for zero."""
+    if a is None:
+        return None if b is None else b * cb
+    return a * ca if b is None else a * ca + b * cb
+
+
 def quat_fix_continuity(q: np.ndarray, axis: int = 0) -> np.ndarray:
     """Flip quaternion signs along ``axis`` (frames) so consecutive ones have a non-negative dot.
 
     ``q`` and ``-q`` are the same rotation; interpolation and finite differences need the sign
     that keeps the curve continuous. Returns a new array of the same shape ``(..., 4)``.
     """
-    q = np.moveaxis(np.asarray(q, dtype=float), axis, 0).copy()
-    if len(q) > 1:
-        dots = np.sum(q[1:] * q[:-1], axis=-1)
-        flips = np.cumsum(dots < 0, axis=0) % 2  # flip parity accumulated along the frames
-        q[1:] *= np.where(flips[..., None] == 1, -1.0, 1.0)
+    q = np.moveaxis(np.array(q, dtype=float), axis, 0)  # a copy
+    _fix_continuity_inplace(q)
     return np.moveaxis(q, 0, axis)
+
+
+def _fix_continuity_inplace(q: np.ndarray) -> None:
+    """:func:`quat_fix_continuity` along axis 0, modifying the float array ``q`` in place."""
+    if len(q) > 1:
+        flip = np.einsum("...i,...i->...", q[1:], q[:-1]) < 0
+        if flip.any():
+            np.logical_xor.accumulate(flip, axis=0, out=flip)  # flip parity along the frames
+            q[1:][flip] *= -1.0
 
 
 def quat_slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray | float) -> np.ndarray:
@@ -103,7 +200,8 @@ def quat_slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray | float) -> np.ndar
 
 
 def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``(..., 3)`` (axis * angle, radians, angle in [0, pi]) of ``q`` ``(..., 4)``."""
+    """Rotation vectors ``(..., 3)`` (axis * angle, radians, angle in [0, pi]) of ``q``
+    ``(..., 4)``."""
     q = np.asarray(q, dtype=float)
     q = np.where(q[..., :1] < 0, -q, q)
     v = q[..., 1:]
@@ -132,13 +230,14 @@ def decompose_facing(q: np.ndarray, up: str = "y") -> tuple[np.ndarray, np.ndarr
     ``(..., 4)``, with ``quat_mul(q_heading, q_tilt) == q``.
     """
     q = quat_normalize(np.asarray(q, dtype=float))
-    i = AXES[up]
+    i = _axis_index(up)
     twist = np.zeros_like(q)
     twist[..., 0] = q[..., 0]
     twist[..., 1 + i] = q[..., 1 + i]
     norm = np.linalg.norm(twist, axis=-1, keepdims=True)
     # a 180 degree tilt has no defined heading: pick identity
-    twist = np.where(norm > 1e-9, twist / np.where(norm > 1e-9, norm, 1.0), quat_identity(q.shape[:-1]))
+    twist = np.where(norm > 1e-9, twist / np.where(norm > 1e-9, norm, 1.0),
+                     quat_identity(q.shape[:-1]))
     tilt = quat_mul(quat_conj(twist), q)
     return twist, tilt
 
@@ -146,5 +245,15 @@ def decompose_facing(q: np.ndarray, up: str = "y") -> tuple[np.ndarray, np.ndarr
 def heading_angle(q: np.ndarray, up: str = "y") -> np.ndarray:
     """Heading angle (radians) about ``up`` of rotations ``q`` ``(..., 4)``; shape ``(...)``."""
     twist, _ = decompose_facing(q, up)
-    i = AXES[up]
-    return 2.0 * np.arctan2(twist[..., 1 + i], twist[..., 0])
+    i = _axis_index(up)
+    # q and -q are the same rotation: take the twist with w >= 0 so the angle is in (-pi, pi]
+    sign = np.where(twist[..., 0] < 0, -1.0, 1.0)
+    return 2.0 * np.arctan2(sign * twist[..., 1 + i], sign * twist[..., 0])
+
+
+def _axis_index(up: str) -> int:
+    """Index 0/1/2 of axis name ``up`` (``"x"``, ``"y"``, ``"z"``, any case)."""
+    try:
+        return AXES[str(up).lower()]
+    except KeyError:
+        raise SkeletonError(f"unknown up axis {up!r}; expected 'x', 'y' or 'z'") from None

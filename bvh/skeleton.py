@@ -11,6 +11,7 @@ from .errors import SkeletonError
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 VALID_CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
+_VALID_SET = frozenset(VALID_CHANNELS)
 
 
 @dataclass
@@ -58,8 +59,7 @@ class Skeleton:
                   or np.any(self.parents[1:] >= np.arange(1, n))):
             raise SkeletonError("joints must be in topological order with a single root at index 0")
         for name, chans in zip(self.names, self.channels, strict=True):
-            bad = [c for c in chans if c not in VALID_CHANNELS]
-            if bad or len(set(chans)) != len(chans):
+            if not _VALID_SET.issuperset(chans) or len(set(chans)) != len(chans):
                 raise SkeletonError(f"joint {name!r}: invalid channels {chans}")
 
     # -- structure -------------------------------------------------------------------------

@@ -10,7 +10,7 @@ import numpy as np
 
 from .errors import SkeletonError
 from .motion import Motion
-from .rotations import from_rotation, quat_mul, quat_conj, quat_rotate, to_rotation
+from .rotations import from_rotation, quat_conj, quat_mul, quat_rotate, to_rotation
 from .skeleton import Skeleton
 
 #: metres per unit for the unit names accepted by :func:`unit_scale`
@@ -23,7 +23,8 @@ def unit_scale(unit: str) -> float:
     try:
         return UNIT_SCALES[unit.lower()]
     except KeyError:
-        raise SkeletonError(f"unknown unit {unit!r}; expected one of {sorted(UNIT_SCALES)}") from None
+        raise SkeletonError(
+            f"unknown unit {unit!r}; expected one of {sorted(UNIT_SCALES)}") from None
 
 
 def _extent_points(skeleton: Skeleton) -> np.ndarray:
@@ -87,7 +88,8 @@ def up_axis_rotation(from_up: str, to_up: str = "z") -> np.ndarray:
     return np.array([np.cos(np.pi / 4), *(np.sin(np.pi / 4) * axis)])
 
 
-def transform_motion(motion: Motion, scale: float = 1.0, rotation: np.ndarray | None = None) -> Motion:
+def transform_motion(motion: Motion, scale: float = 1.0,
+                     rotation: np.ndarray | None = None) -> Motion:
     """Express ``motion`` in other units and axes: new world = ``scale * R * old world``.
 
     Offsets, translations and end sites are scaled and rotated; local rotations are conjugated

@@ -172,10 +172,6 @@ def test_heading_of_a_half_tilt_is_defined():
     assert heading_angle(q, "y") == pytest.approx(0.0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG in bvh.rotations.heading_angle: it returns 2*atan2(twist_up, twist_w), in (-2 pi, 2 pi], "
-    "so q and -q (the same rotation) give headings 2 pi apart, e.g. 170 deg and -190 deg. "
-    "Fix: wrap the result to (-pi, pi] (or flip the twist to w >= 0 first)."))
 def test_heading_angle_is_sign_invariant_and_wrapped():
     q = _about("y", np.radians([170.0, -170.0, 90.0]))
     for qq in (q, -q):
@@ -184,9 +180,6 @@ def test_heading_angle_is_sign_invariant_and_wrapped():
         np.testing.assert_allclose(h, np.radians([170.0, -170.0, 90.0]), atol=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "bvh.rotations.decompose_facing/heading_angle index AXES[up] directly: an unknown or "
-    "upper-case axis ('Y', 'w') raises a bare KeyError, not a project MjcharError."))
 def test_facing_with_bad_axis_raises_project_error():
     with pytest.raises(MjcharError):
         heading_angle(quat_identity(), "w")

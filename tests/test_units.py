@@ -1,0 +1,104 @@
+"""Units and up axis: guessing from the rest pose, and transform_motion commuting with FK."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from bvh_variants import all_variants, base_motion
+from scipy.spatial.transform import Rotation
+
+import bvh
+from bvh.rotations import quat_conj, quat_mul, quat_rotate
+from bvh.units import (
+    guess_unit_scale,
+    guess_up_axis,
+    to_metres,
+    transform_motion,
+    unit_scale,
+    up_axis_rotation,
+)
+
+GUESSABLE = [v for v in all_variants() if v.unit_scale is not None and not v.format_of]
+
+
+def test_guesses_on_shared_clip(shared_clip_path):
+    sk = bvh.load(shared_clip_path).skeleton
+    assert guess_unit_scale(sk) == 1.0
+    assert guess_up_axis(sk) == "y"
+
+
+@pytest.mark.parametrize("variant", GUESSABLE, ids=lambda v: v.name)
+def test_guesses_on_generated(variant):
+    """cm, inch and Z-up variants of the base clip, CMU-style inches, Mixamo cm (Y- and Z-up)."""
+    sk = bvh.loads(variant.text).skeleton
+    assert guess_unit_scale(sk) == pytest.approx(variant.unit_scale)
+    assert guess_up_axis(sk) == variant.up
+
+
+def test_generated_set_has_the_unit_and_axis_cases():
+    names = {v.name.split("-", 1)[-1] for v in GUESSABLE}
+    assert {"cm", "inch", "zup", "zup-cm"} <= names
+    assert {v.unit_scale for v in GUESSABLE} >= {1.0, 0.01, 0.0254}
+
+
+def _random_transforms(n: int, seed: int):
+    rng = np.random.default_rng(seed)
+    for q in Rotation.random(n, rng=rng).as_quat(scalar_first=True):
+        yield float(rng.uniform(0.01, 100.0)), q
+    yield 100.0, up_axis_rotation("y", "z")
+    yield 1 / 0.0254, None
+
+
+@pytest.mark.parametrize("source", ["base", "authored"])
+def test_transform_motion_commutes_with_fk(source):
+    """FK(transform(m, s, R)) = s R FK(m) for positions, R O R^-1 for orientations."""
+    motion = base_motion(prefer_shared=source == "base")[0]
+    fk = bvh.forward_kinematics(motion)
+    sites = bvh.end_site_positions(motion, fk)
+    for s, q in _random_transforms(4, seed=11):
+        qq = np.array([1.0, 0, 0, 0]) if q is None else q
+        moved = transform_motion(motion, s, q)
+        fk2 = bvh.forward_kinematics(moved)
+        scale = s * max(1.0, float(np.abs(fk.positions).max()))
+        np.testing.assert_allclose(fk2.positions, s * quat_rotate(qq, fk.positions),
+                                   atol=1e-12 * scale, rtol=0)
+        want = quat_mul(quat_mul(qq, fk.orientations), quat_conj(qq))
+        np.testing.assert_allclose(np.abs(np.sum(fk2.orientations * want, axis=-1)), 1.0,
+                                   atol=1e-12)
+        np.testing.assert_allclose(bvh.end_site_positions(moved, fk2),
+                                   s * quat_rotate(qq, sites), atol=1e-12 * scale, rtol=0)
+        assert moved.source_channels is None  # the file's angles no longer apply
+
+
+def test_to_metres_undoes_a_cm_zup_file():
+    """Reading the Z-up centimetre variant and converting back gives the base clip."""
+    variants = {v.name: v for v in all_variants()}
+    label = all_variants()[0].name
+    base = bvh.loads(variants[label].text)
+    zup_cm = bvh.loads(variants[f"{label}-zup-cm"].text)
+    back = to_metres(zup_cm, to_up="y")  # units and up axis guessed
+    # both files print 6 decimals (of cm, of degrees): they agree to about a micrometre
+    np.testing.assert_allclose(bvh.forward_kinematics(back).positions,
+                               bvh.forward_kinematics(base).positions, atol=2e-6)
+    given = to_metres(zup_cm, unit="cm", up="z", to_up="y")
+    np.testing.assert_allclose(bvh.forward_kinematics(given).positions,
+                               bvh.forward_kinematics(back).positions, atol=1e-12)
+
+
+def test_up_axis_rotation():
+    q = up_axis_rotation("y", "z")
+    np.testing.assert_allclose(quat_rotate(q, [0.0, 1.0, 0.0]), [0, 0, 1], atol=1e-15)
+    np.testing.assert_allclose(quat_rotate(q, [0.0, 0.0, 1.0]), [0, -1, 0], atol=1e-15)
+    np.testing.assert_array_equal(up_axis_rotation("z", "z"), [1, 0, 0, 0])
+
+
+def test_unit_names():
+    assert unit_scale("cm") == 0.01 and unit_scale("IN") == 0.0254 and unit_scale("m") == 1.0
+    with pytest.raises(bvh.SkeletonError, match="unknown unit"):
+        unit_scale("furlong")
+
+
+def test_flat_skeleton_has_no_unit_guess():
+    sk = bvh.Skeleton(["a", "b"], [-1, 0], [[0, 0, 0], [0, 0, 0]], [(), ()])
+    with pytest.raises(bvh.SkeletonError, match="no height"):
+        guess_unit_scale(sk)
