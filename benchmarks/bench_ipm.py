@@ -1,0 +1,201 @@
+"""Benchmark IPM stepping (controllers/ipm.py) on the bundled humanoid, with no root force.
+
+Long versions of what tests/test_ipm.py checks quickly:
+
+- ``walk``: 60 s from standing at 0.5 and 1.0 m/s: fall, mean speed (whole run and after 5 s),
+  speed error, steps and mean step time.
+- ``stop``: walk (0.5 and 1.0 m/s) for 6 s, then a zero command: when it stands, residual speed.
+- ``turn``: walk (0.5 and 1.0 m/s), heading command 90 degrees away at 3 s: final heading, time
+  to get within 5 degrees of it.
+- ``push``: 0.2 s pushes on the pelvis from standing (zero command), 8 directions x 2 push times
+  x several forces: which are survived (stepping allowed); static balance on the same pushes for
+  comparison.
+- ``cost``: wall time of an IPM control step over a raw ``mj_step`` (ratio, same run).
+
+Usage::
+
+    python benchmarks/bench_ipm.py                 # everything (~10 min on one core)
+    python benchmarks/bench_ipm.py walk push       # some sections
+    python benchmarks/bench_ipm.py --quick         # 20 s walks, fewer pushes
+    python benchmarks/bench_ipm.py --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from controllers.character import Character  # noqa: E402
+from controllers.ipm import make_ipm  # noqa: E402
+from controllers.scenarios import make_controller, push, simulate, standing_pose  # noqa: E402
+
+SECTIONS = ("walk", "stop", "turn", "push", "cost")
+DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
+
+
+def log(msg: str) -> None:
+    print(msg, flush=True)
+
+
+def outcome(r) -> str:
+    return f"FELL at {r.fall_time_s:.1f} s" if r.fell else "ok"
+
+
+def run(ch: Character, ctrl, duration: float):
+    """Simulate from standing; returns (Result, times (T,), COM xy (T, 2), pelvis yaw (T,))."""
+    times, com, yaw = [], [], []
+
+    def record(c: Character) -> None:
+        times.append(c.time)
+        com.append(c.com()[:2].copy())
+        R = c.data.xmat[c.root_body].reshape(3, 3)
+        yaw.append(math.atan2(R[1, 0], R[0, 0]))
+
+    r = simulate(ch, ctrl, duration=duration, scenario="walk", qpos=standing_pose(ch),
+                 frame_callback=record)
+    return r, np.asarray(times), np.asarray(com), np.asarray(yaw)
+
+
+def mean_speed(times, com, t0: float) -> float:
+    i = int(np.searchsorted(times, t0))
+    if i >= len(times) - 1:
+        return float("nan")
+    return float(np.linalg.norm(com[-1] - com[i]) / (times[-1] - times[i]))
+
+
+def bench_walk(ch: Character, duration: float) -> list[dict]:
+    out = []
+    for speed in (0.5, 1.0):
+        ctrl = make_ipm(ch, speed=speed)
+        r, times, com, _ = run(ch, ctrl, duration)
+        steps = np.diff(ctrl.step_switches[1:]) if len(ctrl.step_switches) > 2 else np.zeros(1)
+        row = {"speed_cmd": speed, "duration_s": duration, "fell": r.fell,
+               "fall_time_s": r.fall_time_s, "mean_speed": mean_speed(times, com, 0.0),
+               "mean_speed_after_5s": mean_speed(times, com, 5.0), "steps": ctrl.steps,
+               "mean_step_time_s": float(steps.mean()), "root_force_max_N": r.root_force_max_N,
+               "wall_s": r.wall_s, "steps_per_s": r.steps_per_s}
+        row["speed_error"] = abs(row["mean_speed"] - speed)
+        row["speed_error_after_5s"] = abs(row["mean_speed_after_5s"] - speed)
+        out.append(row)
+        log(f"walk {speed} m/s, {duration:g} s: {outcome(r)}, mean speed "
+            f"{row['mean_speed']:.3f} (after 5 s {row['mean_speed_after_5s']:.3f}),"
+            f" error {row['speed_error']:.3f} / {row['speed_error_after_5s']:.3f} m/s, "
+            f"{ctrl.steps} steps of {row['mean_step_time_s']:.3f} s, root force max "
+            f"{r.root_force_max_N:.1f} N, {r.wall_s:.0f} s wall")
+    return out
+
+
+def bench_stop(ch: Character) -> list[dict]:
+    out = []
+    for speed in (0.5, 1.0):
+        ctrl = make_ipm(ch, speed=lambda t, s=speed: s if t < 6.0 else 0.0)
+        r, times, com, _ = run(ch, ctrl, 14.0)
+        stood = [t for t in ctrl.stand_switches if t > 6.0]
+        final = mean_speed(times, com, 13.0)
+        row = {"speed_cmd": speed, "fell": r.fell, "mode_at_end": ctrl.mode,
+               "stood_at_s": stood[0] if stood else None, "stand_switches": len(stood),
+               "final_speed": final}
+        out.append(row)
+        log(f"stop from {speed} m/s at 6 s: {'FELL' if r.fell else 'ok'}, stands at "
+            f"{row['stood_at_s']}, mode at 14 s {ctrl.mode}, speed over the last second "
+            f"{final:.3f} m/s")
+    return out
+
+
+def bench_turn(ch: Character) -> list[dict]:
+    out = []
+    for speed in (0.5, 1.0):
+        ctrl = make_ipm(ch, speed=speed, heading=lambda t: 0.0 if t < 3.0 else 90.0)
+        r, times, com, yaw = run(ch, ctrl, 15.0)
+        err = np.abs(np.degrees(yaw) - 90.0)
+        within = np.flatnonzero((times > 3.0) & (err < 5.0))
+        row = {"speed_cmd": speed, "fell": r.fell, "final_heading_deg": float(np.degrees(yaw[-1])),
+               "time_to_5deg_s": float(times[within[0]] - 3.0) if len(within) else None}
+        out.append(row)
+        log(f"turn 90 deg at {speed} m/s: {outcome(r)}, "
+            f"final heading {row['final_heading_deg']:.1f} deg, within 5 deg after "
+            f"{row['time_to_5deg_s']} s")
+    return out
+
+
+def bench_push(ch: Character, forces, times_) -> dict:
+    out: dict = {"ipm": {}, "static_balance": {}}
+    for name in ("ipm", "static_balance"):
+        for force in forces:
+            ok = []
+            for pt in times_:
+                for d in DIRECTIONS:
+                    if name == "static_balance" and d % 90:
+                        continue
+                    ctrl = (make_ipm(ch, speed=0.0) if name == "ipm"
+                            else make_controller("static_balance", ch))
+                    r = push(ch, ctrl, force=force, direction=d, push_time=pt,
+                             duration=pt + 3.0, allow_steps=True)
+                    ok.append({"direction_deg": d, "push_time_s": pt, "survived": not r.fell,
+                               "stepped": r.stepped})
+            out[name][str(force)] = ok
+            n = sum(o["survived"] for o in ok)
+            log(f"push {name} {force:g} N, 0.2 s: survived {n}/{len(ok)} "
+                + " ".join(f"{o['direction_deg']:g}@{o['push_time_s']:g}:"
+                           f"{'ok' if o['survived'] else 'FELL'}" for o in ok))
+    return out
+
+
+def bench_cost(ch: Character, duration: float = 5.0) -> dict:
+    ch.reset(standing_pose(ch))
+    n = int(duration / ch.timestep)
+    t0 = time.perf_counter()
+    for _ in range(n):
+        mujoco.mj_step(ch.model, ch.data)
+    raw = (time.perf_counter() - t0) / n
+    r = simulate(ch, make_ipm(ch, speed=1.0), duration=duration, scenario="walk",
+                 qpos=standing_pose(ch))
+    per = r.wall_s / r.n_steps
+    row = {"raw_mj_step_us": raw * 1e6, "ipm_step_us": per * 1e6, "ratio": per / raw,
+           "timestep_s": ch.timestep}
+    log(f"cost: IPM control + physics step {per * 1e6:.0f} us vs raw mj_step {raw * 1e6:.0f} us "
+        f"(x{per / raw:.1f}); real-time factor {ch.timestep / per:.1f}")
+    return row
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sections", nargs="*", metavar="SECTION",
+                    help=f"any of {', '.join(SECTIONS)} (default: all)")
+    ap.add_argument("--quick", action="store_true", help="20 s walks, fewer pushes")
+    ap.add_argument("--json", type=Path, help="write the numbers to this file")
+    args = ap.parse_args(argv)
+    bad = [s for s in args.sections if s not in SECTIONS]
+    if bad:
+        ap.error(f"unknown section(s) {', '.join(bad)}; choose from {', '.join(SECTIONS)}")
+    sections = args.sections or list(SECTIONS)
+    ch = Character()
+    results: dict = {}
+    if "walk" in sections:
+        results["walk"] = bench_walk(ch, 20.0 if args.quick else 60.0)
+    if "stop" in sections:
+        results["stop"] = bench_stop(ch)
+    if "turn" in sections:
+        results["turn"] = bench_turn(ch)
+    if "push" in sections:
+        forces = (150.0, 200.0) if args.quick else (150.0, 200.0, 250.0, 300.0)
+        results["push"] = bench_push(ch, forces, (1.0,) if args.quick else (1.0, 1.3))
+    if "cost" in sections:
+        results["cost"] = bench_cost(ch)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2, default=float))
+        log(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

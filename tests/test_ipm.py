@@ -1,0 +1,241 @@
+"""IPM stepping (controllers/ipm.py, controllers/swing.py) on the bundled humanoid, no root force.
+
+Fast tests (default run): the formulas and helpers, 10 s walks at 0.5 and 1.0 m/s, stopping,
+turning by 90 degrees, one 150 N push per direction, and a push that static balance cannot
+survive while IPM stepping can. The 60 s walks and the 8-direction push sweep are marked slow
+(``pytest -m slow``); benchmarks/bench_ipm.py runs the long versions and reports the numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from controllers.character import Character
+from controllers.ipm import IPMController, IPMError, IPMParams, ipm_step_offset, make_ipm
+from controllers.scenarios import make_controller, push, simulate, standing_pose, survived
+from controllers.swing import SwingError, SwingTrajectory, rotation_about, two_link_ik
+
+
+@pytest.fixture(scope="module")
+def character() -> Character:
+    return Character()
+
+
+def run_walk(character: Character, controller, duration: float):
+    """Simulate from the standing pose; returns (result, times (T,), COM xy (T, 2), yaw (T,))."""
+    times, com, yaw = [], [], []
+
+    def record(ch: Character) -> None:
+        times.append(ch.time)
+        com.append(ch.com()[:2].copy())
+        R = ch.data.xmat[ch.root_body].reshape(3, 3)
+        yaw.append(math.atan2(R[1, 0], R[0, 0]))
+
+    r = simulate(character, controller, duration=duration, scenario="walk",
+                 qpos=standing_pose(character), frame_callback=record)
+    return r, np.asarray(times), np.asarray(com), np.asarray(yaw)
+
+
+def mean_velocity(times: np.ndarray, com: np.ndarray, t0: float, t1: float | None = None):
+    """``(2,)`` mean COM velocity (m/s) between ``t0`` and ``t1`` (default: the end)."""
+    i = int(np.searchsorted(times, t0))
+    j = len(times) - 1 if t1 is None else int(np.searchsorted(times, t1))
+    return (com[j] - com[i]) / (times[j] - times[i])
+
+
+# -- formulas and helpers ------------------------------------------------------------------------
+def test_ipm_step_offset_formula():
+    h, g = 0.9, 9.81
+    for v in (0.0, 0.3, 1.0, -0.7):
+        assert ipm_step_offset(v, h) == pytest.approx(v * math.sqrt(h / g + v * v / (4 * g * g)))
+    d = ipm_step_offset(np.array([0.5, -0.5]), h)
+    assert d[0] == pytest.approx(-d[1]) and d[0] > 0
+    assert ipm_step_offset(1.0, h) > ipm_step_offset(0.5, h) > 0
+    with pytest.raises(IPMError):
+        ipm_step_offset(1.0, -0.1)
+
+
+def test_swing_trajectory_heights_and_blend():
+    tr = SwingTrajectory((0.04, 0.15, 0.05), descent_speed=1.0, floor=-0.05, blend="quadratic")
+    assert tr.height(0.0, 0.5) == pytest.approx(0.04)
+    assert tr.height(0.5, 0.5) == pytest.approx(0.15)
+    assert tr.height(1.0, 0.5) == pytest.approx(0.05)
+    # after phase 1 the target sinks at descent_speed until the floor
+    assert tr.height(1.1, 0.5) == pytest.approx(0.05 - 1.0 * 0.1 * 0.5)
+    assert tr.height(3.0, 0.5) == pytest.approx(-0.05)
+    # the paper's blend: lift-off weight (1 - phase)^2
+    for ph in (0.0, 0.3, 0.7, 1.0, 1.4):
+        assert tr.liftoff_weight(ph) == pytest.approx((1 - min(ph, 1.0)) ** 2)
+    a, b = np.array([-0.2, 0.1]), np.array([0.3, 0.12])
+    assert tr.horizontal(0.0, a, b) == pytest.approx(a)
+    assert tr.horizontal(1.0, a, b) == pytest.approx(b)
+    smooth = SwingTrajectory(blend="smooth")
+    assert smooth.liftoff_weight(0.0) == 1.0 and smooth.liftoff_weight(1.0) == 0.0
+    assert smooth.liftoff_weight(0.5) == pytest.approx(0.5)
+    with pytest.raises(SwingError):
+        SwingTrajectory(blend="cubic")
+    with pytest.raises(SwingError):
+        SwingTrajectory((0.1, float("nan"), 0.0))
+
+
+@pytest.mark.parametrize("target", [(0.0, 0.0, -0.78), (0.3, 0.1, -0.65), (-0.2, -0.1, -0.7)])
+def test_two_link_ik_reaches_target_with_knee_forward(target):
+    hip = np.array([0.1, 0.2, 0.9])
+    tgt = hip + np.array(target)
+    l1, l2 = 0.41, 0.395
+    thigh, axis, flexion = two_link_ik(hip, tgt, l1, l2, np.array([1.0, 0.0, 0.0]))
+    knee = hip + l1 * thigh
+    ankle = knee + l2 * (rotation_about(axis, flexion) @ thigh)
+    assert ankle == pytest.approx(tgt, abs=1e-9)
+    assert 0.0 <= flexion < math.pi
+    # the knee is in front of the hip-ankle line (it points along the pole)
+    mid = 0.5 * (hip + tgt)
+    assert (knee - mid)[0] > 0
+
+
+def test_two_link_ik_out_of_reach_is_clamped():
+    hip = np.zeros(3)
+    thigh, axis, flexion = two_link_ik(hip, np.array([0.0, 0.0, -2.0]), 0.41, 0.395,
+                                       np.array([1.0, 0.0, 0.0]))
+    assert flexion == pytest.approx(0.0, abs=0.1)
+    assert thigh @ np.array([0.0, 0.0, -1.0]) > 0.99
+
+
+def test_options_are_checked():
+    with pytest.raises(IPMError, match="unknown IPM option"):
+        IPMController(speed=1.0, stepp_time=0.5)
+    with pytest.raises(IPMError):
+        IPMController(step_time=-0.1)
+    with pytest.raises(IPMError):
+        IPMController(swing_blend="linear")
+    with pytest.raises(IPMError):
+        IPMController(speed=float("nan"))
+    c = IPMController(speed=1.0, params=IPMParams(step_time=0.45), hip_kp=500.0)
+    assert c.params.step_time == 0.45 and c.params.hip_kp == 500.0
+    assert c.name == "ipm" and c.actuation == "torque"
+
+
+def test_act_before_reset_raises():
+    with pytest.raises(IPMError):
+        IPMController().act(None, 0.0)
+
+
+def test_foot_placement_follows_velocity_width_and_clamp(character):
+    c = make_ipm(character, speed=0.0)
+    character.reset(standing_pose(character))
+    c.reset(character)
+    h = 0.9
+    slow = c.foot_placement(np.array([0.2, 0.0]), h, swing=0, v_desired=0.0)
+    fast = c.foot_placement(np.array([0.8, 0.0]), h, swing=0, v_desired=0.0)
+    assert fast[0] > slow[0] > 0
+    # the desired speed moves the step back (keeps walking instead of stopping)
+    assert c.foot_placement(np.array([0.8, 0.0]), h, 0, v_desired=1.0)[0] < fast[0]
+    # left swing steps to the left of the COM, right swing to the right
+    assert c.foot_placement(np.zeros(2), h, swing=0, v_desired=0.0)[1] > 0
+    assert c.foot_placement(np.zeros(2), h, swing=1, v_desired=0.0)[1] < 0
+    # never closer than min_width beside the stance foot (no crossed legs)
+    off = c.foot_placement(np.array([0.0, -1.0]), h, swing=0, v_desired=0.0, stance_lateral=-0.1)
+    assert off[1] >= -0.1 + c.params.min_width - 1e-12
+    # clamped to +-0.4 leg length
+    huge = c.foot_placement(np.array([10.0, 10.0]), h, swing=0, v_desired=0.0)
+    assert np.all(np.abs(huge) <= 0.4 * c.leg_length + 1e-12)
+
+
+def test_stands_without_command(character):
+    """Zero command: it stands (static balance mode), takes no step, applies no root force."""
+    c = make_ipm(character, speed=0.0)
+    r, times, com, _ = run_walk(character, c, 3.0)
+    assert not r.fell
+    assert c.mode == "stand" and c.steps == 0
+    assert r.root_force_max_N == 0.0
+    assert r.foot_travel_m < 0.02
+
+
+# -- walking -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("speed", [0.5, 1.0])
+def test_walks_at_commanded_speed(character, speed):
+    c = make_ipm(character, speed=speed)
+    r, times, com, yaw = run_walk(character, c, 10.0)
+    assert not r.fell, r.fall_reason
+    assert r.root_force_max_N == 0.0 and r.root_torque_mean_Nm == 0.0
+    assert c.mode == "step" and c.steps >= 12
+    v = mean_velocity(times, com, 4.0)
+    assert abs(v[0] - speed) < 0.15, v      # along the commanded heading (+X)
+    assert abs(v[1]) < 0.1, v
+    assert abs(yaw[-1]) < math.radians(10)
+
+
+def test_stops_and_stands(character):
+    c = make_ipm(character, speed=lambda t: 0.5 if t < 4.0 else 0.0)
+    r, times, com, _ = run_walk(character, c, 10.0)
+    assert not r.fell, r.fall_reason
+    assert c.steps >= 5
+    assert c.mode == "stand"
+    assert c.stand_switches[-1] < 8.0
+    v = mean_velocity(times, com, 9.0)
+    assert np.linalg.norm(v) < 0.03, v
+    assert r.root_force_max_N == 0.0
+
+
+def test_turns_to_a_heading_90_degrees_away(character):
+    c = make_ipm(character, speed=0.5, heading=lambda t: 0.0 if t < 2.0 else 90.0)
+    r, times, com, yaw = run_walk(character, c, 10.0)
+    assert not r.fell, r.fall_reason
+    assert abs(math.degrees(yaw[-1]) - 90.0) < 15.0
+    v = mean_velocity(times, com, 8.0)
+    direction = math.degrees(math.atan2(v[1], v[0]))
+    assert abs(direction - 90.0) < 25.0 and np.linalg.norm(v) > 0.3, v
+    assert r.root_force_max_N == 0.0
+
+
+# -- pushes --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("direction", [0.0, 90.0, 180.0, 270.0])
+def test_survives_150N_push_by_stepping(character, direction):
+    c = make_ipm(character, speed=0.0)
+    r = push(character, c, force=150.0, direction=direction, allow_steps=True)
+    assert survived(r, allow_steps=True), r.fall_reason
+    assert r.stepped and c.steps >= 1
+    assert r.root_force_max_N == 0.0
+
+
+def test_push_static_balance_cannot_survive_but_ipm_can(character):
+    """The same 200 N, 0.2 s push on the pelvis from behind: static balance falls, IPM steps."""
+    sb = make_controller("static_balance", character)
+    r_sb = push(character, sb, force=200.0, direction=0.0, allow_steps=True)
+    assert r_sb.fell
+    ipm = make_ipm(character, speed=0.0)
+    r_ipm = push(character, ipm, force=200.0, direction=0.0, allow_steps=True)
+    assert not r_ipm.fell, r_ipm.fall_reason
+    assert r_ipm.stepped and ipm.steps >= 1
+    assert r_sb.root_force_max_N == 0.0 and r_ipm.root_force_max_N == 0.0
+
+
+# -- long runs -----------------------------------------------------------------------------------
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", [0.5, 1.0])
+def test_walks_60s_with_small_speed_error(character, speed):
+    c = make_ipm(character, speed=speed)
+    r, times, com, _ = run_walk(character, c, 60.0)
+    assert not r.fell, r.fall_reason
+    assert abs(np.linalg.norm(com[-1] - com[0]) / times[-1] - speed) < 0.15
+    assert abs(mean_velocity(times, com, 5.0)[0] - speed) < 0.15
+    assert r.root_force_max_N == 0.0
+
+
+@pytest.mark.slow
+def test_turns_at_1mps(character):
+    c = make_ipm(character, speed=1.0, heading=lambda t: 0.0 if t < 3.0 else 90.0)
+    r, times, com, yaw = run_walk(character, c, 14.0)
+    assert not r.fell, r.fall_reason
+    assert abs(math.degrees(yaw[-1]) - 90.0) < 15.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("direction", [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0])
+def test_survives_200N_push_from_every_direction(character, direction):
+    r = push(character, make_ipm(character, speed=0.0), force=200.0, direction=direction,
+             allow_steps=True)
+    assert survived(r, allow_steps=True), r.fall_reason
