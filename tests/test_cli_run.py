@@ -84,7 +84,8 @@ def test_track_with_a_motion_file(capsys):
 
 
 def test_names_match_the_scenarios_module():
-    assert run_cmd.CONTROLLERS == S.CONTROLLERS
+    # the run command offers every scenario controller, the walkers, and replay of saved files
+    assert set(run_cmd.CONTROLLERS) == set(S.CONTROLLERS) | set(run_cmd.WALKERS) | {"replay"}
     assert run_cmd.SCENARIOS == S.SCENARIOS
 
 

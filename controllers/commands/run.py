@@ -5,38 +5,15 @@ from __future__ import annotations
 import argparse
 import math
 
-CONTROLLERS = ("pd", "spd", "native_pd", "hand_of_god", "static_balance")
+from .argtypes import integer, non_negative, positive
+
+CONTROLLERS = ("pd", "spd", "native_pd", "hand_of_god", "static_balance", "simbicon", "ipm",
+               "replay")
+#: controllers that walk on their own: their default scenario is walk, from the standing pose
+WALKERS = ("simbicon", "ipm")
 SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
                    "right": 270.0}
-
-
-def _positive(what: str):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{what} must be positive, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
-
-
-def _non_negative(what: str):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v >= 0):
-            raise argparse.ArgumentTypeError(f"{what} must be zero or positive, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
 
 
 def _direction(text: str) -> float:
@@ -53,16 +30,6 @@ def _direction(text: str) -> float:
     return v
 
 
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be an integer, got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"seed must be non-negative, got {text!r}")
-    return v
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
     p = sub.add_parser(
@@ -74,45 +41,53 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "bundled walk; default model: the bundled humanoid.")
     p.add_argument("controller", choices=CONTROLLERS, metavar="CONTROLLER",
                    help="one of: " + ", ".join(CONTROLLERS))
+    p.add_argument("trajectory", nargs="?", metavar="FILE",
+                   help="replay only: a trajectory saved by mjchar samcon / mjchar trajopt")
+    p.add_argument("--speed", type=float, default=1.0, metavar="M/S",
+                   help="ipm: desired forward speed (default 1.0; 0 stops and stands)")
+    p.add_argument("--heading", type=float, metavar="DEG",
+                   help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
+    p.add_argument("--gait", default="walk", metavar="NAME",
+                   help="simbicon: gait parameter set (default walk)")
     p.add_argument("--scenario", choices=SCENARIOS, metavar="S",
                    help="one of: " + ", ".join(SCENARIOS))
     p.add_argument("--motion", metavar="FILE.bvh",
                    help="reference motion for track/walk and hand_of_god (default: bundled walk)")
     p.add_argument("--model", metavar="FILE.xml",
                    help="converted model (default: the bundled humanoid)")
-    p.add_argument("--duration", type=_positive("duration"), metavar="T",
+    p.add_argument("--duration", type=positive("duration"), metavar="T",
                    help="simulated seconds (default: per scenario; the clip for track/walk)")
-    p.add_argument("--push", type=_non_negative("push"), metavar="N",
+    p.add_argument("--push", type=non_negative("push"), metavar="N",
                    help="push force in newtons (push: required; random-push: default 10)")
     p.add_argument("--direction", type=_direction, default=0.0, metavar="DEG",
                    help="push direction in degrees from the facing direction (0 forward, "
                         "90 left, 180 backward, 270 right) or a name; default forward")
-    p.add_argument("--push-duration", type=_positive("push duration"), default=0.2,
+    p.add_argument("--push-duration", type=positive("push duration"), default=0.2,
                    metavar="S", help="push length in seconds (default 0.2)")
-    p.add_argument("--push-time", type=_non_negative("push time"), default=1.0, metavar="S",
+    p.add_argument("--push-time", type=non_negative("push time"), default=1.0, metavar="S",
                    help="when the push starts in seconds (default 1)")
-    p.add_argument("--max-force", type=_positive("max force"), default=1000.0, metavar="N",
+    p.add_argument("--max-force", type=positive("max force"), default=1000.0, metavar="N",
                    help="push-search upper bound in newtons (default 1000)")
-    p.add_argument("--tolerance", type=_positive("tolerance"), default=5.0, metavar="N",
+    p.add_argument("--tolerance", type=positive("tolerance"), default=5.0, metavar="N",
                    help="push-search resolution in newtons (default 5)")
     p.add_argument("--allow-steps", action="store_true",
                    help="a push counts as survived even if a foot moved (stepping controllers)")
-    p.add_argument("--squat", type=_non_negative("squat depth"), metavar="M",
+    p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
     p.add_argument("--tracker", choices=("pd", "spd", "native_pd"), default="spd",
                    help="PD variant hand_of_god wraps (default spd)")
-    p.add_argument("--timestep", type=_positive("timestep"), metavar="S",
+    p.add_argument("--timestep", type=positive("timestep"), metavar="S",
                    help="physics time step in seconds (default: 1/2000 for pd, the model's "
                         "otherwise)")
-    p.add_argument("--control-dt", type=_positive("control dt"), metavar="S",
+    p.add_argument("--control-dt", type=positive("control dt"), metavar="S",
                    help="seconds between control steps (default: every physics step)")
-    p.add_argument("--seed", type=_seed, default=0, metavar="N",
+    p.add_argument("--seed", type=integer("seed"), default=0, metavar="N",
                    help="random seed (random-push directions; default 0)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
     p.add_argument("--render", metavar="OUT.mp4",
                    help="write a video following the character (needs the video extra)")
-    p.add_argument("--fps", type=_positive("fps"), default=30.0, help="video frame rate")
+    p.add_argument("--fps", type=positive("fps"), default=30.0, help="video frame rate")
     p.set_defaults(func=run)
 
 
@@ -131,7 +106,13 @@ def run(args: argparse.Namespace) -> int:
     from .. import scenarios as S
     from ..character import Character
 
-    scenario = args.scenario or ("track" if args.controller == "hand_of_god" else "stand")
+    if args.controller == "replay":
+        return _replay(args)
+    if args.trajectory is not None:
+        raise MjcharError(f"unexpected argument {args.trajectory!r}: only 'replay' takes a file")
+    walker = args.controller in WALKERS
+    scenario = args.scenario or ("track" if args.controller == "hand_of_god" else
+                                 "walk" if walker else "stand")
     if scenario == "push" and args.push is None:
         raise MjcharError("the push scenario needs --push NEWTONS")
     if args.render and not args.render.lower().endswith(".mp4"):
@@ -143,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
         character.set_timestep(timestep)
 
     reference = None
-    if scenario in ("track", "walk"):
+    if scenario == "track" or (scenario == "walk" and not walker):
         from bvh.assets import motion_path
         from bvh.reference import ReferenceMotion
 
@@ -160,7 +141,19 @@ def run(args: argparse.Namespace) -> int:
         from ..static_balance import squat_profile
 
         options["height"] = squat_profile(args.squat)
-    controller = S.make_controller(args.controller, character, target, **options)
+    if args.controller == "simbicon":
+        from ..simbicon import DEFAULT_TIMESTEP, make_simbicon
+
+        if not args.timestep:
+            character.set_timestep(DEFAULT_TIMESTEP)
+        controller = make_simbicon(character, gait=args.gait)
+    elif args.controller == "ipm":
+        from ..ipm import make_ipm
+
+        controller = make_ipm(character, speed=args.speed if scenario == "walk" else 0.0,
+                              heading=args.heading)
+    else:
+        controller = S.make_controller(args.controller, character, target, **options)
 
     kw: dict = {"control_dt": args.control_dt}
     if args.duration is not None:
@@ -205,4 +198,41 @@ def run(args: argparse.Namespace) -> int:
         print(result.summary())
         if video is not None:
             print(f"  video: {args.render} ({video.frames} frames)")
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    """``mjchar run replay FILE``: play a saved PD-target trajectory open-loop."""
+    import json
+    import sys
+
+    from bvh.errors import MjcharError
+
+    from ..trajectory import load_trajectory, replay
+
+    if args.trajectory is None:
+        raise MjcharError("replay needs the trajectory file: mjchar run replay FILE")
+    trajectory = load_trajectory(args.trajectory)
+    video = None
+    kw = {}
+    if args.render:
+        from ..character import Character
+        from ..render import VideoRecorder
+
+        if not args.render.lower().endswith(".mp4"):
+            raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+        # the recorder only reads the simulated state through the callback's character
+        video = VideoRecorder(Character(args.model), args.render, fps=args.fps)
+        kw["frame_callback"] = video.capture
+    try:
+        result = replay(trajectory, model=args.model, duration=args.duration, **kw)
+    finally:
+        if video is not None:
+            video.close()
+    if args.json:
+        out = result.to_dict()
+        out["trajectory"] = str(args.trajectory)
+        print(json.dumps(out))
+    else:
+        print(result.summary(), file=sys.stdout)
     return 0

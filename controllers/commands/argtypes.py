@@ -1,0 +1,46 @@
+"""Argument types shared by the ``mjchar`` subcommands: each turns bad text into argparse's
+one-line error (exit status 2) naming the option and what was expected."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+
+def positive(what: str):
+    """A parser of finite numbers > 0 (``what`` names the option in errors)."""
+    return _number(what, lambda v: v > 0, "positive")
+
+
+def non_negative(what: str):
+    """A parser of finite numbers >= 0."""
+    return _number(what, lambda v: v >= 0, "zero or positive")
+
+
+def integer(what: str, minimum: int = 0):
+    """A parser of whole numbers >= ``minimum``."""
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be an integer, got {text!r}") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"{what} must be at least {minimum}, got {text!r}")
+        return v
+
+    parse.__name__ = what
+    return parse
+
+
+def _number(what: str, ok, expected: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and ok(v)):
+            raise argparse.ArgumentTypeError(f"{what} must be {expected}, got {text!r}")
+        return v
+
+    parse.__name__ = what
+    return parse
