@@ -1,0 +1,324 @@
+"""SAMCON and CMA-ES on the bundled humanoid: throughput, reconstructions, tracking, the jump.
+
+Everything runs sequentially on this machine (2 cores shared with other processes: the load
+average is printed with each part; read ratios rather than absolute timings).
+
+- ``--throughput``: SAMCON samples/s (slices of 0.1 s, the default options, on the first second
+  of walk60) against raw batched-rollout throughput on the same model and batch size: bare
+  ``mujoco.rollout`` (plain model, states only) and the ``LocalExecutor`` that SAMCON calls.
+  Rounds are interleaved and the best of each case kept; process CPU time is reported too.
+- ``--reconstruct CLIP ...``: full SAMCON reconstructions (default options
+  :data:`controllers.samcon.RECONSTRUCTION_OPTIONS`) of shared clips; each trajectory is saved,
+  replayed open-loop twice (determinism) and its metrics reported.
+- ``--cmaes``: CMA-ES tracking of walk60's first 1.5 s vs plain native PD of the raw reference
+  (mean tracking cost and the replays' tracking error).
+- ``--jump``: the CMA-ES standing vertical jump (clearance, landing).
+
+    python benchmarks/bench_samcon.py --all --write     # everything, update docs/sampling.md
+    python benchmarks/bench_samcon.py --throughput      # one part
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import mujoco  # noqa: E402
+import mujoco.rollout  # noqa: E402
+import numpy as np  # noqa: E402
+
+import bvh  # noqa: E402
+from bvh.assets import humanoid_path  # noqa: E402
+from bvh.reference import ReferenceMotion  # noqa: E402
+from controllers.character import Character  # noqa: E402
+from controllers.executors import LocalExecutor  # noqa: E402
+from controllers.rollout import FULLPHYSICS, RolloutRequest  # noqa: E402
+from controllers.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions  # noqa: E402
+from controllers.trajectory import replay  # noqa: E402
+from controllers.trajopt import (  # noqa: E402
+    JUMP_OPTIONS,
+    TrajoptOptions,
+    optimise_jump,
+    plain_pd_trajectory,
+    track_clip,
+    trajectory_cost,
+)
+
+DOC = ROOT / "docs" / "sampling.md"
+START, END = "<!-- bench_samcon:start -->", "<!-- bench_samcon:end -->"
+SHARED = ROOT.parent / "shared" / "data" / "bvh"
+
+
+def clip(name: str) -> Path:
+    path = SHARED / f"{name}.bvh"
+    if not path.is_file():
+        sys.exit(f"shared clip {path} not found")
+    return path
+
+
+def cpu() -> float:
+    return time.process_time()
+
+
+def load() -> float:
+    return os.getloadavg()[0]
+
+
+# ------------------------------------------------------------------------------------------------
+def throughput(samples: int, rounds: int, threads: int) -> dict:
+    """SAMCON slice throughput vs bare mujoco.rollout and the LocalExecutor, interleaved."""
+    ch = Character()
+    ref = ReferenceMotion(ch.model, bvh.load(clip("walk60")), info=ch.info)
+    opts = dict(RECONSTRUCTION_OPTIONS, samples=samples, duration=1.0, seed=0)
+    ex = LocalExecutor(threads=threads)
+    s = Samcon(ref, options=SamconOptions(**opts), executor=ex)
+    n_slices = len(s.slices)
+    k = s.k
+    c = s.slices[0][1] - s.slices[0][0]
+    rng = np.random.default_rng(0)
+    targets = s.base[None, :c] + rng.normal(0.0, 0.05, (samples, c, ch.nu))
+    state0 = np.repeat(s.state0[None], samples, axis=0)
+    request = RolloutRequest(s.rmodel, state0, targets, k)
+    plain = mujoco.MjModel.from_xml_path(str(humanoid_path()))
+    datas = [mujoco.MjData(plain) for _ in range(threads)]
+    pool = mujoco.rollout.Rollout(nthread=threads if threads > 1 else 0)
+    bare_state = np.empty((samples, mujoco.mj_stateSize(plain, FULLPHYSICS)))
+    dd = mujoco.MjData(plain)
+    dd.qpos[:], dd.qvel[:] = s.q0, s.v0
+    mujoco.mj_getState(plain, dd, bare_state[0], FULLPHYSICS)
+    bare_state[:] = bare_state[0]
+    control = np.ascontiguousarray(np.repeat(targets, k, axis=1))
+
+    def run_samcon():
+        return s.run(progress=False)
+
+    def run_executor():
+        for _ in range(n_slices):
+            ex.evaluate(request)
+
+    def run_bare():
+        for _ in range(n_slices):
+            pool.rollout(plain, datas, bare_state, control)
+
+    cases = {"samcon": run_samcon, "executor": run_executor, "bare": run_bare}
+    best = {name: (np.inf, np.nan) for name in cases}
+    load0 = load()
+    for fn in cases.values():  # warm-up
+        fn()
+    for _ in range(rounds):
+        for name, fn in cases.items():
+            w0, c0 = time.perf_counter(), cpu()
+            fn()
+            w, cc = time.perf_counter() - w0, cpu() - c0
+            if w < best[name][0]:
+                best[name] = (w, cc)
+    pool.close()
+    s.close()
+    ex.close()
+    per = n_slices * samples  # sample-slices per case run
+    out = {"samples": samples, "slices": n_slices, "steps_per_slice": c * k, "threads": threads,
+           "rounds": rounds, "load_avg": load0}
+    for name, (w, cc) in best.items():
+        out[name] = {"wall_s": w, "cpu_s": cc, "samples_per_s": per / w,
+                     "steps_per_s": per * c * k / w, "samples_per_cpu_s": per / cc}
+    out["fraction_of_bare"] = out["samcon"]["samples_per_s"] / out["bare"]["samples_per_s"]
+    out["fraction_of_executor"] = (out["samcon"]["samples_per_s"]
+                                   / out["executor"]["samples_per_s"])
+    out["cpu_fraction_of_bare"] = (out["samcon"]["samples_per_cpu_s"]
+                                   / out["bare"]["samples_per_cpu_s"])
+    return out
+
+
+def reconstruct(name: str, outdir: Path, threads: int, seed: int) -> dict:
+    ch = Character()
+    ref = ReferenceMotion(ch.model, bvh.load(clip(name)), info=ch.info)
+    opts = SamconOptions(**dict(RECONSTRUCTION_OPTIONS, seed=seed))
+    load0 = load()
+    w0, c0 = time.perf_counter(), cpu()
+    with LocalExecutor(threads=threads) as ex, Samcon(ref, options=opts, executor=ex,
+                                                       source_motion=str(clip(name))) as s:
+        res = s.run(progress=True)
+    wall, cpu_s = time.perf_counter() - w0, cpu() - c0
+    path = res.trajectory.save(outdir / f"samcon_{name}.npz")
+    r1 = replay(path)
+    r2 = replay(path)
+    same = (r1.tracking_error_m == r2.tracking_error_m
+            and r1.extra.get("final_root_error_m") == r2.extra.get("final_root_error_m"))
+    return {"clip": name, "duration_s": ref.duration, "slices": len(s.slices),
+            "wall_s": wall, "cpu_s": cpu_s, "load_avg": load0,
+            "samples_per_s": res.samples_per_s, "total_cost": res.total_cost,
+            "fell": r1.fell, "fall_time_s": r1.fall_time_s,
+            "tracking_error_m": r1.tracking_error_m, "root_error_m": r1.root_error_m,
+            "final_root_error_m": r1.extra.get("final_root_error_m"),
+            "root_force_mean_N": r1.root_force_mean_N, "deterministic": same,
+            "trajectory": str(path), "options": dict(RECONSTRUCTION_OPTIONS, seed=seed)}
+
+
+def cmaes(outdir: Path, threads: int, seed: int) -> dict:
+    ch = Character()
+    ref = ReferenceMotion(ch.model, bvh.load(clip("walk60")), info=ch.info)
+    o = TrajoptOptions(duration=1.5, seed=seed)
+    load0 = load()
+    w0 = time.perf_counter()
+    with LocalExecutor(threads=threads) as ex:
+        res = track_clip(ref, options=o, executor=ex, source_motion=str(clip("walk60")))
+    wall = time.perf_counter() - w0
+    path = res.trajectory.save(outdir / "cmaes_walk60_1.5s.npz")
+    pd = plain_pd_trajectory(ref, duration=1.5)
+    c_pd, c_opt = trajectory_cost(pd, ref), trajectory_cost(res.trajectory, ref)
+    r_pd = replay(pd, stop_on_fall=False)
+    r_pd_fall = replay(pd)
+    r_opt = replay(res.trajectory)
+    return {"wall_s": wall, "load_avg": load0, "evaluations": res.evaluations,
+            "windows": len(res.window_costs), "cost_plain_pd": c_pd, "cost_cmaes": c_opt,
+            "reduction": 1.0 - c_opt / c_pd, "plain_pd_fell": r_pd_fall.fell,
+            "plain_pd_fall_time_s": r_pd_fall.fall_time_s,
+            "plain_pd_tracking_error_m": r_pd.tracking_error_m,
+            "cmaes_fell": r_opt.fell, "cmaes_tracking_error_m": r_opt.tracking_error_m,
+            "cmaes_final_root_error_m": r_opt.extra.get("final_root_error_m"),
+            "trajectory": str(path), "options": {"duration": 1.5, "seed": seed}}
+
+
+def jump(outdir: Path, threads: int, seed: int) -> dict:
+    o = TrajoptOptions(**dict(JUMP_OPTIONS, seed=seed))
+    load0 = load()
+    w0 = time.perf_counter()
+    with LocalExecutor(threads=threads) as ex:
+        res = optimise_jump(options=o, executor=ex)
+    wall = time.perf_counter() - w0
+    tr = res.trajectory
+    path = tr.save(outdir / "cmaes_jump.npz")
+    r = replay(tr, duration=tr.duration + 1.0)
+    return {"wall_s": wall, "load_avg": load0, "evaluations": res.evaluations,
+            "objective": res.window_costs[-1], "fell": r.fell,
+            "max_clearance_m": r.extra["max_clearance_m"],
+            "final_root_height_m": r.extra["final_root_height_m"],
+            "standing_root_height_m": float(tr.initial_qpos[2]),
+            "horizontal_travel_m": r.distance_m, "trajectory": str(path),
+            "options": dict(JUMP_OPTIONS, seed=seed)}
+
+
+# ------------------------------------------------------------------------------------------------
+def fell(flag: bool, when) -> str:
+    return f"yes at {when:.2f} s" if flag else "no"
+
+
+def table(results: dict) -> str:
+    lines = [f"Measured {time.strftime('%Y-%m-%d')} on {platform.processor() or 'this machine'}"
+             f" ({os.cpu_count()} cores, shared), MuJoCo {mujoco.__version__}, "
+             "`python benchmarks/bench_samcon.py`.", ""]
+    t = results.get("throughput")
+    if t:
+        lines += [f"Throughput ({t['samples']} samples x {t['slices']} slices of "
+                  f"{t['steps_per_slice']} steps, {t['threads']} threads, best of {t['rounds']}"
+                  f" interleaved rounds, load average {t['load_avg']:.1f}):", "",
+                  "| case | samples/s | steps/s | samples per CPU-s |", "|---|---|---|---|"]
+        for name, label in (("bare", "bare `mujoco.rollout` (plain model)"),
+                            ("executor", "`LocalExecutor.evaluate` (sensors, checks)"),
+                            ("samcon", "SAMCON (sampling, cost, selection, bookkeeping)")):
+            c = t[name]
+            lines.append(f"| {label} | {c['samples_per_s']:.0f} | {c['steps_per_s']:.0f} | "
+                         f"{c['samples_per_cpu_s']:.0f} |")
+        lines += ["", f"SAMCON runs at **{100 * t['fraction_of_bare']:.0f} %** of bare batched-"
+                      f"rollout throughput ({100 * t['fraction_of_executor']:.0f} % of the "
+                      f"executor's; {100 * t['cpu_fraction_of_bare']:.0f} % per CPU-second).",
+                  ""]
+    rec = results.get("reconstruct") or []
+    if rec:
+        lines += ["SAMCON reconstructions (open-loop replay, no root force):", "",
+                  "| clip | length | wall | CPU | fell | tracking error | final root error | "
+                  "deterministic |", "|---|---|---|---|---|---|---|---|"]
+        for r in rec:
+            lines.append(
+                f"| {r['clip']} | {r['duration_s']:.2f} s | {r['wall_s']:.0f} s "
+                f"(load {r['load_avg']:.1f}) | {r['cpu_s']:.0f} s | "
+                f"{fell(r['fell'], r['fall_time_s'])} | "
+                f"{100 * r['tracking_error_m']:.1f} cm | {100 * r['final_root_error_m']:.1f} cm"
+                f" | {'yes' if r['deterministic'] else 'NO'} |")
+        lines.append("")
+    c = results.get("cmaes")
+    if c:
+        lines += [f"CMA-ES tracking of walk60's first 1.5 s ({c['evaluations']} rollouts, "
+                  f"{c['wall_s']:.0f} s, load {c['load_avg']:.1f}): mean tracking cost "
+                  f"{c['cost_cmaes']:.2f} vs {c['cost_plain_pd']:.2f} for plain native PD of the"
+                  f" raw reference (**{100 * c['reduction']:.0f} % lower**); plain PD falls: "
+                  f"{fell(c['plain_pd_fell'], c['plain_pd_fall_time_s'])}"
+                  f", CMA-ES {'falls' if c['cmaes_fell'] else 'does not fall'}; tracking error "
+                  f"{100 * c['cmaes_tracking_error_m']:.1f} cm vs "
+                  f"{100 * c['plain_pd_tracking_error_m']:.1f} cm.", ""]
+    j = results.get("jump")
+    if j:
+        lines += [f"CMA-ES jump ({j['evaluations']} rollouts, {j['wall_s']:.0f} s, load "
+                  f"{j['load_avg']:.1f}): the lowest point of the body rises "
+                  f"**{100 * j['max_clearance_m']:.1f} cm** above the floor; after the landing "
+                  f"and 1 s more it {'FELL' if j['fell'] else 'stands'} with the root at "
+                  f"{j['final_root_height_m']:.3f} m (standing {j['standing_root_height_m']:.3f}"
+                  f" m), {100 * j['horizontal_travel_m']:.0f} cm from where it started.", ""]
+    return "\n".join(lines)
+
+
+def write_doc(text: str) -> None:
+    doc = DOC.read_text()
+    if START not in doc or END not in doc:
+        sys.exit(f"{DOC} has no {START} ... {END} block")
+    head, rest = doc.split(START, 1)
+    _, tail = rest.split(END, 1)
+    DOC.write_text(f"{head}{START}\n{text}\n{END}{tail}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--all", action="store_true", help="every part")
+    p.add_argument("--throughput", action="store_true")
+    p.add_argument("--reconstruct", nargs="*", metavar="CLIP",
+                   help="shared clips to reconstruct (default with --all: walk60 idle "
+                        "walk_and_turn_right)")
+    p.add_argument("--cmaes", action="store_true")
+    p.add_argument("--jump", action="store_true")
+    p.add_argument("--samples", type=int, default=1000, help="throughput batch size")
+    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default="/tmp/mjchar_bench_samcon", help="trajectories and JSON")
+    p.add_argument("--write", action="store_true", help=f"update {DOC.relative_to(ROOT)}")
+    args = p.parse_args(argv)
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    results_path = outdir / "results.json"
+    results = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    clips = args.reconstruct
+    if args.all and not clips:
+        clips = ["walk60", "idle", "walk_and_turn_right"]
+    if args.throughput or args.all:
+        results["throughput"] = throughput(args.samples, args.rounds, args.threads)
+        print(json.dumps(results["throughput"], indent=1), flush=True)
+    if clips:
+        done = {r["clip"]: r for r in results.get("reconstruct", [])}
+        for name in clips:
+            done[name] = reconstruct(name, outdir, args.threads, args.seed)
+            print(json.dumps(done[name], indent=1), flush=True)
+        results["reconstruct"] = list(done.values())
+    if args.cmaes or args.all:
+        results["cmaes"] = cmaes(outdir, args.threads, args.seed)
+        print(json.dumps(results["cmaes"], indent=1), flush=True)
+    if args.jump or args.all:
+        results["jump"] = jump(outdir, args.threads, args.seed)
+        print(json.dumps(results["jump"], indent=1), flush=True)
+    results_path.write_text(json.dumps(results, indent=1))
+    text = table(results)
+    print(text)
+    if args.write:
+        write_doc(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

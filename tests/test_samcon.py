@@ -1,0 +1,318 @@
+"""SAMCON, the saved-trajectory format and its open-loop replay.
+
+The default run reconstructs half a second of the bundled walk with few samples (seconds); the
+full reconstruction of the shared walk60 clip is a slow test (``-m slow``, minutes) and the
+benchmark ``benchmarks/bench_samcon.py`` reports its numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+
+import numpy as np
+import pytest
+from conftest import shared_clip
+
+import bvh
+from bvh.assets import motion_path
+from bvh.errors import MjcharError
+from bvh.reference import ReferenceMotion
+from controllers.character import Character
+from controllers.commands import samcon as samcon_cmd
+from controllers.executors import LocalExecutor
+from controllers.rollout import RolloutRequest
+from controllers.samcon import (
+    CostWeights,
+    Samcon,
+    SamconError,
+    SamconOptions,
+    TrackingCost,
+    inverse_dynamics_targets,
+    sampling_widths,
+    select_diverse,
+    slice_layout,
+)
+from controllers.scenarios import simulate
+from controllers.trajectory import (
+    ReplayController,
+    Trajectory,
+    TrajectoryError,
+    load_trajectory,
+    replay,
+    run_replay,
+)
+
+
+@pytest.fixture(scope="module")
+def character():
+    return Character()
+
+
+@pytest.fixture(scope="module")
+def walk_ref(character):
+    return ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
+
+
+@pytest.fixture(scope="module")
+def executor():
+    with LocalExecutor(threads=2) as ex:
+        yield ex
+
+
+@pytest.fixture(scope="module")
+def short_run(walk_ref, executor):
+    """SAMCON on the first 0.5 s of the bundled walk, few samples."""
+    opt = SamconOptions(samples=64, saved=16, duration=0.5, seed=3)
+    with Samcon(walk_ref, options=opt, executor=executor, source_motion="walk.bvh") as s:
+        return s, s.run(progress=False)
+
+
+# -- pieces ----------------------------------------------------------------------------------------
+def test_select_diverse_keeps_the_best_and_caps_children():
+    rng = np.random.default_rng(0)
+    cost = np.arange(100, dtype=float)
+    parent = np.zeros(100, dtype=int)
+    parent[50:] = np.arange(1, 51)  # the 50 best samples share one parent
+    sel = select_diverse(cost, parent, 20, rng, max_children=3)
+    assert len(sel) == 20 and len(set(sel.tolist())) == 20
+    assert sel[0] == 0  # the best sample is always kept
+    assert np.all(np.diff(cost[sel]) >= 0)  # sorted by cost
+    assert np.sum(parent[sel] == 0) == 3  # the crowded parent gives at most 3 children
+    # fallen (infinite cost) samples only when nothing else is left
+    cost2 = np.where(np.arange(10) < 4, np.inf, np.arange(10.0))
+    sel2 = select_diverse(cost2, np.arange(10), 8, rng)
+    assert np.isfinite(cost2[sel2[:6]]).all() and len(sel2) == 8
+
+
+def test_sampling_widths_follow_roles(character):
+    w = sampling_widths(character)
+    names = [character.dof_names[d] for d in character.actuator_dof]
+    assert w[names.index("lHip_y")] > w[names.index("lToeJoint_y")] > 0
+    w2 = sampling_widths(character, {"knee": 0.7}, scale=2.0)
+    assert w2[names.index("rKnee_y")] == pytest.approx(1.4)
+    with pytest.raises(SamconError, match="unknown joint role"):
+        sampling_widths(character, {"tail": 0.1})
+
+
+def test_slice_layout_covers_the_clip():
+    s = slice_layout(1.03, 0.1, 0.02)
+    assert s[0] == (0, 5) and s[-1][1] == 52
+    assert all(b > a for a, b in s) and all(s[i][1] == s[i + 1][0] for i in range(len(s) - 1))
+
+
+def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):
+    """Static inverse dynamics adds the gravity compensation plain PD lacks: held open loop
+    (no root force), the joints stay much closer to the pose (arms out in the T-pose sag)."""
+    from controllers.scenarios import standing_pose
+
+    q = standing_pose(character)
+
+    class Still:
+        frame_time = 0.01
+
+        def qpos(self, t):
+            return np.broadcast_to(q, np.shape(t) + q.shape).copy()
+
+        def qvel(self, t):
+            return np.zeros(np.shape(t) + (character.nv,))
+
+        def foot_contacts(self, t):
+            return np.ones(np.shape(t) + (2,), dtype=bool)
+
+    u_id = inverse_dynamics_targets(character, Still(), np.zeros(1), smoothing=0.0)[0]
+    u_raw = q[character.actuator_qpos]
+    err = {}
+    for name, u in (("id", u_id), ("raw", u_raw)):
+        tr = Trajectory.for_model(character.model, np.tile(u, (100, 1)), 0.02, q,
+                                  np.zeros(character.nv))
+        ch = Character()
+        r = simulate(ch, ReplayController(tr), duration=2.0, scenario="hold", qpos=q,
+                     control_dt=0.02)
+        assert not r.fell
+        e = ch.qpos[character.actuator_qpos] - q[character.actuator_qpos]
+        err[name] = float(np.sqrt(np.mean(e ** 2)))
+    assert err["id"] < 0.5 * err["raw"]
+
+
+def test_cost_is_zero_on_the_reference_and_grows_with_error(character, walk_ref):
+    from bvh.assets import humanoid_path
+    from controllers.samcon import reference_features, tracking_rollout_model
+
+    rm = tracking_rollout_model(humanoid_path(), character)
+    feats = reference_features(rm, walk_ref, [0.3])
+    cost = TrackingCost(character, CostWeights(joints=100.0), site_names=rm.site_names)
+    q = feats.qpos.copy()
+    c0 = cost(q, feats.qvel, feats.com, feats.com_vel, feats.sites, feats, 0)
+    assert c0[0] == pytest.approx(0.0, abs=1e-9)
+    q2 = q.copy()
+    q2[0, character.actuator_qpos[0]] += 0.3
+    c1 = cost(q2, feats.qvel, feats.com, feats.com_vel, feats.sites, feats, 0)
+    assert c1[0] > 0.5
+
+
+# -- SAMCON end to end (short) ------------------------------------------------------------------
+def test_short_samcon_replay_stands_tracks_and_reproduces_the_optimised_path(short_run,
+                                                                            executor):
+    s, res = short_run
+    tr = res.trajectory
+    assert tr.n_controls == 25 and tr.targets.shape == (25, s.character.nu)
+    assert not res.fell and np.isfinite(res.total_cost)
+    assert res.samples_simulated == 64 * 5
+    r1 = replay(tr)
+    assert not r1.fell and r1.root_force_mean_N == 0.0
+    assert r1.tracking_error_m < 0.05
+    assert r1.extra["final_root_error_m"] < 0.1
+    # deterministic replay
+    r2 = replay(tr)
+    assert r2.tracking_error_m == r1.tracking_error_m
+    assert r2.extra["final_root_error_m"] == r1.extra["final_root_error_m"]
+    # the Character replay lands exactly where the chain of SAMCON rollouts did
+    state = s.state0
+    for a, b in s.slices:
+        out = executor.evaluate(RolloutRequest(s.rmodel, state, tr.targets[None, a:b], s.k))
+        state = out.final_states[0]
+    ch = Character()
+    simulate(ch, ReplayController(tr), duration=tr.duration, scenario="replay",
+             qpos=tr.initial_qpos, qvel=tr.initial_qvel, control_dt=tr.control_dt)
+    qs = s.rmodel.model.nq
+    np.testing.assert_array_equal(ch.qpos, state[1:1 + qs])
+
+
+def test_samcon_is_deterministic_for_a_seed(walk_ref, executor, short_run):
+    _, res = short_run
+    opt = SamconOptions(samples=64, saved=16, duration=0.5, seed=3)
+    with Samcon(walk_ref, options=opt, executor=executor) as s:
+        again = s.run(progress=False)
+    np.testing.assert_array_equal(again.trajectory.targets, res.trajectory.targets)
+
+
+def test_samcon_options_window_and_adapt_run(walk_ref, executor):
+    opt = SamconOptions(samples=32, saved=8, duration=0.3, window=2, adapt=True, iterations=2,
+                        distribution="gaussian", seed=1)
+    with Samcon(walk_ref, options=opt, executor=executor) as s:
+        res = s.run(progress=False)
+    assert len(res.history) == 2 and len(res.history[0]) == 3
+    assert not replay(res.trajectory).fell
+
+
+@pytest.mark.parametrize("bad,match", [
+    ({"saved": 100, "samples": 10}, "cannot exceed"),
+    ({"control_dt": 0.003}, "whole number"),
+    ({"distribution": "cauchy"}, "distribution"),
+    ({"samples": 0}, "positive integer"),
+])
+def test_bad_options_raise(walk_ref, bad, match):
+    with pytest.raises(SamconError, match=match):
+        Samcon(walk_ref, options=SamconOptions(**bad), executor=LocalExecutor(1))
+
+
+# -- the file format ---------------------------------------------------------------------------
+def test_trajectory_file_round_trip(short_run, tmp_path):
+    _, res = short_run
+    path = res.trajectory.save(tmp_path / "walk.traj")
+    assert path.name == "walk.traj"  # no suffix added
+    t = load_trajectory(path)
+    np.testing.assert_array_equal(t.targets, res.trajectory.targets)
+    assert t.control_dt == res.trajectory.control_dt and t.timestep == 0.002
+    assert t.model_name == "humanoid" and t.source_motion == "walk.bvh"
+    assert t.metadata["method"] == "samcon" and t.metadata["options"]["samples"] == 64
+    np.testing.assert_array_equal(t.warmstart_resets, [0, 5, 10, 15, 20])
+    assert replay(t).tracking_error_m == replay(res.trajectory).tracking_error_m
+
+
+def test_files_that_are_not_trajectories_are_refused(tmp_path):
+    text = tmp_path / "notes.txt"
+    text.write_text("hello")
+    other = tmp_path / "other.npz"
+    np.savez(other, a=np.zeros(3))
+    for path, match in ((text, "not a saved mjchar trajectory"),
+                        (other, "not a saved mjchar trajectory"),
+                        (tmp_path / "missing.npz", "no such trajectory file")):
+        with pytest.raises(TrajectoryError, match=match) as e:
+            load_trajectory(path)
+        assert "\n" not in str(e.value)
+
+
+def test_trajectory_for_another_model_or_time_step_is_refused(short_run):
+    _, res = short_run
+    tr = copy.deepcopy(res.trajectory)
+    tr.model_hash = "0" * 64
+    with pytest.raises(TrajectoryError, match="another model"):
+        replay(tr)
+    ch = Character(timestep=0.001)
+    with pytest.raises(TrajectoryError, match="time step"):
+        ReplayController(res.trajectory).reset(ch)
+
+
+def test_run_replay_hook(short_run, tmp_path, capsys):
+    _, res = short_run
+    path = res.trajectory.save(tmp_path / "t.npz")
+    args = argparse.Namespace(trajectory=str(path), model=None, duration=None, json=True,
+                              render=None, fps=30.0)
+    assert run_replay(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["controller"] == "replay" and out["fell"] is False
+    with pytest.raises(TrajectoryError, match="needs a trajectory file"):
+        run_replay(argparse.Namespace(trajectory=None))
+
+
+# -- the CLI ---------------------------------------------------------------------------------------
+def _cli(argv):
+    """Run ``mjchar samcon ...`` through its own parser, as controllers.cli does."""
+    from controllers.cli import _Parser
+
+    parser = _Parser(prog="mjchar")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    samcon_cmd.register(sub)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
+    out = tmp_path / "walk.npz"
+    assert _cli(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
+                 "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
+                 "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["replay"]["fell"] is False and info["samples_simulated"] == 96
+    assert not replay(out).fell
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    from controllers.executors import RayConnectionError, RayUnavailableError
+
+    bad = tmp_path / "tiny.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition "
+                   "Zposition Zrotation Xrotation Yrotation\n JOINT Head\n {\n  OFFSET 0 1 0\n"
+                   "  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 1 0"
+                   "\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n"
+                   "0 0 0 0 0 0 0 0 0\n")
+    with pytest.raises(MjcharError, match="cannot follow") as e:
+        _cli(["samcon", str(bad), "-o", str(tmp_path / "o.npz")])
+    assert "\n" not in str(e.value)
+    with pytest.raises((RayConnectionError, RayUnavailableError)) as e:
+        _cli(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "o.npz"),
+              "--executor", "ray", "--ray-address", "127.0.0.1:9"])
+    assert "\n" not in str(e.value)
+    with pytest.raises(MjcharError, match="does not exist"):
+        _cli(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "no" / "o.npz")])
+
+
+# -- the long reconstruction ---------------------------------------------------------------------
+@pytest.mark.slow
+def test_samcon_reconstructs_walk60(character):
+    """walk60 (~3 s) with no root force: the open-loop replay never falls, tracks within 5 cm
+    and ends within 15 cm of the clip's root (minutes; see benchmarks/bench_samcon.py)."""
+    from controllers.samcon import RECONSTRUCTION_OPTIONS
+
+    path = shared_clip("walk60.bvh")
+    ref = ReferenceMotion(character.model, bvh.load(path), info=character.info)
+    with Samcon(ref, options=SamconOptions(**RECONSTRUCTION_OPTIONS)) as s:
+        res = s.run(progress=False)
+    r = replay(res.trajectory)
+    assert not r.fell
+    assert r.tracking_error_m < 0.05
+    assert r.extra["final_root_error_m"] < 0.15
+    assert replay(res.trajectory).tracking_error_m == r.tracking_error_m
