@@ -1,0 +1,249 @@
+"""SIMBICON on the bundled humanoid: gait data, the FSM, walking, pushes and slopes.
+
+No test applies any force to the root: every run asserts the recorded root force is zero.
+The long runs (60 s x 5 seeds, 8 phases x 4 directions, 20 m slopes) are marked slow; the
+benchmark (benchmarks/bench_simbicon.py) runs them too and docs/simbicon.md has the numbers.
+"""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from controllers.character import Character
+from controllers.gaits import GAITS, Gait, GaitError, get_gait
+from controllers.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
+from controllers.terrain import (
+    TerrainError,
+    floor_height,
+    phase_push_test,
+    place_on_floor,
+    push_walk,
+    slope_walk,
+    stride_phases,
+    tilt_floor,
+    walk,
+)
+
+SPEED_RANGE = (0.7, 1.5)
+PUSHES = {
+    "forward": (0.0, 200.0),
+    "backward": (180.0, 200.0),
+    "left": (90.0, 150.0),
+    "right": (270.0, 150.0),
+}
+
+
+@pytest.fixture(scope="module")
+def model():
+    return Character().model
+
+
+@pytest.fixture
+def ch(model):
+    return Character(model, timestep=DEFAULT_TIMESTEP)
+
+
+def no_root_force(r) -> bool:
+    return r.root_force_max_N == 0.0 and r.root_torque_mean_Nm == 0.0
+
+
+# -- gait data ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(GAITS))
+def test_gait_json_round_trip(name):
+    g = GAITS[name]
+    back = Gait.from_json(json.dumps(g.to_dict()))
+    assert back == g
+
+
+def test_gait_overrides():
+    g = get_gait("walk", cd=0.0, state1_swing_hip=-0.3, gain_torso=(500, 50), torso_pitch=0.2)
+    assert all(s.cd == 0.0 for s in g.states)
+    assert (
+        g.states[1].swing_hip == -0.3 and g.states[0].swing_hip == GAITS["walk"].states[0].swing_hip
+    )
+    assert g.gains["torso"] == (500.0, 50.0) and g.torso_pitch == 0.2
+    off = get_gait("walk", feedback=False)
+    assert all(s.cd == s.cv == s.cd_coronal == s.cv_coronal == 0.0 for s in off.states)
+    with pytest.raises(GaitError, match="unknown gait parameter"):
+        get_gait("walk", not_a_parameter=1)
+    with pytest.raises(GaitError, match="unknown gait"):
+        get_gait("moonwalk")
+
+
+# -- model conventions, measured on the model --------------------------------------------------
+def test_hinge_signs_match_the_models_geometry(ch):
+    """Anatomical flexion (gait convention) must move the limbs the anatomical way."""
+    c = Simbicon()
+    c.reset(ch)
+    m = ch.model
+    for leg in c._legs:
+
+        def moved(hinge, value, body):
+            d = mujoco.MjData(m)
+            d.qpos[:] = m.qpos0
+            mujoco.mj_kinematics(m, d)
+            before = d.xpos[ch.body_id(body)].copy()
+            d.qpos[hinge.qadr] = value
+            mujoco.mj_kinematics(m, d)
+            return d.xpos[ch.body_id(body)] - before
+
+        side = leg["side"]
+        ankle, toe = ch.role(f"{side}_ankle"), ch.role(f"{side}_toe")
+        assert moved(leg["hip"]["y"], 0.3 * leg["hip_flex"], ankle)[0] > 0.05  # foot forward
+        assert moved(leg["knee"], 0.3 * leg["knee_flex"], ankle)[0] < -0.05  # foot back
+        assert moved(leg["ankle"]["y"], 0.3 * leg["ankle_dorsi"], toe)[2] > 0.01  # toes up
+    # the bundled humanoid: hip flexion is a negative y rotation, knee flexion positive
+    assert c._legs[0]["hip_flex"] == -1.0 and c._legs[0]["knee_flex"] == 1.0
+
+
+# -- the controller ----------------------------------------------------------------------------
+def test_make_simbicon_and_protocol(ch):
+    c = make_simbicon(ch, gait="crouch", cd=0.3, first_stance="right")
+    assert c.name == "simbicon" and c.actuation == "torque"
+    assert c.gait.name == "crouch" and c.gait.states[0].cd == 0.3 and c.first_stance == "right"
+    c.reset(ch)
+    a = c.act(ch, ch.time)
+    assert a.target is None and a.torque.shape == (ch.nv,)
+    assert np.all(a.torque[ch.root_dofs] == 0.0)  # never a force on the root
+    assert np.all(np.abs(a.torque) <= ch.torque_limits() + 1e-9)
+
+
+def test_walks_at_one_seed_and_fsm_cycles(ch):
+    c = make_simbicon(gait="walk")
+    r = walk(ch, c, duration=12.0, seed=0, steady_window=6.0)
+    assert not r.fell, r.fall_reason
+    assert no_root_force(r)
+    v = r.extra["steady_speed_mps"]
+    assert SPEED_RANGE[0] <= v <= SPEED_RANGE[1], v
+    # the FSM: 0 -> 1 -> 2 -> 3 -> 0 ..., timed lift-off states, contact-ended swing states
+    states = [s for _, s in c.transitions]
+    assert states[:8] == [0, 1, 2, 3, 0, 1, 2, 3]
+    times = np.array([t for t, _ in c.transitions])
+    dur = np.diff(times)
+    lift = np.array(states[:-1]) % 2 == 0
+    assert np.allclose(dur[lift], c.gait.states[0].duration, atol=2 * ch.timestep)
+    swing = dur[~lift]
+    assert np.all(swing > c.gait.contact_phase * c.gait.states[1].duration)
+    assert np.all(swing < c.gait.states[1].timeout)  # every step ended on contact
+    assert len(states) > 4 * 12 / 1.5  # it keeps stepping
+
+
+def test_feedback_off_falls_within_10s(ch):
+    r = walk(
+        ch,
+        make_simbicon(gait="walk", cd=0.0, cv=0.0, cd_coronal=0.0, cv_coronal=0.0),
+        duration=10.0,
+        seed=0,
+    )
+    assert r.fell and r.fall_time_s < 10.0
+    assert no_root_force(r)
+
+
+@pytest.mark.parametrize("direction", sorted(PUSHES))
+def test_push_one_phase(ch, direction):
+    deg, force = PUSHES[direction]
+    r = push_walk(
+        ch, make_simbicon(gait="walk"), force=force, direction=deg, phase=0.25, after=10.0, seed=0
+    )
+    assert r.extra["push_time_s"] is not None
+    assert r.extra["walking_after"], (direction, r.fall_reason, r.extra)
+    assert r.max_push_N == force and no_root_force(r)
+
+
+@pytest.mark.parametrize(
+    "degrees",
+    [
+        5.0,
+        pytest.param(
+            -5.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="known failure: SIMBICON's walk gait falls on a 5 degree downhill slope "
+                "(tuning unfinished; see docs/simbicon.md)",
+            ),
+        ),
+    ],
+)
+def test_short_slope_walk(ch, degrees):
+    r = slope_walk(ch, make_simbicon(gait="walk"), degrees=degrees, distance=5.0, duration=10.0)
+    assert r.extra["reached"], (r.fall_reason, r.extra)
+    assert no_root_force(r)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known failure: the crouch-walk gait data does not walk "
+    "yet on the bundled humanoid (tuning unfinished)",
+)
+def test_crouch_gait_walks(ch):
+    r = walk(ch, make_simbicon(gait="crouch"), duration=10.0, seed=0, steady_window=5.0)
+    assert not r.fell, r.fall_reason
+    assert r.extra["steady_speed_mps"] > 0.3
+    assert no_root_force(r)
+
+
+# -- terrain -----------------------------------------------------------------------------------
+def test_tilt_floor_and_place_on_floor(ch):
+    tilt_floor(ch, 5.0, height=0.2)
+    assert floor_height(ch, [0.0, 0.0]) == pytest.approx(0.2)
+    assert floor_height(ch, [1.0, 0.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    assert floor_height(ch, [1.0, 3.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    q = place_on_floor(ch, ch.model.qpos0, clearance=0.0)
+    ch.reset(q)
+    for _ in range(200):
+        ch.step(None)
+    # it rests on the tilted plane (not 0.2 m lower on the old one) and MuJoCo sees the plane
+    assert ch.foot_contacts() == (True, True)
+    assert ch.root_height > 0.2 + 0.85
+    tilt_floor(ch, 0.0)
+    assert floor_height(ch, [5.0, 1.0]) == pytest.approx(0.0)
+    with pytest.raises(TerrainError):
+        tilt_floor(ch, 60.0)
+
+
+def test_push_and_phase_arguments_checked(ch):
+    with pytest.raises(TerrainError):
+        push_walk(ch, make_simbicon(), force=100.0, phase=1.5)
+    with pytest.raises(TerrainError):
+        push_walk(ch, make_simbicon(), force=-1.0)
+    with pytest.raises(TerrainError):
+        stride_phases(0)
+    assert stride_phases(4) == [0.0, 0.25, 0.5, 0.75]
+
+
+# -- the long runs -----------------------------------------------------------------------------
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
+def test_walks_60s(ch, seed):
+    r = walk(ch, make_simbicon(gait="walk"), duration=60.0, seed=seed)
+    assert not r.fell, r.fall_reason
+    assert SPEED_RANGE[0] <= r.extra["steady_speed_mps"] <= SPEED_RANGE[1]
+    assert no_root_force(r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_feedback_off_falls_other_seeds(ch, seed):
+    r = walk(ch, make_simbicon(gait="walk", feedback=False), duration=10.0, seed=seed)
+    assert r.fell and r.fall_time_s < 10.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("direction", sorted(PUSHES))
+def test_pushes_at_8_phases(ch, direction):
+    force = PUSHES[direction][1]
+    res = phase_push_test(ch, make_simbicon(gait="walk"), forces={direction: force}, phases=8)
+    failed = [p for p, r in res[direction].items() if not r.max_push_N]
+    assert not failed, f"{direction} {force} N failed at phases {failed}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("degrees", [5.0, -5.0])
+def test_slope_20m(ch, degrees):
+    r = slope_walk(ch, make_simbicon(gait="walk"), degrees=degrees, distance=20.0, duration=45.0)
+    assert r.extra["reached"], (r.fall_reason, r.extra)
+    assert no_root_force(r)
