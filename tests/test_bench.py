@@ -1,0 +1,351 @@
+"""``mjchar bench``: the matrix as data, reproducibility (same seeds, same physics), the JSON
+document against its documented schema, the exit status CI gates on, the replay rows, the plots,
+and the performance helpers' outcomes (never their timings)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from controllers import bench as B
+from controllers import cli, perf
+from controllers.commands import bench as bench_cmd
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def main(monkeypatch):
+    """``mjchar`` with the bench subcommand (registered here until the lead lists it in
+    controllers.commands.COMMANDS)."""
+    if "bench" not in cli.COMMANDS:
+        monkeypatch.setattr(cli, "COMMANDS", [*cli.COMMANDS, "bench"])
+    return cli.main
+
+
+def tiny(**over) -> B.BenchConfig:
+    """A configuration whose runs take a fraction of a second each."""
+    cfg = replace(
+        B.quick_config(1), stand_duration=0.4, random_push_duration=0.6,
+        push_duration=1.4, push_max_force=200.0, push_tolerance=100.0,
+        push_directions=("forward",), track_duration=0.4, walk_duration=0.8, steady_window=0.4,
+        slope_duration=0.6, slope_distance=0.3, walk_push_phases=1, walk_push_max_force=50.0,
+        walk_push_tolerance=100.0, walk_push_warmup=1.0, walk_push_after=0.5,
+        perf=B.PerfConfig(raw_steps=100, raw_repeats=1, cost_steps=100, cost_repeats=1,
+                          rollout_samples=2, rollout_steps=5, rollout_repeats=1,
+                          rollout_threads=(1,), env_steps=5, env_repeats=1, bvh_budget_s=0.01,
+                          envelope_duration_s=1.5, envelope_grid=(60,), envelope_finer=(),
+                          envelope_kps=(1000.0,)))
+    return replace(cfg, **over)
+
+
+# -- the matrix as data ---------------------------------------------------------------------------
+def test_matrix_expectations_and_cli_choices_agree():
+    assert set(B.MATRIX) == set(B.CONTROLLERS)
+    for name, scenarios in B.MATRIX.items():
+        assert scenarios and set(scenarios) <= set(B.SCENARIOS), name
+    for cell in B.EXPECTATIONS:
+        assert cell[1] in B.MATRIX[cell[0]], cell  # every expectation is a cell of the matrix
+    # the brief's gates: static balance stands and survives random pushes, the walkers walk
+    for cell in [("static_balance", "stand"), ("static_balance", "random-push"),
+                 ("simbicon", "walk"), ("ipm", "walk")]:
+        assert cell in B.EXPECTATIONS
+    assert bench_cmd.CONTROLLERS == tuple(B.CONTROLLERS)
+    assert bench_cmd.SCENARIOS == B.SCENARIOS
+
+
+def test_select_cells_follows_the_matrix_and_rejects_unknown_names():
+    cells = B.select_cells(["static_balance", "simbicon"], ["stand", "walk"])
+    assert cells == [("static_balance", "stand"), ("simbicon", "walk")]
+    assert len(B.select_cells()) == sum(len(v) for v in B.MATRIX.values())
+    with pytest.raises(B.BenchError, match="unknown controller"):
+        B.select_cells(["bogus"])
+    with pytest.raises(B.BenchError, match="unknown scenario"):
+        B.select_cells(None, ["fly"])
+    with pytest.raises(B.BenchError, match="no cell"):
+        B.select_cells(["hand_of_god"], ["slopes"])
+
+
+def test_config_checks():
+    with pytest.raises(B.BenchError, match="seeds"):
+        replace(B.quick_config(), seeds=()).check()
+    with pytest.raises(B.BenchError, match="push_duration"):
+        replace(B.quick_config(), push_duration=1.0).check()
+    with pytest.raises(B.BenchError, match="directions"):
+        replace(B.quick_config(), push_directions=("up",)).check()
+    with pytest.raises(B.BenchError):
+        B.quick_config(0)
+    q, f = B.quick_config(), B.full_config()
+    assert q.quick and not f.quick and q.seeds == (0, 1) and f.seeds == (0, 1, 2)
+    assert B.full_config(5).seeds == (0, 1, 2, 3, 4)
+
+
+# -- reproducibility ------------------------------------------------------------------------------
+CELLS = [("static_balance", "stand"), ("static_balance", "random-push"), ("spd", "push-search"),
+         ("hand_of_god", "track"), ("simbicon", "walk"), ("ipm", "walk")]
+
+
+def _matrix(cfg):
+    controllers, cells, _ = B.run_matrix(CELLS, cfg, trajectories={}, progress=False)
+    doc = {"controllers": controllers, "cells": cells, "performance": None, "seeds":
+           list(cfg.seeds), "config": cfg.to_dict()}
+    doc["table"] = B.table_rows(doc)
+    doc["expectations"] = B.check_expectations(doc)
+    return doc
+
+
+def test_same_seeds_give_the_same_table_and_other_seeds_differ():
+    cfg = tiny(seeds=(0, 1))
+    a, b = _matrix(cfg), _matrix(cfg)
+    pa, pb = B.physics_view(a), B.physics_view(b)
+    assert pa == pb  # every physics number, series included, bit for bit
+    assert B.format_table([{**r, "step_cost_ratio": None} for r in a["table"]]) == \
+        B.format_table([{**r, "step_cost_ratio": None} for r in b["table"]])
+    # the timings are there but are not part of the comparison
+    assert all("wall_s" in r["result"] for c in a["cells"] for r in c["runs"])
+    # random-push really uses the seeds: the two seeds' runs differ
+    rp = next(c for c in a["cells"] if c["scenario"] == "random-push")
+    assert [r["seed"] for r in rp["runs"]] == [0, 1]
+    s0, s1 = (r["series"]["com_m"] for r in rp["runs"])
+    assert s0 != s1
+    # the walkers too (a controller still being written may be "not available" or "error":
+    # then both documents say so identically)
+    walks = [c for c in a["cells"] if c["scenario"] == "walk"]
+    assert len(walks) == 2
+    for w in walks:
+        if w["status"] == "ok":
+            assert w["runs"] and all(r["series"]["com_m"] for r in w["runs"])
+    c = _matrix(tiny(seeds=(2,)))
+    rp2 = next(x for x in c["cells"] if x["scenario"] == "random-push")
+    assert rp2["runs"][0]["series"]["com_m"] != s0
+
+
+def test_cells_measure_what_the_table_reports():
+    doc = _matrix(tiny())
+    cells = {(c["controller"], c["scenario"]): c for c in doc["cells"]}
+    sb = cells[("static_balance", "stand")]
+    assert sb["status"] == "ok" and sb["runs"][0]["survived"]
+    assert sb["runs"][0]["result"]["sim_time_s"] == pytest.approx(0.4, abs=0.01)
+    ps = cells[("spd", "push-search")]["summary"]
+    assert set(ps["max_push_by_direction_N"]) == {"forward"}
+    assert ps["push_protocol"].startswith("standing")
+    hog = cells[("hand_of_god", "track")]["runs"][0]
+    assert hog["series"]["tracking_error_m"] is not None
+    assert len(hog["series"]["tracking_error_m"]) == len(hog["series"]["t_s"])
+    # the per-time errors average to about the Result's mean error (20 Hz vs 120 Hz sampling)
+    assert np.mean(hog["series"]["tracking_error_m"]) == pytest.approx(
+        hog["result"]["tracking_error_m"], rel=0.5)
+    rows = {r["controller"]: r for r in doc["table"]}
+    assert rows["hand_of_god"]["root_force_mean_N"] > 100  # the string carries the weight
+    assert rows["static_balance"]["root_force_mean_N"] == 0.0
+    assert rows["static_balance"]["survived"] == rows["static_balance"]["runs"] == 2
+    assert rows["hand_of_god"]["motion_source"] == "track"
+
+
+# -- expectations and exit status -----------------------------------------------------------------
+def test_expectations_fail_on_a_fall_and_skip_unavailable():
+    cfg = tiny(track_duration=1.6)
+    controllers, cells, _ = B.run_matrix([("spd", "track"), ("samcon_replay", "track")], cfg,
+                                         trajectories={}, progress=False)
+    doc = {"controllers": controllers, "cells": cells}
+    spd = cells[0]
+    assert spd["runs"][0]["result"]["fell"]  # stable PD alone falls tracking a walk (~0.9 s)
+    saved = B.EXPECTATIONS
+    try:
+        B.EXPECTATIONS = saved + (("spd", "track"), ("samcon_replay", "track"))
+        ex = {(e["controller"], e["scenario"]): e for e in B.check_expectations(doc)}
+    finally:
+        B.EXPECTATIONS = saved
+    assert ex[("spd", "track")]["status"] == "fail" and "fell at" in ex[("spd", "track")]["detail"]
+    assert ex[("samcon_replay", "track")]["status"] == "skipped"
+    assert "not available" in ex[("samcon_replay", "track")]["detail"]
+    assert ex[("static_balance", "stand")]["status"] == "skipped"  # not selected
+    assert B.exit_status({"expectations": list(ex.values())}) == 1
+    assert B.exit_status({"expectations": [e for e in ex.values()
+                                           if e["status"] != "fail"]}) == 0
+
+
+def test_cli_exit_status_gates_on_falls(main, tmp_path, monkeypatch, capsys):
+    small, failing = tiny(), tiny(track_duration=1.6)
+    monkeypatch.setattr(B, "quick_config", lambda seeds=None: small)
+    out = tmp_path / "ok"
+    code = main(["bench", "--quick", "--controllers", "static_balance", "--scenarios", "stand",
+                 "--out", str(out), "--no-perf", "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "static_balance" in text and "PASS" in text
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["cells"][0]["runs"][0]["survived"] and doc["config"]["quick"]
+    assert (out / "table.md").read_text().startswith("| controller |")
+    # spd tracking a walk falls; make it an expected survivor: exit status 1
+    monkeypatch.setattr(B, "quick_config", lambda seeds=None: failing)
+    monkeypatch.setattr(B, "EXPECTATIONS", B.EXPECTATIONS + (("spd", "track"),))
+    code = main(["bench", "--quick", "--controllers", "spd", "--scenarios", "track",
+                 "--out", str(tmp_path / "fail"), "--no-perf", "--no-plots", "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "FAIL" in captured.out and "FAILED" in captured.err
+
+
+def test_cli_rejects_bad_options(main, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "--controllers", "bogus"])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "--seeds", "0"])
+    assert e.value.code == 2
+    assert main(["bench", "--samcon-trajectory", "/nonexistent/x.npz", "--no-perf"]) == 2
+    assert "not found" in capsys.readouterr().err
+
+
+# -- replays --------------------------------------------------------------------------------------
+def _standing_trajectory(path: Path) -> Path:
+    """A trivial saved trajectory: hold the standing pose's targets for 0.6 s."""
+    from controllers import scenarios as S
+    from controllers.character import Character
+    from controllers.trajectory import Trajectory
+
+    ch = Character()
+    q = S.standing_pose(ch)
+    n = 6
+    targets = np.repeat(q[ch.actuator_qpos][None], n, axis=0)
+    tr = Trajectory.for_model(ch.model, targets, 0.1, q, np.zeros(ch.nv),
+                              reference_qpos=np.repeat(q[None], n + 1, axis=0),
+                              metadata={"method": "samcon"})
+    return tr.save(path)
+
+
+def test_replay_rows_use_saved_trajectories(tmp_path):
+    ok, why = B.availability("samcon_replay", {})
+    assert not ok and "no saved trajectory" in why
+    assert B.find_trajectories(tmp_path) == {}
+    _standing_trajectory(tmp_path / "samcon_stand.npz")
+    found = B.find_trajectories(tmp_path)
+    assert set(found) == {"samcon_replay"}
+    controllers, cells, _ = B.run_matrix([("samcon_replay", "track"), ("cmaes_replay", "track")],
+                                         tiny(), trajectories=found, progress=False)
+    assert controllers["samcon_replay"]["available"]
+    assert not controllers["cmaes_replay"]["available"]
+    run = cells[0]["runs"][0]
+    assert cells[0]["status"] == "ok" and run["survived"]
+    assert run["result"]["controller"] == "samcon_replay"
+    assert run["result"]["sim_time_s"] == pytest.approx(0.6, abs=0.01)
+    # holding the pose it started in: the stored reference is tracked closely
+    assert run["result"]["tracking_error_m"] < 0.01
+    assert cells[1]["status"] == "not available" and cells[1]["runs"] == []
+    rows = {r["controller"]: r for r in B.table_rows({"controllers": controllers,
+                                                      "cells": cells})}
+    text = B.format_table(list(rows.values()))
+    assert "cmaes_replay: not available: no saved trajectory" in text
+    # a damaged file is a "not available" row with the loader's message, not a crash
+    bad = tmp_path / "cmaes_broken.npz"
+    bad.write_bytes(b"not a zip archive")
+    controllers, cells, _ = B.run_matrix([("cmaes_replay", "track")], tiny(),
+                                         trajectories={"cmaes_replay": bad}, progress=False)
+    assert not controllers["cmaes_replay"]["available"]
+    assert "cmaes_broken.npz" in controllers["cmaes_replay"]["reason"]
+    assert cells[0]["status"] == "not available"
+
+
+# -- the JSON document, its schema, the plots -----------------------------------------------------
+@pytest.fixture(scope="module")
+def tiny_doc(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    doc = B.run_bench(tiny(), controllers=["spd", "static_balance", "simbicon"],
+                      scenarios=["stand", "push-search", "walk"], out_dir=out, progress=False,
+                      trajectories={}, command=["mjchar", "bench", "(test)"])
+    return out, doc
+
+
+def test_results_json_matches_the_documented_schema(tiny_doc):
+    out, doc = tiny_doc
+    written = json.loads((out / "results.json").read_text())
+    schema = B.load_schema()
+    assert B.validate(written, schema) == []
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(written, schema)  # the real validator agrees
+    assert written["versions"]["mujoco"] and written["versions"]["numpy"]
+    assert written["versions"]["mjchar"] != "unknown"
+    assert written["seeds"] == [0]
+    assert {c["controller"] for c in written["cells"]} == {"spd", "static_balance", "simbicon"}
+    # every part of the performance section ran (or says why not)
+    for part in ("raw", "cost", "rollout", "envs", "bvh", "envelope"):
+        assert part in written["performance"], part
+    assert written["performance"]["raw"]["available"]
+    cost = written["performance"]["cost"]["controllers"]
+    assert set(cost) == {"spd", "static_balance", "simbicon"}
+    assert all(c["available"] and c["ratio"] > 0 for c in cost.values())
+
+
+def test_validator_reports_schema_violations(tiny_doc):
+    _, doc = tiny_doc
+    good = json.loads(json.dumps(B._clean(doc)))
+    bad = json.loads(json.dumps(good))
+    del bad["versions"]["numpy"]
+    bad["cells"][0]["status"] = "great"
+    bad["cells"][0]["runs"][0]["result"]["fell"] = "no"
+    bad["table"][0]["surprise"] = 1
+    errs = B.validate(bad)
+    text = "\n".join(errs)
+    assert "missing required key 'numpy'" in text
+    assert "'great' not one of" in text
+    assert "fell: expected boolean" in text
+    assert "unexpected key 'surprise'" in text
+
+
+def test_plots_are_written(tiny_doc):
+    out, doc = tiny_doc
+    assert set(doc["plots"]) == {"push_search.png", "com_trajectories.png",
+                                 "stability_envelope.png", "step_cost.png"}
+    for name in doc["plots"]:
+        data = (out / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_missing_matplotlib_is_a_clear_error(monkeypatch):
+    from controllers import bench_plots
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    with pytest.raises(B.BenchError, match=r"mjchar\[bench\]"):
+        bench_plots.require_matplotlib()
+
+
+# -- performance helpers: outcomes, not timings ---------------------------------------------------
+def test_envelope_separates_explicit_from_stable_pd():
+    env = perf.stability_envelope(kps=(1000.0,), variants=("pd", "spd"), grid=(60,), finer=(),
+                                  duration=1.5)
+    rows = {r["variant"]: r for r in env["rows"]}
+    assert rows["pd"]["status"]["60"] == "diverged" and rows["pd"]["largest_held_hz"] is None
+    assert rows["spd"]["status"]["60"] == "held" and rows["spd"]["largest_held_hz"] == 60
+    with pytest.raises(perf.PerfError):
+        perf.stability_envelope(duration=0.5)
+
+
+def test_step_cost_and_raw_rate_report_positive_finite_numbers():
+    from controllers import scenarios as S
+    from controllers.character import Character
+
+    ch = Character()
+    pose = S.standing_pose(ch)
+    c = perf.step_cost(ch, lambda: S.make_controller("spd", ch, pose), qpos=pose, steps=50,
+                       repeats=1, block=25)
+    assert math.isfinite(c.ratio) and c.ratio > 0 and c.resets == 0 and c.steps == 50
+    raw = perf.raw_step_rate(ch.model, pose, steps=50, repeats=1)
+    assert raw["c_loop_steps_per_s"] > 0 and raw["python_loop_steps_per_s"] > 0
+    with pytest.raises(perf.PerfError):
+        perf.raw_step_rate(ch.model, steps=0)
+
+
+def test_optional_parts_report_unavailable(monkeypatch):
+    monkeypatch.setitem(sys.modules, "bvhio", None)
+    with pytest.raises(perf.PerfUnavailable, match="bvhio"):
+        perf.bvh_parse_speed([])
+    monkeypatch.setitem(sys.modules, "envs", None)
+    with pytest.raises(perf.PerfUnavailable, match="envs"):
+        perf.env_throughput(steps=1, repeats=1)
