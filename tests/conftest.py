@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# headless rendering (the machines have no display): must be set before MuJoCo is first imported
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 import pytest
 
