@@ -274,10 +274,12 @@ def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
     out = tmp_path / "walk.npz"
     assert _cli(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
                  "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
-                 "--json"]) == 0
+                 "--weight", "root=20", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["replay"]["fell"] is False and info["samples_simulated"] == 96
     assert not replay(out).fell
+    saved = load_trajectory(out).metadata["options"]
+    assert saved["weights"]["root"] == 20.0 and saved["adapt"] is True
 
 
 def test_cli_errors_are_one_line(tmp_path):

@@ -66,6 +66,23 @@ def _non_negative_float(what: str):
     return parse
 
 
+def _weight(text: str) -> tuple[str, float]:
+    from ..samcon import CostWeights
+
+    name, sep, value = text.partition("=")
+    names = list(CostWeights.__dataclass_fields__)
+    if not sep or name not in names:
+        raise argparse.ArgumentTypeError(f"weight must be NAME=VALUE with NAME one of "
+                                         f"{', '.join(names)}, got {text!r}")
+    try:
+        v = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"weight {name} must be a number, got {value!r}") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"weight {name} must be zero or positive, got {value!r}")
+    return name, v
+
+
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """The executor options (``--executor``, ``--threads``, ``--ray-address``, ...)."""
     from ..executors import add_executor_arguments as add
@@ -136,6 +153,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--adapt", action=argparse.BooleanOptionalAction, default=True,
                    help="CMA-style per-slice update of the sampling distribution between "
                         "passes (2015; default on, --no-adapt for the 2010 scheme)")
+    p.add_argument("--weight", type=_weight, action="append", default=[], metavar="NAME=V",
+                   help="cost weight override, repeatable (pose, root, end_effector, balance, "
+                        "com, joints, velocity, com_horizon), e.g. --weight root=20 for sharp "
+                        "turns")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (SAMCON statistics and the replay's metrics)")
@@ -148,14 +169,15 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..executors import executor_from_args
-    from ..samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
+    from ..samcon import RECONSTRUCTION_OPTIONS, CostWeights, Samcon, SamconOptions
     from ..trajectory import replay
 
     check_output(args.output)
     _, ref = load_reference(args.motion, args.model)
     o = SamconOptions(**dict(RECONSTRUCTION_OPTIONS, samples=args.samples,
                              saved=min(args.saved, args.samples), seed=args.seed,
-                             duration=args.duration, start=args.start, adapt=args.adapt))
+                             duration=args.duration, start=args.start, adapt=args.adapt,
+                             weights=CostWeights(**dict(args.weight))))
     for name, attr in (("slice", "slice_dt"), ("distribution", "distribution"),
                        ("width_scale", "width_scale"), ("window", "window"),
                        ("iterations", "iterations")):
