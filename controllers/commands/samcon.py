@@ -9,61 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-
-def _positive_int(what: str):
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be an integer, got {text!r}") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{what} must be positive, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
-
-
-def _non_negative_int(what: str):
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be an integer, got {text!r}") from None
-        if v < 0:
-            raise argparse.ArgumentTypeError(f"{what} must be non-negative, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
-
-
-def _positive_float(what: str):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{what} must be positive, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
-
-
-def _non_negative_float(what: str):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v >= 0):
-            raise argparse.ArgumentTypeError(f"{what} must be zero or positive, got {text!r}")
-        return v
-
-    parse.__name__ = what
-    return parse
+from .argtypes import integer, non_negative, positive
 
 
 def _weight(text: str) -> tuple[str, float]:
@@ -131,24 +77,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", required=True, metavar="OUTPUT",
                    help="trajectory file to write (.npz)")
     p.add_argument("--model", metavar="FILE.xml", help="converted model (default: bundled)")
-    p.add_argument("--samples", type=_positive_int("samples"), default=1000, metavar="N",
+    p.add_argument("--samples", type=integer("samples", 1), default=1000, metavar="N",
                    help="samples per slice (default 1000)")
-    p.add_argument("--saved", type=_positive_int("saved"), default=200, metavar="N",
+    p.add_argument("--saved", type=integer("saved", 1), default=200, metavar="N",
                    help="saved states per slice (default 200)")
-    p.add_argument("--seed", type=_non_negative_int("seed"), default=0, metavar="N")
-    p.add_argument("--duration", type=_positive_float("duration"), metavar="S",
+    p.add_argument("--seed", type=integer("seed"), default=0, metavar="N")
+    p.add_argument("--duration", type=positive("duration"), metavar="S",
                    help="seconds of the clip to reconstruct (default: all)")
-    p.add_argument("--start", type=_non_negative_float("start"), default=0.0, metavar="S",
+    p.add_argument("--start", type=non_negative("start"), default=0.0, metavar="S",
                    help="clip time to start from (default 0)")
-    p.add_argument("--slice", type=_positive_float("slice"), default=None, metavar="S",
+    p.add_argument("--slice", type=positive("slice"), default=None, metavar="S",
                    help="slice length in seconds (default 0.1)")
     p.add_argument("--distribution", choices=("uniform", "gaussian"), default=None,
                    help="offset distribution (default uniform)")
-    p.add_argument("--width-scale", type=_non_negative_float("width scale"), default=None,
+    p.add_argument("--width-scale", type=non_negative("width scale"), default=None,
                    metavar="F", help="factor on the per-joint sampling widths")
-    p.add_argument("--window", type=_positive_int("window"), default=None, metavar="N",
+    p.add_argument("--window", type=integer("window", 1), default=None, metavar="N",
                    help="sliding window of slices scored together (2015; default 1)")
-    p.add_argument("--iterations", type=_positive_int("iterations"), default=None,
+    p.add_argument("--iterations", type=integer("iterations", 1), default=None,
                    metavar="N", help="passes over the clip (default 2)")
     p.add_argument("--adapt", action=argparse.BooleanOptionalAction, default=True,
                    help="CMA-style per-slice update of the sampling distribution between "

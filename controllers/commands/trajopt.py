@@ -9,11 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from .argtypes import integer, non_negative, positive
 from .samcon import (
-    _non_negative_float,
-    _non_negative_int,
-    _positive_float,
-    _positive_int,
     add_executor_arguments,
     check_output,
     load_reference,
@@ -35,25 +32,25 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--task", choices=TASKS, default=None,
                    help="track (default with a motion) or jump (no motion)")
     p.add_argument("--model", metavar="FILE.xml", help="converted model (default: bundled)")
-    p.add_argument("--duration", type=_positive_float("duration"), metavar="S",
+    p.add_argument("--duration", type=positive("duration"), metavar="S",
                    help="seconds to optimise (track: default the whole clip; jump: 2.2)")
-    p.add_argument("--start", type=_non_negative_float("start"), default=0.0, metavar="S",
+    p.add_argument("--start", type=non_negative("start"), default=0.0, metavar="S",
                    help="clip time to start tracking from (default 0)")
-    p.add_argument("--generations", type=_positive_int("generations"), metavar="N",
+    p.add_argument("--generations", type=integer("generations", 1), metavar="N",
                    help="CMA-ES generations per window (default 40; jump 60)")
-    p.add_argument("--popsize", type=_positive_int("popsize"), metavar="N",
+    p.add_argument("--popsize", type=integer("popsize", 1), metavar="N",
                    help="CMA-ES population (default max(4 + 3 ln n, 2 x parallelism))")
-    p.add_argument("--window", type=_positive_float("window"), metavar="S",
+    p.add_argument("--window", type=positive("window"), metavar="S",
                    help="seconds per optimisation window (default 0.5)")
-    p.add_argument("--commit", type=_positive_float("commit"), metavar="S",
+    p.add_argument("--commit", type=positive("commit"), metavar="S",
                    help="seconds committed per window (default 0.2)")
-    p.add_argument("--knot-dt", type=_positive_float("knot dt"), metavar="S",
+    p.add_argument("--knot-dt", type=positive("knot dt"), metavar="S",
                    help="seconds between spline knots (default 0.1)")
-    p.add_argument("--sigma", type=_positive_float("sigma"), metavar="S",
+    p.add_argument("--sigma", type=positive("sigma"), metavar="S",
                    help="initial CMA-ES step size in parameter units")
-    p.add_argument("--clearance", type=_positive_float("clearance"), default=0.10,
+    p.add_argument("--clearance", type=positive("clearance"), default=0.10,
                    metavar="M", help="jump: required foot clearance in metres (default 0.10)")
-    p.add_argument("--seed", type=_non_negative_int("seed"), default=0, metavar="N")
+    p.add_argument("--seed", type=integer("seed"), default=0, metavar="N")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (optimiser statistics and the replay's metrics)")
