@@ -1,4 +1,5 @@
-"""Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent)."""
+"""Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent), and the
+bundled humanoid, its walk reference and a two-thread executor for the sampling tests."""
 
 from __future__ import annotations
 
@@ -33,3 +34,30 @@ def shared_clip_path(request) -> Path:
 @pytest.fixture
 def walk60() -> Path:
     return shared_clip("walk60.bvh")
+
+
+@pytest.fixture(scope="module")
+def character():
+    """The bundled humanoid (a module's tests share it; modules may define their own)."""
+    from controllers.character import Character
+
+    return Character()
+
+
+@pytest.fixture(scope="module")
+def walk_ref(character):
+    """The bundled walk motion as a reference for ``character``."""
+    import bvh
+    from bvh.assets import motion_path
+    from bvh.reference import ReferenceMotion
+
+    return ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
+
+
+@pytest.fixture(scope="module")
+def executor():
+    """A two-thread local rollout executor."""
+    from controllers.executors import LocalExecutor
+
+    with LocalExecutor(threads=2) as ex:
+        yield ex

@@ -46,22 +46,6 @@ from controllers.trajectory import (
 
 
 @pytest.fixture(scope="module")
-def character():
-    return Character()
-
-
-@pytest.fixture(scope="module")
-def walk_ref(character):
-    return ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
-
-
-@pytest.fixture(scope="module")
-def executor():
-    with LocalExecutor(threads=2) as ex:
-        yield ex
-
-
-@pytest.fixture(scope="module")
 def short_run(walk_ref, executor):
     """SAMCON on the first 0.5 s of the bundled walk, few samples."""
     opt = SamconOptions(samples=64, saved=16, duration=0.5, seed=3)

@@ -39,22 +39,6 @@ from controllers.trajopt import (
 )
 
 
-@pytest.fixture(scope="module")
-def character():
-    return Character()
-
-
-@pytest.fixture(scope="module")
-def walk_ref(character):
-    return ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
-
-
-@pytest.fixture(scope="module")
-def executor():
-    with LocalExecutor(threads=2) as ex:
-        yield ex
-
-
 def test_knot_spline_interpolates_linearly_between_knots():
     G = np.eye(2)
     sp = KnotSpline(n_controls=10, control_dt=0.02, knot_dt=0.1, G=G)
