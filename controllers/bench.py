@@ -444,13 +444,7 @@ def _timestep(name: str) -> float | None:
     """Physics time step the controller runs at (``None``: the model's)."""
     from . import scenarios as S
 
-    if name in S.DEFAULT_TIMESTEP:
-        return S.DEFAULT_TIMESTEP[name]
-    if name == "simbicon":
-        from .simbicon import DEFAULT_TIMESTEP
-
-        return DEFAULT_TIMESTEP
-    return None
+    return S.default_timestep(name)
 
 
 def _build(ctx: _Context, name: str, scenario: str, reference=None):
@@ -464,14 +458,10 @@ def _build(ctx: _Context, name: str, scenario: str, reference=None):
         target = reference if reference is not None else S.standing_pose(ch)
         return ch, S.make_controller(name, ch, target)
     if name == "simbicon":
-        from .simbicon import make_simbicon
-
-        return ch, make_simbicon(ch, gait="walk")
+        return ch, S.make_controller(name, ch, gait="walk")
     if name == "ipm":
-        from .ipm import make_ipm
-
         speed = ctx.config.ipm_speed if scenario in ("walk", "slopes") else 0.0
-        return ch, make_ipm(ch, speed=speed)
+        return ch, S.make_controller(name, ch, speed=speed)
     raise BenchError(f"{name} is not built by _build")  # replays go through trajectory.replay
 
 

@@ -34,6 +34,8 @@ from .metrics import STEP_DISTANCE, FallDetector, Recorder, Result
 
 SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
 CONTROLLERS = ("pd", "spd", "native_pd", "hand_of_god", "static_balance")
+#: controllers that walk on their own (built by :func:`make_controller` too)
+WALKERS = ("simbicon", "ipm")
 #: the four horizontal push directions (degrees in the heading frame)
 DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 #: default physics time step per controller (s); ``None`` = the model's own
@@ -49,6 +51,15 @@ class ScenarioError(MjcharError):
 
 
 # -- building blocks -----------------------------------------------------------------------------
+def default_timestep(name: str) -> float | None:
+    """Physics time step controller ``name`` runs at by default (``None``: the model's own)."""
+    if name == "simbicon":
+        from .simbicon import DEFAULT_TIMESTEP as simbicon_timestep
+
+        return simbicon_timestep
+    return DEFAULT_TIMESTEP.get(name)
+
+
 def standing_pose(character: Character) -> np.ndarray:
     """``(nq,)`` the model's rest pose (``qpos0``) with the feet on the floor."""
     return character.on_floor(character.model.qpos0)
@@ -56,10 +67,12 @@ def standing_pose(character: Character) -> np.ndarray:
 
 def make_controller(name: str, character: Character, target=None, *, gains: Gains | None = None,
                     tracker: str = "spd", **options):
-    """Build a controller by name (:data:`CONTROLLERS`).
+    """Build a controller by name (:data:`CONTROLLERS` and :data:`WALKERS`).
 
     Args:
-        name: ``pd``, ``spd``, ``native_pd``, ``hand_of_god`` or ``static_balance``.
+        name: ``pd``, ``spd``, ``native_pd``, ``hand_of_god``, ``static_balance``, or a walker:
+            ``simbicon`` (options: ``gait`` and gait overrides) or ``ipm`` (options: ``speed``,
+            ``heading``); walkers ignore ``target``, ``gains`` and ``tracker``.
         character: the character (used for defaults only; the controller is reset later).
         target: what PD trackers follow (a pose ``(nq,)`` or a ReferenceMotion); the static
             balance holds it when it is a pose.
@@ -68,6 +81,14 @@ def make_controller(name: str, character: Character, target=None, *, gains: Gain
         options: passed to the controller's constructor (e.g. ``kp`` for hand-of-god,
             ``height`` for static balance).
     """
+    if name == "simbicon":
+        from .simbicon import make_simbicon
+
+        return make_simbicon(character, **options)
+    if name == "ipm":
+        from .ipm import make_ipm
+
+        return make_ipm(character, **options)
     from .hand_of_god import HandOfGod
     from .pd import NativePDController, PDController, StablePDController
     from .static_balance import StaticBalance
@@ -82,7 +103,8 @@ def make_controller(name: str, character: Character, target=None, *, gains: Gain
     if name == "static_balance":
         pose = target if isinstance(target, np.ndarray) else None
         return StaticBalance(pose, pd=StablePDController(None, gains), **options)
-    raise ScenarioError(f"unknown controller {name!r}; choose from {', '.join(CONTROLLERS)}")
+    raise ScenarioError(f"unknown controller {name!r}; choose from "
+                        f"{', '.join(CONTROLLERS + WALKERS)}")
 
 
 def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:

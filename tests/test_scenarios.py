@@ -162,3 +162,18 @@ def test_control_dt_holds_actions_over_substeps(ch):
 def test_hold_pose_rejects_non_pd(ch):
     with pytest.raises(S.ScenarioError):
         S.hold_pose(ch, "static_balance", kp=100.0, timestep=0.002)
+
+
+def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
+    ch = Character()
+    ipm = S.make_controller("ipm", ch, speed=0.7, heading=0.5)
+    assert ipm.name == "ipm" and ipm.speed(3.0) == 0.7
+    sim = S.make_controller("simbicon", ch, gait="crouch")
+    assert sim.name == "simbicon" and sim.gait.name == "crouch"
+    from controllers.simbicon import DEFAULT_TIMESTEP
+
+    assert S.default_timestep("simbicon") == DEFAULT_TIMESTEP
+    assert S.default_timestep("pd") == S.DEFAULT_TIMESTEP["pd"]
+    assert S.default_timestep("ipm") is None
+    with pytest.raises(S.ScenarioError, match="simbicon, ipm"):
+        S.make_controller("walker", ch)

@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
 
     character = Character(args.model)
-    timestep = args.timestep or S.DEFAULT_TIMESTEP.get(args.controller)
+    timestep = args.timestep or S.default_timestep(args.controller)
     if timestep:
         character.set_timestep(timestep)
 
@@ -142,18 +142,10 @@ def run(args: argparse.Namespace) -> int:
 
         options["height"] = squat_profile(args.squat)
     if args.controller == "simbicon":
-        from ..simbicon import DEFAULT_TIMESTEP, make_simbicon
-
-        if not args.timestep:
-            character.set_timestep(DEFAULT_TIMESTEP)
-        controller = make_simbicon(character, gait=args.gait)
-    elif args.controller == "ipm":
-        from ..ipm import make_ipm
-
-        controller = make_ipm(character, speed=args.speed if scenario == "walk" else 0.0,
-                              heading=args.heading)
-    else:
-        controller = S.make_controller(args.controller, character, target, **options)
+        options["gait"] = args.gait
+    if args.controller == "ipm":
+        options.update(speed=args.speed if scenario == "walk" else 0.0, heading=args.heading)
+    controller = S.make_controller(args.controller, character, target, **options)
 
     kw: dict = {"control_dt": args.control_dt}
     if args.duration is not None:
