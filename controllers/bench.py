@@ -1174,6 +1174,12 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         t0 = time.perf_counter()
         if videos and vids:
             doc["stills"] = write_stills(out, vids)
+            if plots:
+                from .bench_plots import plot_walk_strip
+
+                strip = plot_walk_strip(out, vids, fps=config.fps)
+                if strip is not None:
+                    doc["stills"].append(strip.name)
         if plots:
             from .bench_plots import make_plots
 

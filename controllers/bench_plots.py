@@ -18,7 +18,7 @@ from pathlib import Path
 from .bench import DIRECTION_NAMES, BenchError
 
 __all__ = ["require_matplotlib", "make_plots", "plot_push_search", "plot_com_trajectories",
-           "plot_tracking_error", "plot_envelope", "plot_step_cost"]
+           "plot_tracking_error", "plot_envelope", "plot_step_cost", "plot_walk_strip"]
 
 _DIRECTION_COLOURS = {"forward": "#1f77b4", "left": "#2ca02c", "backward": "#d62728",
                       "right": "#ff7f0e"}
@@ -248,3 +248,49 @@ def make_plots(doc: dict, out_dir: str | os.PathLike) -> list[Path]:
         if p is not None:
             made.append(p)
     return made
+
+
+#: the walkers whose walk video gives a row of :func:`plot_walk_strip`
+STRIP_WALKERS = (("simbicon", "SIMBICON"), ("ipm", "IPM stepping"))
+
+
+def plot_walk_strip(out: str | os.PathLike, videos: list[dict], *, fps: float, frames: int = 8,
+                    spacing: float = 0.1, name: str = "walk_strip.png") -> Path | None:
+    """A filmstrip of the walkers (one row per walker with a walk video in ``out/videos``):
+    ``frames`` frames ``spacing`` s apart from the middle of the video, cropped to the character
+    (the camera follows it), so alternating feet and the absence of skating can be seen."""
+    import imageio.v2 as imageio
+
+    plt = require_matplotlib()
+    out = Path(out)
+    rows = []
+    for controller, label in STRIP_WALKERS:
+        v = next((v for v in videos if v["controller"] == controller
+                  and v["scenario"] == "walk"), None)
+        if v is None:
+            continue
+        step = max(1, round(spacing * fps))
+        first = max(0, v["frames"] // 2 - step * frames // 2)
+        idx = [i for i in range(first, first + step * frames, step) if i < v["frames"]]
+        reader = imageio.get_reader(out / "videos" / v["file"])
+        try:
+            images = [reader.get_data(i) for i in idx]
+        finally:
+            reader.close()
+        rows.append((label, idx, images))
+    if not rows:
+        return None
+    n = max(len(r[1]) for r in rows)
+    fig, axes = plt.subplots(len(rows), n, figsize=(1.3 * n, 2.6 * len(rows)), squeeze=False)
+    for ax_row, (label, idx, images) in zip(axes, rows, strict=True):
+        for ax, i, img in zip(ax_row, idx, images, strict=False):
+            h, w = img.shape[:2]
+            ax.imshow(img[int(0.22 * h):int(0.86 * h), int(0.38 * w):int(0.62 * w)])
+            ax.set_title(f"t = {i / fps:.1f} s", fontsize=8)
+            ax.set_xticks([])
+            ax.set_yticks([])
+        for ax in ax_row[len(images):]:
+            ax.axis("off")
+        ax_row[0].set_ylabel(label)
+    fig.suptitle(f"walk scenario, frames {spacing:g} s apart (camera follows the character)")
+    return _save(fig, out / name)

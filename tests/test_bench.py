@@ -308,6 +308,22 @@ def test_plots_are_written(tiny_doc):
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
 
 
+def test_videos_give_stills_and_a_walk_strip(tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="videos need the video extra")
+    doc = B.run_bench(tiny(walk_duration=1.2), controllers=["ipm", "simbicon"],
+                      scenarios=["walk"], out_dir=tmp_path, progress=False, videos=True,
+                      performance=False, trajectories={})
+    assert {v["file"] for v in doc["videos"]} == {"ipm_walk.mp4", "simbicon_walk.mp4"}
+    assert all(v["frames"] >= 30 for v in doc["videos"])  # 1.2 s at 30 fps
+    assert {"stills/ipm_walk.png", "stills/simbicon_walk.png", "still.png",
+            "walk_strip.png"} <= set(doc["stills"])
+    import imageio.v2 as imageio
+
+    strip = imageio.imread(tmp_path / "walk_strip.png")
+    assert strip.shape[0] > strip.shape[1] / 8  # two rows of frames, not an empty figure
+    assert strip[..., :3].std() > 20  # it shows pictures
+
+
 def test_missing_matplotlib_is_a_clear_error(monkeypatch):
     from controllers import bench_plots
 
