@@ -28,7 +28,10 @@ generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-
    the clip's limb is nearly straight (see :meth:`ReferenceMotion._project_ik`). Frames are
    solved in order, each warm-started with the previous frame's correction.
 4. **Floor.** The clip is shifted vertically so the lowest foot point over the clip (foot box
-   corners, or foot sites) is at ``z = 0``.
+   corners, or foot sites) is at ``z = 0`` (``floor="clip"``). With ``floor="frame"`` every
+   frame is shifted on its own so that its lowest foot point touches the floor: for motions that
+   always have a foot on the ground (walks, idles), whose mocap feet otherwise float centimetres
+   above the floor in mid-stance; not for jumps or runs.
 5. **Loops.** A cyclic clip (given, or detected when its first and last poses agree within
    :data:`CYCLIC_POSE_TOLERANCE` once heading and horizontal position are removed) repeats with
    period ``duration = (F - 1) frame_time`` (the last frame is the first of the next cycle). Each
@@ -416,6 +419,9 @@ class ReferenceMotion:
         project: for bodies with fewer rotational dofs than the BVH joint (the ``hinge`` model's
             knees and elbows), correct the projected angles with damped-least-squares IK so the
             limb's joints land where the clip puts them. ``False``: projection only.
+        floor: ``"clip"`` (one vertical shift for the whole clip: its lowest foot point at
+            ``z = 0``) or ``"frame"`` (each frame shifted so its own lowest foot point is at
+            ``z = 0``; for motions with a foot on the ground throughout).
 
     Attributes:
         model, info: the model and its metadata.
@@ -426,12 +432,14 @@ class ReferenceMotion:
         joint_names: ``(K,)`` kept BVH joints (bodies) in the model's joint-map order;
             ``joint_body_ids``: ``(K,)`` their body ids.
         z_offset: metres added to every height to put the lowest foot point at ``z = 0``.
+        grounding: ``(F,)`` metres added to each frame's heights on top of ``z_offset`` (zero with
+            ``floor="clip"``; ``<= 0`` with ``floor="frame"``).
         cycle_heading: radians turned per cycle; ``cycle_displacement``: ``(2,)`` metres the root
             moves per cycle (frame ``F-1`` minus frame 0, horizontal).
     """
 
     def __init__(self, model: mujoco.MjModel, motion: Motion, *, info=None,
-                 cyclic: bool | None = None, project: bool = True):
+                 cyclic: bool | None = None, project: bool = True, floor: str = "clip"):
         if not isinstance(model, mujoco.MjModel):
             raise ReferenceMotionError(
                 f"model must be a mujoco.MjModel, got {type(model).__name__}")
@@ -463,15 +471,22 @@ class ReferenceMotion:
         if project and self.projected_joints:
             qpos = self._project_ik(qpos, fk)
 
-        # floor placement: lowest foot point over the clip at z = 0
+        # floor placement: lowest foot point over the clip (or of every frame) at z = 0
+        if floor not in ("clip", "frame"):
+            raise ReferenceMotionError(f"floor must be 'clip' or 'frame', got {floor!r}")
+        self.floor = floor
         self._feet = _FootPoints(model, self.info)
         pts = self._sample_points(qpos)
         all_pts = np.concatenate([p for p in pts.values()], axis=1)
-        self.z_offset = float(-np.min(all_pts[..., 2])) if all_pts.size else 0.0
-        qpos[:, self._root.qadr[0] + 2] += self.z_offset
-        self._foot_pts = {k: v + np.array([0.0, 0.0, self.z_offset]) for k, v in pts.items()
-                          if k in FOOT_SIDES}
-        shift = np.array([0.0, 0.0, self.z_offset])
+        lowest = (np.min(all_pts[..., 2], axis=1) if all_pts.size
+                  else np.zeros(self.n_frames))                    # (F,) per frame
+        self.z_offset = float(-np.min(lowest))
+        self.grounding = (np.min(lowest) - lowest if floor == "frame"
+                          else np.zeros(self.n_frames))
+        lift = self.z_offset + self.grounding                         # (F,)
+        qpos[:, self._root.qadr[0] + 2] += lift
+        shift = lift[:, None, None] * np.array([0.0, 0.0, 1.0])       # (F, 1, 3)
+        self._foot_pts = {k: v + shift for k, v in pts.items() if k in FOOT_SIDES}
         self._joint_pos = fk.positions + shift                       # (F, J, 3) all BVH joints
         self._end_sites = end_site_positions(self.motion, fk) + shift  # (F, E, 3)
         self.frame_qpos = qpos

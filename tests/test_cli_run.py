@@ -48,6 +48,7 @@ def test_static_balance_json_is_exactly_one_object():
     (["run", "spd", "--scenario", "push"], "needs --push"),
     (["run", "spd", "--scenario", "track", "--motion", "/no/such.bvh"], "/no/such.bvh"),
     (["run", "spd", "--render", "out.gif"], "MP4"),
+    (["run", "spd", "--floor", "lowest"], "invalid choice"),
 ])
 def test_malformed_options_give_one_line_and_non_zero_exit(args, needle, capsys):
     with pytest.raises(SystemExit) as e:
@@ -81,6 +82,18 @@ def test_track_with_a_motion_file(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["scenario"] == "track" and out["tracking_error_m"] < 0.05
     assert out["root_force_mean_N"] > 0
+
+
+def test_frame_floor_places_every_frame_of_the_reference(capsys):
+    clip = str(shared_clip("walk60.bvh"))
+    runs = {}
+    for floor in ("clip", "frame"):
+        assert main(["run", "hand_of_god", "--motion", clip, "--json", "--duration", "1.0",
+                     "--floor", floor]) == 0
+        runs[floor] = json.loads(capsys.readouterr().out)
+    # another reference, so another run: both track it closely
+    assert runs["clip"]["tracking_error_m"] != runs["frame"]["tracking_error_m"]
+    assert max(r["tracking_error_m"] for r in runs.values()) < 0.05
 
 
 def test_names_match_the_scenarios_module():

@@ -393,24 +393,47 @@ def test_box_corner_points_are_centred_on_the_geom():
         np.testing.assert_allclose(np.abs(pts).max(axis=0), model.geom_size[g])
 
 
+def _lowest_foot_corner_per_frame(model, ref) -> np.ndarray:
+    d = mujoco.MjData(model)
+    boxes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    lowest = []
+    for q in ref.frame_qpos:
+        d.qpos[:] = q
+        mujoco.mj_kinematics(model, d)
+        lowest.append(min(
+            (d.geom_xpos[g] + (signs * model.geom_size[g]) @ d.geom_xmat[g].reshape(3, 3).T)
+            [:, 2].min() for g in boxes))
+        # nothing else of the body goes (much) below the floor either
+        assert np.all(d.xpos[1:, 2] > 0.0)
+    return np.array(lowest)
+
+
 @pytest.mark.parametrize("name", SHARED_CLIPS)
 def test_clip_is_placed_with_lowest_foot_point_on_the_floor(name):
     motion = bvh.load(shared_clip(name))
     model = _model(motion, "hinge", name)
     ref = ReferenceMotion(model, motion)
-    d = mujoco.MjData(model)
-    boxes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
-    lowest = np.inf
-    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
-    for q in ref.frame_qpos:
-        d.qpos[:] = q
-        mujoco.mj_kinematics(model, d)
-        for g in boxes:
-            corners = d.geom_xpos[g] + (signs * model.geom_size[g]) @ d.geom_xmat[g].reshape(3, 3).T
-            lowest = min(lowest, corners[:, 2].min())
-        # nothing else of the body goes (much) below the floor either
-        assert np.all(d.xpos[1:, 2] > 0.0)
-    assert lowest == pytest.approx(0.0, abs=1e-9)
+    assert _lowest_foot_corner_per_frame(model, ref).min() == pytest.approx(0.0, abs=1e-9)
+    assert not ref.grounding.any()
+
+
+def test_frame_floor_puts_a_foot_on_the_floor_in_every_frame(walk60):
+    motion = bvh.load(walk60)
+    model = _model(motion, "hinge", "walk60.bvh")
+    clip = ReferenceMotion(model, motion)
+    ref = ReferenceMotion(model, motion, floor="frame")
+    np.testing.assert_allclose(_lowest_foot_corner_per_frame(model, ref), 0.0, atol=1e-9)
+    # the clip floats by up to ~4 cm mid-stance with the whole-clip placement
+    assert _lowest_foot_corner_per_frame(model, clip).max() > 0.02
+    assert ref.grounding.max() == 0.0 and ref.grounding.min() < -0.02
+    assert ref.z_offset == clip.z_offset
+    # joints and end effectors move with their frame
+    np.testing.assert_allclose(ref.joint_positions(0.5)[..., 2] - clip.joint_positions(0.5)[..., 2],
+                               np.interp(0.5, np.arange(ref.n_frames) * ref.frame_time,
+                                         ref.grounding), atol=1e-9)
+    with pytest.raises(ReferenceMotionError, match="floor must be"):
+        ReferenceMotion(model, motion, floor="lowest")
 
 
 def test_walk_contacts_alternate_and_idle_stands():

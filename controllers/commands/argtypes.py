@@ -44,3 +44,11 @@ def _number(what: str, ok, expected: str):
 
     parse.__name__ = what
     return parse
+
+
+def add_floor_argument(p: argparse.ArgumentParser) -> None:
+    """``--floor clip|frame``: how the reference clip is placed on the floor."""
+    p.add_argument("--floor", choices=("clip", "frame"), default="clip",
+                   help="place the clip on the floor by its lowest foot point over the whole "
+                        "clip (default), or every frame by its own lowest foot point (walks: "
+                        "mocap stance feet float centimetres above the floor otherwise)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from .argtypes import integer, non_negative, positive
+from .argtypes import add_floor_argument, integer, non_negative, positive
 
 CONTROLLERS = ("pd", "spd", "native_pd", "hand_of_god", "static_balance", "simbicon", "ipm",
                "replay")
@@ -55,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="reference motion for track/walk and hand_of_god (default: bundled walk)")
     p.add_argument("--model", metavar="FILE.xml",
                    help="converted model (default: the bundled humanoid)")
+    add_floor_argument(p)
     p.add_argument("--duration", type=positive("duration"), metavar="T",
                    help="simulated seconds (default: per scenario; the clip for track/walk)")
     p.add_argument("--push", type=non_negative("push"), metavar="N",
@@ -129,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
         from bvh.reference import ReferenceMotion
 
         path = args.motion or motion_path("walk")
-        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info)
+        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info,
+                                    floor=args.floor)
     elif args.motion:
         raise MjcharError(f"--motion is used by the track and walk scenarios, not {scenario}")
     # trackers follow the reference in track/walk, and hold the standing pose otherwise

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from .argtypes import integer, non_negative, positive
+from .argtypes import add_floor_argument, integer, non_negative, positive
 
 
 def _weight(text: str) -> tuple[str, float]:
@@ -36,9 +36,10 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     add(p)
 
 
-def load_reference(path: str, model):
+def load_reference(path: str, model, floor: str = "clip"):
     """``(character_model, ReferenceMotion)`` for a BVH clip on ``model`` (default: the bundled
-    humanoid); a clip the model cannot follow raises an ``MjcharError`` with the reason."""
+    humanoid), placed on the floor per ``floor`` (see ``ReferenceMotion``); a clip the model
+    cannot follow raises an ``MjcharError`` with the reason."""
     import bvh
     from bvh.reference import ReferenceMotion, ReferenceMotionError
 
@@ -47,7 +48,7 @@ def load_reference(path: str, model):
     ch = Character(model)
     motion = bvh.load(path)
     try:
-        ref = ReferenceMotion(ch.model, motion, info=ch.info)
+        ref = ReferenceMotion(ch.model, motion, info=ch.info, floor=floor)
     except ReferenceMotionError as e:
         raise ReferenceMotionError(f"{path}: the model cannot follow this motion: {e}") from None
     return ch, ref
@@ -106,6 +107,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (SAMCON statistics and the replay's metrics)")
+    add_floor_argument(p)
     add_executor_arguments(p)
     p.set_defaults(func=run)
 
@@ -119,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     from ..trajectory import replay
 
     check_output(args.output)
-    _, ref = load_reference(args.motion, args.model)
+    _, ref = load_reference(args.motion, args.model, args.floor)
     o = SamconOptions(**dict(RECONSTRUCTION_OPTIONS, samples=args.samples,
                              saved=min(args.saved, args.samples), seed=args.seed,
                              duration=args.duration, start=args.start, adapt=args.adapt,

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .argtypes import integer, non_negative, positive
+from .argtypes import add_floor_argument, integer, non_negative, positive
 from .samcon import (
     add_executor_arguments,
     check_output,
@@ -54,6 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (optimiser statistics and the replay's metrics)")
+    add_floor_argument(p)
     add_executor_arguments(p)
     p.set_defaults(func=run)
 
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output)
     ref = None
     if task == "track":
-        _, ref = load_reference(args.motion, args.model)
+        _, ref = load_reference(args.motion, args.model, args.floor)
     o = TrajoptOptions(seed=args.seed, start=args.start)
     if task == "jump":
         o = TrajoptOptions(**dict(JUMP_OPTIONS, seed=args.seed))
