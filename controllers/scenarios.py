@@ -107,6 +107,21 @@ def make_controller(name: str, character: Character, target=None, *, gains: Gain
                         f"{', '.join(CONTROLLERS + WALKERS)}")
 
 
+def largest_passing(trial: Callable[[float], bool], max_force: float, tolerance: float) -> float:
+    """The largest force in ``[0, max_force]`` that ``trial(force)`` survives, by bisection to
+    ``tolerance`` newtons (``max_force`` itself when it passes; assumes survival is monotone)."""
+    lo, hi = 0.0, float(max_force)
+    if trial(hi):
+        return hi
+    while hi - lo > tolerance:
+        mid = 0.5 * (lo + hi)
+        if trial(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
 def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:
     """``(3,)`` unit horizontal world vector at ``degrees`` from the character's facing
     direction (its root x axis projected on the floor), counter-clockwise seen from above."""
@@ -239,17 +254,7 @@ def push_search(character: Character, controller, *, directions: dict | None = N
             steps += r.n_steps
             return survived(r, allow_steps)
 
-        lo, hi = 0.0, float(max_force)
-        if trial(hi):
-            best[name] = hi
-        else:
-            while hi - lo > tolerance:
-                mid = 0.5 * (lo + hi)
-                if trial(mid):
-                    lo = mid
-                else:
-                    hi = mid
-            best[name] = lo
+        best[name] = largest_passing(trial, max_force, tolerance)
         if progress is not None:
             progress(f"push-search {name}: {best[name]:.0f} N")
     # a final run at the weakest direction's largest survivable push, for the other metrics

@@ -177,3 +177,16 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
     assert S.default_timestep("ipm") is None
     with pytest.raises(S.ScenarioError, match="simbicon, ipm"):
         S.make_controller("walker", ch)
+
+
+def test_largest_passing_bisects_to_the_tolerance():
+    calls = []
+
+    def survives(f):
+        calls.append(f)
+        return f <= 137.0
+
+    best = S.largest_passing(survives, 400.0, 5.0)
+    assert 132.0 <= best <= 137.0 and calls[0] == 400.0
+    assert S.largest_passing(lambda f: True, 400.0, 5.0) == 400.0
+    assert S.largest_passing(lambda f: False, 400.0, 5.0) < 5.0
