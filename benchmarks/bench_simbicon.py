@@ -1,6 +1,6 @@
 """SIMBICON benchmark: the long runs behind docs/simbicon.md (no root force anywhere).
 
-    python benchmarks/bench_simbicon.py                      # everything (about an hour, 1 core)
+    python benchmarks/bench_simbicon.py                      # everything (~13 min, 1 core)
     python benchmarks/bench_simbicon.py walk feedback-off    # only some parts
     python benchmarks/bench_simbicon.py pushes --gait crouch --json out.json
 
@@ -129,13 +129,16 @@ def bench_slopes(gait: str) -> dict:
             "fell": r.fell,
             "fall_time_s": r.fall_time_s,
             "slope_distance_m": r.extra["slope_distance_m"],
+            "time_to_20m_s": r.extra["time_to_distance_s"],
             "steady_speed_mps": r.extra["steady_speed_mps"],
         }
+        t20 = r.extra["time_to_distance_s"]
         log(
             f"slope {deg:+g} deg: "
             + (f"FELL at {r.fall_time_s:.2f} s" if r.fell else "no fall")
-            + f", {r.extra['slope_distance_m']:.1f} m along the slope in 45 s, steady speed "
-            f"{r.extra['steady_speed_mps']:.3f} m/s"
+            + f", {r.extra['slope_distance_m']:.1f} m along the slope in 45 s"
+            + (f" (20 m at {t20:.1f} s)" if t20 is not None else " (never 20 m)")
+            + f", steady speed {r.extra['steady_speed_mps']:.3f} m/s"
         )
     return out
 

@@ -281,6 +281,7 @@ def walk(
     perturb: bool = True,
     slope: float = 0.0,
     steady_window: float = 10.0,
+    target_distance: float | None = None,
     progress: Callable[[str], None] | None = None,
     **kw,
 ) -> Result:
@@ -289,7 +290,10 @@ def walk(
 
     ``Result.extra["steady_speed_mps"]``: the root's mean horizontal speed over the last
     ``steady_window`` s; ``Result.mean_speed_mps`` is over the whole run (start-up included).
-    Other keyword arguments go to :func:`~controllers.scenarios.simulate`.
+    On a slope, ``extra["slope_distance_m"]`` (along the slope) and, with ``target_distance``
+    (m), ``extra["time_to_distance_s"]``: when the root had first covered that much along the
+    slope (``None`` if never). Other keyword arguments go to
+    :func:`~controllers.scenarios.simulate`.
     """
     driver = GaitDriver(controller)
     with _slope(character, slope, duration):
@@ -301,6 +305,8 @@ def walk(
     if slope:
         r.scenario = f"slope {slope:+g} deg"
         r.extra["slope_distance_m"] = _slope_distance(driver, slope)
+        if target_distance is not None:
+            r.extra["time_to_distance_s"] = _time_to_distance(driver, slope, target_distance)
     if progress is not None:
         progress(r.summary())
     return r
@@ -332,6 +338,16 @@ def _slope_distance(driver: GaitDriver, degrees: float) -> float:
     return float(dx / math.cos(math.radians(degrees)))
 
 
+def _time_to_distance(driver: GaitDriver, degrees: float, distance: float) -> float | None:
+    """First time (s) the root had covered ``distance`` m along the slope, ``None`` if never."""
+    if len(driver.path) < 2:
+        return None
+    a = np.array(driver.path)
+    along = (a[:, 1] - a[0, 1]) / math.cos(math.radians(degrees))
+    hit = np.flatnonzero(along >= distance)
+    return float(a[hit[0], 0]) if len(hit) else None
+
+
 def slope_walk(
     character: Character,
     controller,
@@ -345,12 +361,21 @@ def slope_walk(
     """Walk up (``degrees`` > 0) or down (< 0) a slope; success = no fall and at least
     ``distance`` m covered along the slope. ``duration`` defaults to ``distance / 0.6`` s.
 
-    ``Result.extra``: ``slope_distance_m``, ``reached`` (bool), ``steady_speed_mps``.
+    ``Result.extra``: ``slope_distance_m``, ``reached`` (bool), ``time_to_distance_s`` (when
+    ``distance`` was first covered, ``None`` if never), ``steady_speed_mps``.
     """
     if not degrees:
         raise TerrainError("slope_walk needs a non-zero slope (use walk() for level ground)")
     duration = distance / 0.6 if duration is None else duration
-    r = walk(character, controller, duration=duration, seed=seed, slope=degrees, **kw)
+    r = walk(
+        character,
+        controller,
+        duration=duration,
+        seed=seed,
+        slope=degrees,
+        target_distance=distance,
+        **kw,
+    )
     r.extra["reached"] = bool(not r.fell and r.extra["slope_distance_m"] >= distance)
     return r
 
