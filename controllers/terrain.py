@@ -37,7 +37,7 @@ from bvh.errors import MjcharError
 
 from .character import Character
 from .metrics import FALL_HEIGHT_FRACTION, Result
-from .scenarios import DIRECTIONS, simulate, standing_pose
+from .scenarios import DIRECTIONS, largest_passing, simulate, standing_pose
 
 
 class TerrainError(MjcharError):
@@ -496,17 +496,7 @@ def push_search(
                 progress(f"  {name} {f:.0f} N: {'ok' if good else 'fails'}")
             return good
 
-        lo, hi = 0.0, float(max_force)
-        if ok(hi):
-            best[name] = hi
-        else:
-            while hi - lo > tolerance:
-                mid = 0.5 * (lo + hi)
-                if ok(mid):
-                    lo = mid
-                else:
-                    hi = mid
-            best[name] = lo
+        best[name] = largest_passing(ok, max_force, tolerance)
         if progress is not None:
             progress(f"push search {name}: {best[name]:.0f} N at all {len(ph)} phases")
     return best
