@@ -118,7 +118,8 @@ def plot_com_trajectories(doc: dict, path: str | os.PathLike) -> Path | None:
         ls = styles[seeds.index(r["seed"]) % len(styles)]
         com = np.asarray(r["series"]["com_m"])
         t = np.asarray(r["series"]["t_s"])
-        label = f"{n}, seed {r['seed']}" + (" (fell)" if not r["survived"] else "")
+        label = (n + ("" if r["seed"] is None else f", seed {r['seed']}")
+                 + (" (fell)" if not r["survived"] else ""))
         top.plot(com[:, 0], com[:, 1], ls, color=col, label=label)
         side.plot(t, com[:, 2], ls, color=col, label=label)
         if not r["survived"]:
