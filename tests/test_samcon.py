@@ -29,7 +29,6 @@ from controllers.samcon import (
     SamconError,
     SamconOptions,
     TrackingCost,
-    inverse_dynamics_targets,
     sampling_widths,
     select_diverse,
     slice_layout,
@@ -89,23 +88,9 @@ def test_slice_layout_covers_the_clip():
 def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):
     """Static inverse dynamics adds the gravity compensation plain PD lacks: held open loop
     (no root force), the joints stay much closer to the pose (arms out in the T-pose sag)."""
-    from controllers.scenarios import standing_pose
+    from controllers.trajopt import standing_targets  # inverse dynamics of the standing pose
 
-    q = standing_pose(character)
-
-    class Still:
-        frame_time = 0.01
-
-        def qpos(self, t):
-            return np.broadcast_to(q, np.shape(t) + q.shape).copy()
-
-        def qvel(self, t):
-            return np.zeros(np.shape(t) + (character.nv,))
-
-        def foot_contacts(self, t):
-            return np.ones(np.shape(t) + (2,), dtype=bool)
-
-    u_id = inverse_dynamics_targets(character, Still(), np.zeros(1), smoothing=0.0)[0]
+    q, u_id = standing_targets(character)
     u_raw = q[character.actuator_qpos]
     err = {}
     for name, u in (("id", u_id), ("raw", u_raw)):
