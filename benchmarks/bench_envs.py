@@ -41,6 +41,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 import envs  # noqa: E402, F401  (registers mjchar/...)
+from controllers.perf import random_env_steps  # noqa: E402
 
 DOC = ROOT / "docs" / "envs.md"
 ENVS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
@@ -61,23 +62,9 @@ def model_data(env) -> tuple[mujoco.MjModel, mujoco.MjData]:
     return u.model, u.data
 
 
-def run_env(env, steps: int, seed: int) -> tuple[float, int]:
-    """(wall seconds, episodes ended) for ``steps`` random-action env steps."""
-    env.action_space.seed(seed)
-    env.reset(seed=seed)
-    ended = 0
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        _, _, term, trunc, _ = env.step(env.action_space.sample())
-        if term or trunc:
-            ended += 1
-            env.reset()
-    return time.perf_counter() - t0, ended
-
-
 def visited_states(env, steps: int, seed: int, every: int = 5) -> list:
     """Full physics states (``mjSTATE_INTEGRATION``) after every ``every``-th env step of the
-    same seeded random run as :func:`run_env` (not timed)."""
+    same seeded random run as :func:`controllers.perf.random_env_steps` (not timed)."""
     m, d = model_data(env)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
     env.action_space.seed(seed)
@@ -116,7 +103,7 @@ def measure(steps: int, repeats: int, log) -> dict:
     bar = tqdm(total=repeats * len(ENVS), desc="bench_envs", file=sys.stderr)
     for r in range(repeats):
         for eid, env in made.items():
-            wall, ended = run_env(env, steps, seed=r)
+            wall, ended = random_env_steps(env, steps, seed=r)
             bare = bare_steps(env, visited_states(env, steps, seed=r))
             rounds[eid].append((steps / wall, ended, bare))
             bar.update()

@@ -38,7 +38,8 @@ import numpy as np  # noqa: E402
 
 from bvh.assets import humanoid_path  # noqa: E402
 from controllers.executors import LocalExecutor, make_executor  # noqa: E402
-from controllers.rollout import FULLPHYSICS, RolloutModel, RolloutRequest  # noqa: E402
+from controllers.perf import python_rollout_loop  # noqa: E402
+from controllers.rollout import RolloutModel, RolloutRequest  # noqa: E402
 
 DOC = ROOT / "docs" / "rollouts.md"
 START, END = "<!-- bench_rollout:start -->", "<!-- bench_rollout:end -->"
@@ -82,12 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         data = mujoco.MjData(model)
 
         def loop(model=model, data=data):  # the same B slices, one after the other
-            for sample in range(b):
-                mujoco.mj_setState(model, data, s0, FULLPHYSICS)
-                data.qacc_warmstart[:] = 0.0
-                data.ctrl[:] = targets[sample, 0]
-                for _ in range(k):
-                    mujoco.mj_step(model, data)
+            python_rollout_loop(model, data, s0, targets, k)
 
         cases.append((label, b * k, loop))
 

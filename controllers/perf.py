@@ -229,6 +229,35 @@ def step_cost(character: Character, make_controller: Callable[[], object], *,
 
 
 # -- batched rollouts ----------------------------------------------------------------------------
+def python_rollout_loop(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray,
+                        targets: np.ndarray, steps: int) -> None:
+    """The plain-Python baseline of a batched rollout: for each sample ``b``, restore ``state``
+    (full physics, cleared warm start), hold ``targets[b, 0]`` and ``mj_step`` ``steps`` times."""
+    from .rollout import FULLPHYSICS
+
+    for b in range(len(targets)):
+        mujoco.mj_setState(model, data, state, FULLPHYSICS)
+        data.qacc_warmstart[:] = 0.0
+        data.ctrl[:] = targets[b, 0]
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+
+
+def random_env_steps(env, steps: int, seed: int) -> tuple[float, int]:
+    """``(wall seconds, episodes ended)`` for ``steps`` uniformly random actions in a Gymnasium
+    ``env`` (seeded ``reset`` and action space; resets when an episode ends, timed too)."""
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    ended = 0
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        _, _, term, trunc, _ = env.step(env.action_space.sample())
+        if term or trunc:
+            ended += 1
+            env.reset()
+    return time.perf_counter() - t0, ended
+
+
 def rollout_throughput(model_path: str | Path | None = None, *, samples: int = 256,
                        steps: int = 50, repeats: int = 3, threads: Sequence[int] = (1, 2),
                        seed: int = 0) -> dict:
@@ -247,7 +276,7 @@ def rollout_throughput(model_path: str | Path | None = None, *, samples: int = 2
     """
     from bvh.assets import humanoid_path
 
-    from .rollout import FULLPHYSICS, RolloutModel, RolloutRequest, RolloutRunner
+    from .rollout import RolloutModel, RolloutRequest, RolloutRunner
 
     samples, steps = _positive_int(samples, "samples"), _positive_int(steps, "steps")
     repeats = _positive_int(repeats, "repeats")
@@ -262,12 +291,7 @@ def rollout_throughput(model_path: str | Path | None = None, *, samples: int = 2
     data = mujoco.MjData(m)
 
     def loop() -> None:
-        for b in range(samples):
-            mujoco.mj_setState(m, data, s0, FULLPHYSICS)
-            data.qacc_warmstart[:] = 0.0
-            data.ctrl[:] = targets[b, 0]
-            for _ in range(steps):
-                mujoco.mj_step(m, data)
+        python_rollout_loop(m, data, s0, targets, steps)
 
     cases: list[tuple[str, int, Callable[[], object]]] = [("Python mj_step loop", 1, loop)]
     runners = []
@@ -335,16 +359,8 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
         rounds: dict[str, list[tuple[float, int]]] = {eid: [] for eid in env_ids}
         for r in range(repeats):
             for eid, env in made.items():
-                env.action_space.seed(seed + r)
-                env.reset(seed=seed + r)
-                ended = 0
-                t0 = time.perf_counter()
-                for _ in range(steps):
-                    _, _, term, trunc, _ = env.step(env.action_space.sample())
-                    if term or trunc:
-                        ended += 1
-                        env.reset()
-                rounds[eid].append((steps / (time.perf_counter() - t0), ended))
+                wall, ended = random_env_steps(env, steps, seed + r)
+                rounds[eid].append((steps / wall, ended))
         out = {}
         for eid, env in made.items():
             rates = sorted(rounds[eid])
