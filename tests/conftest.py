@@ -61,3 +61,12 @@ def executor():
 
     with LocalExecutor(threads=2) as ex:
         yield ex
+
+
+def run_command(argv: list[str]):
+    """Run an ``mjchar`` subcommand through the real parser, letting project errors propagate
+    (``controllers.cli.main`` would turn them into exit status 2)."""
+    from controllers.cli import build_parser
+
+    args = build_parser().parse_args(argv)
+    return args.func(args)

@@ -13,14 +13,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import shared_clip
+from conftest import run_command, shared_clip
 
 import bvh
 from bvh.assets import motion_path
 from bvh.errors import MjcharError
 from bvh.reference import ReferenceMotion
 from controllers.character import Character
-from controllers.commands import samcon as samcon_cmd
 from controllers.executors import LocalExecutor
 from controllers.rollout import RolloutRequest
 from controllers.samcon import (
@@ -228,20 +227,9 @@ def test_run_replay_hook(short_run, tmp_path, capsys):
 
 
 # -- the CLI ---------------------------------------------------------------------------------------
-def _cli(argv):
-    """Run ``mjchar samcon ...`` through its own parser, as controllers.cli does."""
-    from controllers.cli import _Parser
-
-    parser = _Parser(prog="mjchar")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    samcon_cmd.register(sub)
-    args = parser.parse_args(argv)
-    return args.func(args)
-
-
 def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
     out = tmp_path / "walk.npz"
-    assert _cli(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
+    assert run_command(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
                  "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
                  "--weight", "root=20", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
@@ -261,14 +249,14 @@ def test_cli_errors_are_one_line(tmp_path):
                    "\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0 0 0 0 0 0 0\n"
                    "0 0 0 0 0 0 0 0 0\n")
     with pytest.raises(MjcharError, match="cannot follow") as e:
-        _cli(["samcon", str(bad), "-o", str(tmp_path / "o.npz")])
+        run_command(["samcon", str(bad), "-o", str(tmp_path / "o.npz")])
     assert "\n" not in str(e.value)
     with pytest.raises((RayConnectionError, RayUnavailableError)) as e:
-        _cli(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "o.npz"),
+        run_command(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "o.npz"),
               "--executor", "ray", "--ray-address", "127.0.0.1:9"])
     assert "\n" not in str(e.value)
     with pytest.raises(MjcharError, match="does not exist"):
-        _cli(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "no" / "o.npz")])
+        run_command(["samcon", str(motion_path("walk")), "-o", str(tmp_path / "no" / "o.npz")])
 
 
 # -- the long reconstruction ---------------------------------------------------------------------

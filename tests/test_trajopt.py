@@ -12,14 +12,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import shared_clip
+from conftest import run_command, shared_clip
 
 import bvh
 from bvh.assets import humanoid_path, motion_path
 from bvh.errors import MjcharError
 from bvh.reference import ReferenceMotion
 from controllers.character import Character
-from controllers.commands import trajopt as trajopt_cmd
 from controllers.executors import LocalExecutor
 from controllers.rollout import RolloutRequest
 from controllers.samcon import tracking_rollout_model
@@ -152,19 +151,9 @@ def test_bad_options(walk_ref):
 
 
 # -- the CLI ---------------------------------------------------------------------------------------
-def _cli(argv):
-    from controllers.cli import _Parser
-
-    parser = _Parser(prog="mjchar")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    trajopt_cmd.register(sub)
-    args = parser.parse_args(argv)
-    return args.func(args)
-
-
 def test_cli_trajopt_tracks_and_saves(tmp_path, capsys):
     out = tmp_path / "t.npz"
-    assert _cli(["trajopt", str(motion_path("walk")), "-o", str(out), "--duration", "0.2",
+    assert run_command(["trajopt", str(motion_path("walk")), "-o", str(out), "--duration", "0.2",
                  "--window", "0.2", "--commit", "0.2", "--generations", "2", "--popsize", "6",
                  "--threads", "2", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
@@ -181,7 +170,7 @@ def test_cli_trajopt_tracks_and_saves(tmp_path, capsys):
 def test_cli_errors(argv, match, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(MjcharError, match=match) as e:
-        _cli(argv)
+        run_command(argv)
     assert "\n" not in str(e.value)
 
 
