@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 import envs  # noqa: E402, F401  (registers mjchar/...)
-from controllers.perf import random_env_steps  # noqa: E402
+from mjchar.perf import random_env_steps  # noqa: E402
 
 DOC = ROOT / "docs" / "envs.md"
 ENVS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
@@ -64,7 +64,7 @@ def model_data(env) -> tuple[mujoco.MjModel, mujoco.MjData]:
 
 def visited_states(env, steps: int, seed: int, every: int = 5) -> list:
     """Full physics states (``mjSTATE_INTEGRATION``) after every ``every``-th env step of the
-    same seeded random run as :func:`controllers.perf.random_env_steps` (not timed)."""
+    same seeded random run as :func:`mjchar.perf.random_env_steps` (not timed)."""
     m, d = model_data(env)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
     env.action_space.seed(seed)

@@ -1,4 +1,4 @@
-"""Benchmark IPM stepping (controllers/ipm.py) on the bundled humanoid, with no root force.
+"""Benchmark IPM stepping (controllers/walking/ipm.py) on the bundled humanoid, with no root force.
 
 Long versions of what tests/test_ipm.py checks quickly:
 
@@ -34,9 +34,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from controllers.character import Character  # noqa: E402
-from controllers.ipm import make_ipm  # noqa: E402
-from controllers.scenarios import make_controller, push, simulate, standing_pose  # noqa: E402
+from controllers.core.character import Character  # noqa: E402
+from controllers.core.registry import make_controller  # noqa: E402
+from controllers.core.scenarios import push, simulate, standing_pose  # noqa: E402
+from controllers.walking.ipm import make_ipm  # noqa: E402
 
 SECTIONS = ("walk", "stop", "turn", "push", "cost")
 DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)

@@ -8,8 +8,8 @@ Usage::
 
 1. **Stability envelope.** For kp in {300, 1000, 3000} (kd = kp/10, uniform on every actuated dof)
    and each PD variant (explicit ``pd``, stable ``spd``, ``native_pd``): the largest time step at
-   which :func:`controllers.scenarios.hold_pose` holds the bundled humanoid's standing pose with
-   the root welded (0.2 rad random initial error, 5 s), scanning 1/2000 s .. 1/30 s; a variant
+   which :func:`controllers.core.scenarios.hold_pose` holds the bundled humanoid's standing pose
+   with the root welded (0.2 rad random initial error, 5 s), scanning 1/2000 s .. 1/30 s; a variant
    that fails at 1/2000 s is scanned further down (to 1/8000 s). "Largest" means every step of
    the grid up to it holds. Torque limits are lifted (the default) so that the table is about
    integrating the PD law; ``--limits`` also measures with the model's torque limits.
@@ -33,8 +33,9 @@ sys.path.insert(0, str(ROOT))
 
 import mujoco  # noqa: E402
 
-from controllers import scenarios as S  # noqa: E402
-from controllers.character import Character  # noqa: E402
+from controllers.core import scenarios as S  # noqa: E402
+from controllers.core.character import Character  # noqa: E402
+from controllers.core.registry import make_controller  # noqa: E402
 
 DOC = ROOT / "docs" / "controllers.md"
 KPS = (300.0, 1000.0, 3000.0)
@@ -120,16 +121,16 @@ def step_cost(character: Character, n: int, repeats: int, log) -> dict:
     raw_model.opt.timestep = character.timestep
     raw_data = mujoco.MjData(raw_model)
     cases = {
-        "native_pd": (lambda: S.make_controller("native_pd", character, pose), False, None),
+        "native_pd": (lambda: make_controller("native_pd", character, pose), False, None),
         "native_pd, control every 1/60 s": (
-            lambda: S.make_controller("native_pd", character, pose), False, 1 / 60),
-        "pd": (lambda: S.make_controller("pd", character, pose), False, None),
-        "spd": (lambda: S.make_controller("spd", character, pose), False, None),
-        "hand_of_god (spd)": (lambda: S.make_controller("hand_of_god", character, pose), False,
+            lambda: make_controller("native_pd", character, pose), False, 1 / 60),
+        "pd": (lambda: make_controller("pd", character, pose), False, None),
+        "spd": (lambda: make_controller("spd", character, pose), False, None),
+        "hand_of_god (spd)": (lambda: make_controller("hand_of_god", character, pose), False,
                               None),
-        "spd tracking the bundled walk": (lambda: S.make_controller("spd", character, ref),
+        "spd tracking the bundled walk": (lambda: make_controller("spd", character, ref),
                                           True, None),
-        "static_balance": (lambda: S.make_controller("static_balance", character, pose), False,
+        "static_balance": (lambda: make_controller("static_balance", character, pose), False,
                            None),
     }
     clock = time.process_time

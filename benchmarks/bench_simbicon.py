@@ -27,14 +27,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from controllers.character import Character  # noqa: E402
-from controllers.simbicon import DEFAULT_TIMESTEP, make_simbicon  # noqa: E402
-from controllers.terrain import (  # noqa: E402
+from controllers.core.character import Character  # noqa: E402
+from controllers.core.terrain import (  # noqa: E402
     phase_push_test,
     push_search,
     slope_walk,
     walk,
 )
+from controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon  # noqa: E402
 
 PARTS = ("walk", "feedback-off", "pushes", "search", "slopes", "timing")
 SEEDS = (0, 1, 2, 3, 4)

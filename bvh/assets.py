@@ -1,4 +1,4 @@
-"""The bundled assets: the default humanoid model and its motions.
+"""The bundled assets: the default humanoid model, its motions and saved trajectories.
 
 ``assets/mjcf/humanoid.xml`` is the converter's output for the project-authored skeleton
 (:mod:`bvh.humanoid_skeleton`) at the default options; ``assets/motions/<name>.bvh`` are motions
@@ -22,6 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT / "assets"
 HUMANOID_XML = ASSETS / "mjcf" / "humanoid.xml"
 MOTIONS = ASSETS / "motions"
+#: saved SAMCON / CMA-ES trajectories of the bundled humanoid (``mjchar run samcon_replay``)
+TRAJECTORIES = ASSETS / "trajectories"
 
 #: options the bundled humanoid is converted with
 HUMANOID_OPTIONS = {"total_mass": 70.0, "joint_model": "hinge", "model_name": "humanoid"}

@@ -1,8 +1,8 @@
 """Shared pieces of the mjchar Gymnasium environments.
 
 Both environments (:mod:`envs.imitation`, :mod:`envs.stand`) drive one
-:class:`~controllers.character.Character` with MuJoCo's native PD (``<position>`` actuators,
-:class:`~controllers.pd.NativePDController`); the policy's action is an offset added to the PD
+:class:`~controllers.core.character.Character` with MuJoCo's native PD (``<position>`` actuators,
+:class:`~controllers.core.pd.NativePDController`); the policy's action is an offset added to the PD
 set-points the controller computes. This module holds what they share:
 
 - :class:`BodyObserver`: DeepMimic-style body features in the character's *heading frame* (the
@@ -10,9 +10,9 @@ set-points the controller computes. This module holds what they share:
   6-D tangent-normal rotations, linear and angular velocities.
 - :class:`CharacterEnv`: the ``gymnasium.Env`` skeleton: control timing (several physics steps per
   action), the normalised action box and its per-joint scale, seeding through ``np_random`` only,
-  fall detection (:class:`~controllers.metrics.FallDetector`), metrics
-  (:class:`~controllers.metrics.Recorder`), clean handling of a
-  :class:`~controllers.character.SimulationDiverged`, and rendering (``"rgb_array"`` with a
+  fall detection (:class:`~controllers.core.metrics.FallDetector`), metrics
+  (:class:`~controllers.core.metrics.Recorder`), clean handling of a
+  :class:`~controllers.core.character.SimulationDiverged`, and rendering (``"rgb_array"`` with a
   headless ``mujoco.Renderer``, ``"human"`` with ``mujoco.viewer``).
 
 Subclasses provide the start state, the PD controller and the reward.
@@ -35,9 +35,9 @@ import numpy as np  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
 from bvh.errors import MjcharError  # noqa: E402
-from controllers.base import Action  # noqa: E402
-from controllers.character import Character, SimulationDiverged  # noqa: E402
-from controllers.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
+from controllers.core.base import Action  # noqa: E402
+from controllers.core.character import Character, SimulationDiverged  # noqa: E402
+from controllers.core.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
 
 __all__ = [
     "EnvError",
@@ -440,7 +440,7 @@ class CharacterEnv(gym.Env):
         return x.astype(np.float32)
 
     def _info(self) -> dict:
-        """Metrics named like :class:`controllers.metrics.Result`'s fields, plus extras."""
+        """Metrics named like :class:`controllers.core.metrics.Result`'s fields, plus extras."""
         ch = self.character
         rec = self._recorder
         # Recorder.aggregates() rebuilds arrays over the whole episode; its two fields needed

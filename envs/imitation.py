@@ -1,7 +1,7 @@
 """``mjchar/Imitation-v0``: imitate a reference motion (DeepMimic, Peng et al. 2018).
 
 The policy acts at ``control_freq`` (30 Hz) on MuJoCo's native PD: the set-points are the
-reference pose sampled by :class:`~controllers.pd.NativePDController` (``u = q_bar + (kd/kp)
+reference pose sampled by :class:`~controllers.core.pd.NativePDController` (``u = q_bar + (kd/kp)
 qdot_bar``, with the reference taken at the *end* of the step, where the character should be when
 the next action comes) plus the action times a per-joint scale (see
 :class:`~envs.common.CharacterEnv`). A zero action is therefore plain PD tracking.
@@ -45,8 +45,8 @@ import numpy as np
 import bvh
 from bvh.assets import motion_path
 from bvh.reference import ReferenceMotion
-from controllers.base import ReferenceTarget
-from controllers.pd import NativePDController
+from controllers.core.base import ReferenceTarget
+from controllers.core.pd import NativePDController
 
 from .common import OBS_POSITION_LIMIT, CharacterEnv, EnvError, heading_rotation, merge_terms
 
@@ -66,7 +66,7 @@ class _EpisodeReference:
     ``qpos(t)``/``qvel(t)`` look such times up in tables filled :data:`CHUNK` steps at a time by
     one vectorised :class:`ReferenceMotion` call each (a scalar call costs about as much as a
     chunk's row); any other time is sampled directly. It has what
-    :class:`~controllers.base.ReferenceTarget` needs (``qpos``, ``qvel``, ``duration``,
+    :class:`~controllers.core.base.ReferenceTarget` needs (``qpos``, ``qvel``, ``duration``,
     ``model``).
     """
 

@@ -1,12 +1,12 @@
 """``mjchar/Stand-v0``: stand, and recover from random pushes.
 
 The policy acts at ``control_freq`` (30 Hz) on MuJoCo's native PD: the set-points are the
-standing pose (:func:`controllers.scenarios.standing_pose`, held by
-:class:`~controllers.pd.NativePDController`) plus the action times a per-joint scale (see
+standing pose (:func:`controllers.core.scenarios.standing_pose`, held by
+:class:`~controllers.core.pd.NativePDController`) plus the action times a per-joint scale (see
 :class:`~envs.common.CharacterEnv`). A zero action is plain PD holding the pose.
 
 Pushes: horizontal forces on ``push_body`` (default the pelvis), applied through
-:meth:`Character.push <controllers.character.Character.push>`. The first comes after a random
+:meth:`Character.push <controllers.core.character.Character.push>`. The first comes after a random
 interval, then one after each further interval; magnitude, duration and interval are drawn
 uniformly from their ranges, the direction uniformly from ``push_directions`` (degrees in the
 character's heading frame at the push: 0 forward, 90 left) or from the whole circle. All draws
@@ -32,8 +32,8 @@ import math
 
 import numpy as np
 
-from controllers.pd import NativePDController
-from controllers.scenarios import heading_frame_direction, standing_pose
+from controllers.core.pd import NativePDController
+from controllers.core.scenarios import heading_frame_direction, standing_pose
 
 from .common import CharacterEnv, EnvError, as_range, merge_terms
 

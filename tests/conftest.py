@@ -39,7 +39,7 @@ def walk60() -> Path:
 @pytest.fixture(scope="module")
 def character():
     """The bundled humanoid (a module's tests share it; modules may define their own)."""
-    from controllers.character import Character
+    from controllers.core.character import Character
 
     return Character()
 
@@ -57,7 +57,7 @@ def walk_ref(character):
 @pytest.fixture(scope="module")
 def executor():
     """A two-thread local rollout executor."""
-    from controllers.executors import LocalExecutor
+    from controllers.sampling.executors import LocalExecutor
 
     with LocalExecutor(threads=2) as ex:
         yield ex
@@ -65,8 +65,8 @@ def executor():
 
 def run_command(argv: list[str]):
     """Run an ``mjchar`` subcommand through the real parser, letting project errors propagate
-    (``controllers.cli.main`` would turn them into exit status 2)."""
-    from controllers.cli import build_parser
+    (``mjchar.cli.main`` would turn them into exit status 2)."""
+    from mjchar.cli import build_parser
 
     args = build_parser().parse_args(argv)
     return args.func(args)

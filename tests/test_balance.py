@@ -8,10 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers import scenarios as S
-from controllers.base import Action
-from controllers.character import Character
-from controllers.static_balance import StaticBalance, squat_profile
+from controllers.balance.static_balance import StaticBalance, squat_profile
+from controllers.core import scenarios as S
+from controllers.core.base import Action
+from controllers.core.character import Character
+from controllers.core.registry import make_controller
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +65,7 @@ def test_survives_50N_pelvis_push_without_a_step(ch, direction):
 
 def test_virtual_force_beats_the_pose_pd_alone(ch):
     """A backward push the PD pose alone cannot take, which the static balance survives."""
-    pd_only = S.push(ch, S.make_controller("spd", ch), force=60.0,
+    pd_only = S.push(ch, make_controller("spd", ch), force=60.0,
                      direction=S.DIRECTIONS["backward"])
     balance = S.push(ch, StaticBalance(), force=60.0, direction=S.DIRECTIONS["backward"])
     assert pd_only.fell or pd_only.stepped

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from controllers.bench import TRAJECTORY_DIR, find_trajectories
-from controllers.trajectory import load_trajectory, replay
+from bvh.assets import TRAJECTORIES as TRAJECTORY_DIR
+from controllers.sampling.trajectory import load_trajectory, replay
+from mjchar.bench import find_trajectories
 
 
 def test_the_bench_finds_one_trajectory_per_replay_row():

@@ -10,8 +10,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.base import Action
-from controllers.character import (
+from controllers.core.base import Action
+from controllers.core.character import (
     Character,
     CharacterError,
     SimulationDiverged,

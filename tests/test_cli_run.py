@@ -12,16 +12,14 @@ from pathlib import Path
 import pytest
 from conftest import shared_clip
 
-from controllers import scenarios as S
-from controllers.cli import main
-from controllers.commands import run as run_cmd
+from mjchar.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def mjchar(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, "-m", "controllers.cli", *args], cwd=ROOT, env=env,
+    return subprocess.run([sys.executable, "-m", "mjchar", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=timeout)
 
 
@@ -96,10 +94,21 @@ def test_frame_floor_places_every_frame_of_the_reference(capsys):
     assert max(r["tracking_error_m"] for r in runs.values()) < 0.05
 
 
-def test_names_match_the_scenarios_module():
-    # the run command offers every scenario controller, the walkers, and replay of saved files
-    assert set(run_cmd.CONTROLLERS) == set(S.CONTROLLERS) | set(run_cmd.WALKERS) | {"replay"}
-    assert run_cmd.SCENARIOS == S.SCENARIOS
+def test_run_offers_every_registered_controller_and_scenario(capsys):
+    from controllers.core import registry
+
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = capsys.readouterr().out
+    for name in registry.names():
+        assert name in text
+    for scenario in registry.SCENARIOS:
+        assert scenario in text
+
+
+def test_run_refuses_a_scenario_the_controller_does_not_support():
+    assert main(["run", "simbicon", "--scenario", "track"]) == 2
+    assert main(["run", "static_balance", "--scenario", "walk"]) == 2
 
 
 def test_render_writes_an_mp4(tmp_path):

@@ -17,7 +17,7 @@ from bvh.mjcf import ConversionError, ConvertedModel, ModelInfo, convert
 from bvh.rotations import from_rotation, quat_conj, quat_mul, to_rotation
 from bvh.skeleton import Skeleton
 from bvh.units import transform_motion
-from controllers.cli import main as cli_main
+from mjchar.cli import main as cli_main
 
 
 # ------------------------------------------------------------------------------------------------

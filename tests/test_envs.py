@@ -17,12 +17,12 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.utils.passive_env_checker import env_render_passive_checker
 
 import envs
-from controllers.metrics import Result
+from controllers.core.metrics import Result
 from envs.common import EnvError, display_available
 
 IDS = list(envs.ENV_IDS)
 IMITATION, STAND = "mjchar/Imitation-v0", "mjchar/Stand-v0"
-#: info keys that name a scenario metric (controllers.metrics.Result field)
+#: info keys that name a scenario metric (controllers.core.metrics.Result field)
 RESULT_KEYS = {"sim_time_s", "fell", "fall_time_s", "fall_reason", "diverged", "distance_m",
                "mean_speed_mps", "foot_travel_m", "stepped", "n_steps", "timestep_s",
                "control_dt_s"}

@@ -1,5 +1,5 @@
-"""Executors (controllers.executors): local threads and Ray give the same results as a direct
-rollout; bad names, options and Ray addresses raise project errors instead of hanging."""
+"""Executors (controllers.sampling.executors): local threads and Ray give the same results as a
+direct rollout; bad names, options and Ray addresses raise project errors instead of hanging."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import pytest
 
 from bvh.assets import humanoid_path
 from bvh.errors import MjcharError
-from controllers.executors import (
+from controllers.sampling.executors import (
     ExecutorError,
     LocalExecutor,
     RayConnectionError,
@@ -24,7 +24,7 @@ from controllers.executors import (
     executor_from_args,
     make_executor,
 )
-from controllers.rollout import RolloutModel, RolloutRequest, rollout
+from controllers.sampling.rollout import RolloutModel, RolloutRequest, rollout
 
 ROOT = Path(__file__).resolve().parents[1]
 FIELDS = ("states", "com", "com_vel", "sites", "contacts", "ok", "failed_step")
@@ -121,7 +121,7 @@ def test_silent_ray_address_times_out():
     pytest.importorskip("ray", reason="ray is not installed (pip install 'mjchar[ray]')")
     script = textwrap.dedent("""
         import os, socket, sys
-        from controllers.executors import RayConnectionError, make_executor
+        from controllers.sampling.executors import RayConnectionError, make_executor
         server = socket.socket()
         server.bind(("127.0.0.1", 0))
         server.listen()

@@ -1,4 +1,5 @@
-"""IPM stepping (controllers/ipm.py, controllers/swing.py) on the bundled humanoid, no root force.
+"""IPM stepping (controllers/walking/ipm.py, controllers/walking/swing.py) on the bundled humanoid,
+no root force.
 
 Fast tests (default run): the formulas and helpers, 10 s walks at 0.5 and 1.0 m/s, stopping,
 turning by 90 degrees, one 150 N push per direction, and a push that static balance cannot
@@ -13,10 +14,11 @@ import math
 import numpy as np
 import pytest
 
-from controllers.character import Character
-from controllers.ipm import IPMController, IPMError, IPMParams, ipm_step_offset, make_ipm
-from controllers.scenarios import make_controller, push, simulate, standing_pose, survived
-from controllers.swing import SwingError, SwingTrajectory, rotation_about, two_link_ik
+from controllers.core.character import Character
+from controllers.core.registry import make_controller
+from controllers.core.scenarios import push, simulate, standing_pose, survived
+from controllers.walking.ipm import IPMController, IPMError, IPMParams, ipm_step_offset, make_ipm
+from controllers.walking.swing import SwingError, SwingTrajectory, rotation_about, two_link_ik
 
 
 @pytest.fixture(scope="module")

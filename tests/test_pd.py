@@ -11,11 +11,12 @@ from conftest import shared_clip
 
 import bvh
 from bvh.reference import ReferenceMotion
-from controllers import scenarios as S
-from controllers.base import Action, ControllerError, Gains, PoseTarget, joint_error
-from controllers.character import Character
-from controllers.hand_of_god import HandOfGod
-from controllers.pd import NativePDController, PDController, StablePDController
+from controllers.balance.hand_of_god import HandOfGod
+from controllers.core import scenarios as S
+from controllers.core.base import Action, ControllerError, Gains, PoseTarget, joint_error
+from controllers.core.character import Character
+from controllers.core.pd import NativePDController, PDController, StablePDController
+from controllers.core.registry import make_controller
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +158,7 @@ def test_explicit_pd_needs_a_step_at_least_8x_smaller(ch):
 
 
 def test_hand_of_god_tracks_walk60_over_the_whole_clip(ch, walk60_ref):
-    c = S.make_controller("hand_of_god", ch, walk60_ref)
+    c = make_controller("hand_of_god", ch, walk60_ref)
     r = S.track(ch, c, walk60_ref)
     assert not r.fell
     assert r.sim_time_s == pytest.approx(walk60_ref.duration, abs=0.01)
@@ -176,6 +177,6 @@ def test_hand_of_god_with_native_pd_also_tracks(ch, walk60_ref):
 
 @pytest.mark.parametrize("controller", ["spd", "native_pd"])
 def test_pure_pd_tracking_of_walk60_falls(ch, walk60_ref, controller):
-    r = S.track(ch, S.make_controller(controller, ch, walk60_ref), walk60_ref)
+    r = S.track(ch, make_controller(controller, ch, walk60_ref), walk60_ref)
     assert r.fell and r.fall_time_s < walk60_ref.duration
     assert r.root_force_mean_N == 0.0

@@ -1,5 +1,5 @@
-"""Batched rollouts (controllers.rollout) on the bundled humanoid: determinism, equality with a
-plain mj_step loop, cost quantities, contacts, divergence reporting, input validation."""
+"""Batched rollouts (controllers.sampling.rollout) on the bundled humanoid: determinism, equality
+with a plain mj_step loop, cost quantities, contacts, divergence reporting, input validation."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from bvh.assets import humanoid_path
 from bvh.errors import MjcharError
-from controllers.rollout import (
+from controllers.sampling.rollout import (
     RolloutError,
     RolloutModel,
     RolloutRequest,

@@ -7,7 +7,6 @@ benchmark ``benchmarks/bench_samcon.py`` reports its numbers.
 
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 
@@ -19,10 +18,11 @@ import bvh
 from bvh.assets import motion_path
 from bvh.errors import MjcharError
 from bvh.reference import ReferenceMotion
-from controllers.character import Character
-from controllers.executors import LocalExecutor
-from controllers.rollout import RolloutRequest
-from controllers.samcon import (
+from controllers.core.character import Character
+from controllers.core.scenarios import simulate
+from controllers.sampling.executors import LocalExecutor
+from controllers.sampling.rollout import RolloutRequest
+from controllers.sampling.samcon import (
     CostWeights,
     Samcon,
     SamconError,
@@ -32,14 +32,12 @@ from controllers.samcon import (
     select_diverse,
     slice_layout,
 )
-from controllers.scenarios import simulate
-from controllers.trajectory import (
+from controllers.sampling.trajectory import (
     ReplayController,
     Trajectory,
     TrajectoryError,
     load_trajectory,
     replay,
-    run_replay,
 )
 
 
@@ -87,7 +85,9 @@ def test_slice_layout_covers_the_clip():
 def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):
     """Static inverse dynamics adds the gravity compensation plain PD lacks: held open loop
     (no root force), the joints stay much closer to the pose (arms out in the T-pose sag)."""
-    from controllers.trajopt import standing_targets  # inverse dynamics of the standing pose
+    from controllers.sampling.trajopt import (
+        standing_targets,  # inverse dynamics of the standing pose
+    )
 
     q, u_id = standing_targets(character)
     u_raw = q[character.actuator_qpos]
@@ -106,7 +106,7 @@ def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(ch
 
 def test_cost_is_zero_on_the_reference_and_grows_with_error(character, walk_ref):
     from bvh.assets import humanoid_path
-    from controllers.samcon import reference_features, tracking_rollout_model
+    from controllers.sampling.samcon import reference_features, tracking_rollout_model
 
     rm = tracking_rollout_model(humanoid_path(), character)
     feats = reference_features(rm, walk_ref, [0.3])
@@ -214,16 +214,15 @@ def test_trajectory_for_another_model_or_time_step_is_refused(short_run):
         ReplayController(res.trajectory).reset(ch)
 
 
-def test_run_replay_hook(short_run, tmp_path, capsys):
+def test_cli_run_replay_plays_a_saved_trajectory(short_run, tmp_path, capsys):
     _, res = short_run
     path = res.trajectory.save(tmp_path / "t.npz")
-    args = argparse.Namespace(trajectory=str(path), model=None, duration=None, json=True,
-                              render=None, fps=30.0)
-    assert run_replay(args) == 0
+    assert run_command(["run", "replay", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["controller"] == "replay" and out["fell"] is False
-    with pytest.raises(TrajectoryError, match="needs a trajectory file"):
-        run_replay(argparse.Namespace(trajectory=None))
+    assert out["trajectory"] == str(path)
+    with pytest.raises(MjcharError, match="needs the trajectory file"):
+        run_command(["run", "replay"])
 
 
 # -- the CLI ---------------------------------------------------------------------------------------
@@ -240,7 +239,7 @@ def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
 
 
 def test_cli_errors_are_one_line(tmp_path):
-    from controllers.executors import RayConnectionError, RayUnavailableError
+    from controllers.sampling.executors import RayConnectionError, RayUnavailableError
 
     bad = tmp_path / "tiny.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition "
@@ -264,7 +263,7 @@ def test_cli_errors_are_one_line(tmp_path):
 def test_samcon_reconstructs_walk60(character):
     """walk60 (~3 s) with no root force: the open-loop replay never falls, tracks within 5 cm
     and ends within 15 cm of the clip's root (minutes; see benchmarks/bench_samcon.py)."""
-    from controllers.samcon import RECONSTRUCTION_OPTIONS
+    from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS
 
     path = shared_clip("walk60.bvh")
     ref = ReferenceMotion(character.model, bvh.load(path), info=character.info)

@@ -12,10 +12,11 @@ from conftest import shared_clip
 
 import bvh
 from bvh.reference import ReferenceMotion
-from controllers import scenarios as S
-from controllers.base import Action
-from controllers.character import Character
-from controllers.metrics import FallDetector, Result
+from controllers.core import scenarios as S
+from controllers.core.base import Action
+from controllers.core.character import Character
+from controllers.core.metrics import FallDetector, Result
+from controllers.core.registry import RegistryError, default_timestep, make_controller
 
 
 @pytest.fixture(scope="module")
@@ -70,11 +71,11 @@ def test_fall_detector_threshold(ch):
 
 
 def test_random_push_is_deterministic_per_seed(ch):
-    a = S.random_push(ch, S.make_controller("static_balance", ch), seed=3, duration=2.0)
+    a = S.random_push(ch, make_controller("static_balance", ch), seed=3, duration=2.0)
     pushes_a = list(ch.pushes)
-    b = S.random_push(ch, S.make_controller("static_balance", ch), seed=3, duration=2.0)
+    b = S.random_push(ch, make_controller("static_balance", ch), seed=3, duration=2.0)
     pushes_b = list(ch.pushes)
-    S.random_push(ch, S.make_controller("static_balance", ch), seed=4, duration=2.0)
+    S.random_push(ch, make_controller("static_balance", ch), seed=4, duration=2.0)
     pushes_c = list(ch.pushes)
     assert pushes_a == pushes_b and pushes_a != pushes_c
     assert a.distance_m == b.distance_m and a.foot_travel_m == b.foot_travel_m
@@ -126,19 +127,19 @@ def test_result_to_dict_is_json_with_nulls_for_nan():
 
 def test_push_scenario_validates_its_input(ch):
     with pytest.raises(S.ScenarioError):
-        S.push(ch, S.make_controller("spd", ch), force=-1.0)
+        S.push(ch, make_controller("spd", ch), force=-1.0)
     with pytest.raises(S.ScenarioError):
-        S.push(ch, S.make_controller("spd", ch), force=10.0, push_time=3.9, duration=4.0)
+        S.push(ch, make_controller("spd", ch), force=10.0, push_time=3.9, duration=4.0)
+    with pytest.raises(RegistryError, match="unknown controller 'nope'; choose from pd, spd"):
+        make_controller("nope", ch)
     with pytest.raises(S.ScenarioError):
-        S.make_controller("nope", ch)
-    with pytest.raises(S.ScenarioError):
-        S.run_scenario("dance", ch, S.make_controller("spd", ch))
+        S.run_scenario("dance", ch, make_controller("spd", ch))
     with pytest.raises(S.ScenarioError, match="reference"):
-        S.track(ch, S.make_controller("spd", ch), None)
+        S.track(ch, make_controller("spd", ch), None)
 
 
 def test_push_is_applied_in_the_heading_frame(ch):
-    r = S.push(ch, S.make_controller("static_balance", ch), force=40.0, direction=90.0,
+    r = S.push(ch, make_controller("static_balance", ch), force=40.0, direction=90.0,
                duration=1.5)
     (p,) = ch.pushes
     np.testing.assert_allclose(np.array(p.force) / 40.0, [0, 1, 0], atol=0.05)  # left is +y
@@ -147,14 +148,14 @@ def test_push_is_applied_in_the_heading_frame(ch):
 
 def test_walk_reports_distance_and_speed(ch):
     ref = ReferenceMotion(ch.model, bvh.load(shared_clip("walk60.bvh")))
-    r = S.walk(ch, S.make_controller("hand_of_god", ch, ref), ref)
+    r = S.walk(ch, make_controller("hand_of_god", ch, ref), ref)
     assert r.scenario == "walk" and not r.fell
     assert r.distance_m > 3.0 and 1.0 < r.mean_speed_mps < 1.4  # the clip walks ~1.2 m/s
     assert r.tracking_error_m is not None
 
 
 def test_control_dt_holds_actions_over_substeps(ch):
-    r = S.stand(ch, S.make_controller("native_pd", ch, S.standing_pose(ch)), duration=1.0,
+    r = S.stand(ch, make_controller("native_pd", ch, S.standing_pose(ch)), duration=1.0,
                 control_dt=0.01)
     assert not r.fell and r.control_dt_s == pytest.approx(0.01) and r.n_steps == 500
 
@@ -166,17 +167,17 @@ def test_hold_pose_rejects_non_pd(ch):
 
 def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
     ch = Character()
-    ipm = S.make_controller("ipm", ch, speed=0.7, heading=0.5)
+    ipm = make_controller("ipm", ch, speed=0.7, heading=0.5)
     assert ipm.name == "ipm" and ipm.speed(3.0) == 0.7
-    sim = S.make_controller("simbicon", ch, gait="crouch")
+    sim = make_controller("simbicon", ch, gait="crouch")
     assert sim.name == "simbicon" and sim.gait.name == "crouch"
-    from controllers.simbicon import DEFAULT_TIMESTEP
+    from controllers.walking.simbicon import DEFAULT_TIMESTEP
 
-    assert S.default_timestep("simbicon") == DEFAULT_TIMESTEP
-    assert S.default_timestep("pd") == S.DEFAULT_TIMESTEP["pd"]
-    assert S.default_timestep("ipm") is None
-    with pytest.raises(S.ScenarioError, match="simbicon, ipm"):
-        S.make_controller("walker", ch)
+    assert default_timestep("simbicon") == DEFAULT_TIMESTEP
+    assert default_timestep("pd") == 1 / 2000
+    assert default_timestep("ipm") is None
+    with pytest.raises(RegistryError, match="simbicon, ipm"):
+        make_controller("walker", ch)
 
 
 def test_largest_passing_bisects_to_the_tolerance():

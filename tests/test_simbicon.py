@@ -13,10 +13,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.character import Character
-from controllers.gaits import GAITS, Gait, GaitError, get_gait
-from controllers.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
-from controllers.terrain import (
+from controllers.core.character import Character
+from controllers.core.terrain import (
     TerrainError,
     floor_height,
     phase_push_test,
@@ -27,6 +25,8 @@ from controllers.terrain import (
     tilt_floor,
     walk,
 )
+from controllers.walking.gaits import GAITS, Gait, GaitError, get_gait
+from controllers.walking.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
 
 SPEED_RANGE = (0.7, 1.5)
 PUSHES = {

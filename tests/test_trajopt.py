@@ -18,12 +18,12 @@ import bvh
 from bvh.assets import humanoid_path, motion_path
 from bvh.errors import MjcharError
 from bvh.reference import ReferenceMotion
-from controllers.character import Character
-from controllers.executors import LocalExecutor
-from controllers.rollout import RolloutRequest
-from controllers.samcon import tracking_rollout_model
-from controllers.trajectory import replay
-from controllers.trajopt import (
+from controllers.core.character import Character
+from controllers.sampling.executors import LocalExecutor
+from controllers.sampling.rollout import RolloutRequest
+from controllers.sampling.samcon import tracking_rollout_model
+from controllers.sampling.trajectory import replay
+from controllers.sampling.trajopt import (
     JumpObjective,
     KnotSpline,
     TrajoptError,
@@ -54,7 +54,7 @@ def test_knot_spline_interpolates_linearly_between_knots():
 
 
 def test_windows_overlap_and_commit_everything(character, walk_ref, executor):
-    from controllers.trajopt import TrackingObjective, TrajectoryOptimizer
+    from controllers.sampling.trajopt import TrackingObjective, TrajectoryOptimizer
 
     rm = tracking_rollout_model(humanoid_path(), character)
     o = TrajoptOptions(window=0.5, commit=0.2)
@@ -85,7 +85,7 @@ def test_short_tracking_improves_on_the_start_and_replays(walk_ref, executor):
 
 
 def _base_targets(ref, duration):
-    from controllers.samcon import inverse_dynamics_targets
+    from controllers.sampling.samcon import inverse_dynamics_targets
 
     ch = Character()
     t = (np.arange(int(round(duration / 0.02))) + 0.5) * 0.02
@@ -188,7 +188,7 @@ def test_cmaes_halves_the_tracking_cost_of_plain_pd_on_walk60(character):
 
 @pytest.mark.slow
 def test_jump_leaves_the_ground_by_10cm_and_lands_standing():
-    from controllers.trajopt import JUMP_OPTIONS
+    from controllers.sampling.trajopt import JUMP_OPTIONS
 
     res = optimise_jump(options=TrajoptOptions(**JUMP_OPTIONS), progress=False)
     tr = res.trajectory

@@ -1,0 +1,35 @@
+"""The core of the dynamic layer, shared by every controller.
+
+- :mod:`~controllers.core.character`: :class:`Character`, one converted humanoid behind named
+  access (state, centre of mass, contacts, pushes, stepping); :mod:`~controllers.core.geometry`:
+  planar support-polygon helpers.
+- :mod:`~controllers.core.action` and :mod:`~controllers.core.base`: :class:`Action`, the
+  ``Controller`` protocol, :class:`Gains`, PD targets.
+- :mod:`~controllers.core.registry`: :class:`ControllerSpec`, :func:`register`,
+  :func:`make_controller`.
+- :mod:`~controllers.core.pd`: explicit, stable and native PD (registered as ``pd``, ``spd``,
+  ``native_pd``).
+- :mod:`~controllers.core.scenarios` (stand, push, push-search, random-push, track, walk),
+  :mod:`~controllers.core.terrain` (level and sloped walks, pushes at stride phases),
+  :mod:`~controllers.core.metrics` (:class:`Result`, fall detection, recording).
+"""
+
+from . import pd as pd  # registers pd, spd, native_pd
+from .action import Action
+from .base import Controller, ControllerError, Gains, PoseTarget, ReferenceTarget, joint_error
+from .character import Character, CharacterError, SimulationDiverged
+from .metrics import Result
+from .pd import NativePDController, PDController, StablePDController
+from .registry import (
+    ControllerSpec,
+    RegistryError,
+    default_timestep,
+    make_controller,
+    register,
+)
+
+__all__ = ["Action", "Character", "CharacterError", "Controller", "ControllerError",
+           "ControllerSpec", "Gains", "NativePDController", "PDController", "PoseTarget",
+           "ReferenceTarget", "RegistryError", "Result", "SimulationDiverged",
+           "StablePDController", "default_timestep", "joint_error", "make_controller",
+           "register"]

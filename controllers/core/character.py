@@ -1,0 +1,991 @@
+"""The simulated :class:`Character`: one converted humanoid (MjModel + MjData) behind named access.
+
+Everything in :mod:`controllers` talks to MuJoCo through this class: controllers read the state
+(joint angles, centre of mass, contacts, mass matrix, Jacobians) and hand back an
+:class:`~controllers.core.action.Action`; the Character turns it into actuator controls and applied
+forces, steps the physics, applies scheduled pushes and watches for divergence.
+
+It relies on the converted-model contract (``docs/model-contract.md``): bodies named like the BVH
+joints, a free joint ``root``, one actuator per actuated dof, the ``mjchar`` metadata (joint map
+and roles), the ``floor`` plane, foot boxes and the inactive ``root_weld`` equality.
+
+Stepping uses MuJoCo's split step: after every :meth:`Character.step` (and after
+:meth:`Character.reset` / :meth:`Character.set_state`) ``mj_step1`` has run on the current state,
+so position- and velocity-dependent quantities (body poses, centre of mass, contacts, mass matrix,
+bias forces) describe *now*; the next :meth:`Character.step` applies the controls and finishes
+the step with ``mj_step2``. That costs the same as ``mj_step`` and is exact for the Euler and
+implicit integrators.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from bvh.errors import MjcharError
+
+from .action import Action
+
+_GEOM_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+_GEOM_SPHERE = int(mujoco.mjtGeom.mjGEOM_SPHERE)
+_GEOM_CAPSULE = int(mujoco.mjtGeom.mjGEOM_CAPSULE)
+_GEOM_BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
+_JNT_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+_JNT_BALL = int(mujoco.mjtJoint.mjJNT_BALL)
+_JNT_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
+_JNT_SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)
+_BAD_STATE_WARNINGS = (
+    int(mujoco.mjtWarning.mjWARN_BADCTRL),
+    int(mujoco.mjtWarning.mjWARN_BADQPOS),
+    int(mujoco.mjtWarning.mjWARN_BADQVEL),
+    int(mujoco.mjtWarning.mjWARN_BADQACC),
+)
+#: actuation modes of :meth:`Character.set_actuation`
+ACTUATION_MODES = ("native", "torque")
+
+
+class CharacterError(MjcharError):
+    """A Character was asked for something the model does not have (unknown joint, bad shape)."""
+
+
+class SimulationDiverged(MjcharError):
+    """The simulation blew up: NaN or exploding velocities (or MuJoCo reset a bad state).
+
+    Scenarios catch it and report a failure; it never escapes as a crash or a silent NaN.
+
+    Attributes:
+        time: simulated time (s) at which the divergence was detected.
+        reason: what was detected.
+    """
+
+    def __init__(self, reason: str, time: float):
+        self.reason = reason
+        self.time = float(time)
+        super().__init__(f"simulation diverged at t={time:.4f} s: {reason}")
+
+
+@dataclass(frozen=True)
+class Push:
+    """A horizontal (or any) force on one body for a time window.
+
+    Attributes:
+        body: body name (a BVH joint name for converted models).
+        force: ``(3,)`` world-frame force in N, applied at the body's centre of mass.
+        start: simulated time (s) the push begins.
+        duration: seconds it lasts.
+    """
+
+    body: str
+    force: tuple[float, float, float]
+    start: float
+    duration: float
+
+    @property
+    def end(self) -> float:
+        """Simulated time (s) the push ends."""
+        return self.start + self.duration
+
+
+@dataclass(frozen=True)
+class GroundContact:
+    """One contact between the floor and a character geom.
+
+    Attributes:
+        body: name of the character body touching the floor.
+        position: ``(3,)`` world contact point (m).
+        distance: penetration distance (m, negative when penetrating).
+    """
+
+    body: str
+    position: np.ndarray
+    distance: float
+
+
+def model_info(model: mujoco.MjModel):
+    """The converter's ``ModelInfo`` for ``model`` (joint map and roles), read from the
+    ``mjchar`` metadata with ``bvh.mjcf.ModelInfo.from_model``."""
+    from bvh.mjcf import ModelInfo
+
+    return ModelInfo.from_model(model)
+
+
+def _load_model(model) -> mujoco.MjModel:
+    if model is None:
+        from bvh.assets import humanoid_path
+
+        model = humanoid_path()
+    if isinstance(model, mujoco.MjModel):
+        return copy.deepcopy(model)
+    if isinstance(model, (str, os.PathLike)):
+        path = os.fspath(model)
+        if not os.path.isfile(path):
+            raise CharacterError(f"{path}: no such MJCF file")
+        try:
+            return mujoco.MjModel.from_xml_path(path)
+        except ValueError as e:
+            raise CharacterError(f"{path}: MuJoCo cannot load it: {e}") from None
+    raise CharacterError(f"model must be None, an MJCF path or an MjModel, got "
+                         f"{type(model).__name__}")
+
+
+class Character:
+    """A converted humanoid in simulation.
+
+    Args:
+        model: ``None`` (the bundled humanoid, ``bvh.assets.humanoid_path()``), an MJCF path, or an
+            ``MjModel`` (copied: the Character edits its own model's actuator gains, time step
+            and weld).
+        info: the converter's ``ModelInfo``; read from the model's metadata when ``None``.
+        timestep: physics time step in s (default: the model's).
+        max_velocity: a generalised velocity above this (rad/s or m/s) counts as divergence.
+
+    Attributes:
+        model, data: the MuJoCo model and data.
+        info: the joint map and roles (``ModelInfo``).
+        nq, nv, nu: sizes of qpos, qvel and ctrl.
+        root_body: body id of the root (the body carrying the free joint ``root``).
+        root_dofs: ``(6,)`` dof indices of the free joint (x, y, z, then rotation in body frame).
+        actuator_dof: ``(nu,)`` the dof each actuator drives.
+        actuated: ``(nv,)`` bool, dofs driven by an actuator.
+        mass: total mass in kg.
+    """
+
+    def __init__(self, model=None, *, info=None, timestep: float | None = None,
+                 max_velocity: float = 200.0):
+        self.model = _load_model(model)
+        self.data = mujoco.MjData(self.model)
+        self.info = info if info is not None else model_info(self.model)
+        m = self.model
+        self.nq, self.nv, self.nu = int(m.nq), int(m.nv), int(m.nu)
+        self.max_velocity = float(max_velocity)
+
+        rj = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")
+        if rj < 0 or m.jnt_type[rj] != _JNT_FREE:
+            raise CharacterError("model has no free joint named 'root' "
+                                 "(see docs/model-contract.md)")
+        self.root_body = int(m.jnt_bodyid[rj])
+        self.root_dofs = np.arange(m.jnt_dofadr[rj], m.jnt_dofadr[rj] + 6)
+        self.root_qpos = np.arange(m.jnt_qposadr[rj], m.jnt_qposadr[rj] + 7)
+        self.mass = float(m.body_subtreemass[self.root_body])
+        self.floor_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        if self.floor_geom < 0:
+            planes = np.flatnonzero(m.geom_type == _GEOM_PLANE)
+            if len(planes) == 0:
+                raise CharacterError("model has no floor (a plane geom named 'floor')")
+            self.floor_geom = int(planes[0])
+        self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "root_weld")
+
+        self._map_actuators()
+        self._map_joints()
+        self._native_gainprm = m.actuator_gainprm.copy()
+        self._native_biasprm = m.actuator_biasprm.copy()
+        self._native_ctrlrange = m.actuator_ctrlrange.copy()
+        self._native_ctrllimited = m.actuator_ctrllimited.copy()
+        self._native_forcelimited = m.actuator_forcelimited.copy()
+        self._torque_limited = True
+        self._mode = "native"
+        self._table = self.native_gains()
+        self.pushes: list[Push] = []
+        self._push_body = {}
+        self._xfrc_dirty = False
+        self._root_wrench = np.zeros(6)
+        self._state_sig = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+        self._warn_idx = np.array(_BAD_STATE_WARNINGS)
+        self._warn_before = 0
+        self._jac = np.zeros((3, self.nv))
+        self._M = np.zeros((self.nv, self.nv))
+        self._scratch = mujoco.MjData(m)
+        self._M_diag = m.M_rowadr + m.M_rownnz - 1  # diagonal entries of the CSR mass matrix
+        if timestep is not None:
+            self.set_timestep(timestep)
+        self.reset()
+
+    # -- structure ----------------------------------------------------------------------------
+    def _map_actuators(self) -> None:
+        m = self.model
+        dof = np.full(self.nu, -1)
+        qpos = np.full(self.nu, -1)
+        for a in range(self.nu):
+            if m.actuator_trntype[a] != int(mujoco.mjtTrn.mjTRN_JOINT):
+                raise CharacterError(f"actuator {a} does not drive a joint")
+            j = int(m.actuator_trnid[a, 0])
+            t = m.jnt_type[j]
+            gear = m.actuator_gear[a, :3]
+            if t in (_JNT_HINGE, _JNT_SLIDE):
+                dof[a] = m.jnt_dofadr[j]
+                qpos[a] = m.jnt_qposadr[j]
+                ok = gear[0] == 1.0
+            elif t == _JNT_BALL:  # a motor along one body axis of a ball joint
+                k = int(np.argmax(np.abs(gear)))
+                dof[a] = m.jnt_dofadr[j] + k
+                ok = gear[k] == 1.0 and np.count_nonzero(gear) == 1
+            else:
+                raise CharacterError(f"actuator {a} drives the free joint")
+            if not ok:
+                raise CharacterError(f"actuator {a}: gear {gear.tolist()} is not a unit gear on "
+                                     f"one dof (see docs/model-contract.md)")
+        if len(set(dof.tolist())) != self.nu:
+            raise CharacterError("two actuators drive the same dof")
+        self.actuator_dof = dof
+        self.actuator_qpos = qpos
+        self.actuated = np.zeros(self.nv, dtype=bool)
+        self.actuated[dof] = True
+        self.unactuated = np.flatnonzero(~self.actuated)
+        self.position_actuators = m.actuator_biasprm[:, 1] < 0  # bias -kp q: <position>
+
+    def _map_joints(self) -> None:
+        m = self.model
+        self.joint_names = list(self.info.joints)
+        self._joint_dofs: dict[str, np.ndarray] = {}
+        self._joint_qpos: dict[str, np.ndarray] = {}
+        self._joint_body: dict[str, int] = {}
+        for name, ji in self.info.joints.items():
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, ji.body)
+            if b < 0:
+                raise CharacterError(f"metadata names body {ji.body!r} (joint {name!r}) that the "
+                                     f"model does not have")
+            self._joint_body[name] = b
+            dofs, qps = [], []
+            for jn in ji.mj_joints:
+                j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jn)
+                if j < 0:
+                    raise CharacterError(f"metadata names MuJoCo joint {jn!r} that the model lacks")
+                nd = {_JNT_FREE: 6, _JNT_BALL: 3}.get(int(m.jnt_type[j]), 1)
+                nqj = {_JNT_FREE: 7, _JNT_BALL: 4}.get(int(m.jnt_type[j]), 1)
+                dofs.extend(range(m.jnt_dofadr[j], m.jnt_dofadr[j] + nd))
+                qps.extend(range(m.jnt_qposadr[j], m.jnt_qposadr[j] + nqj))
+            self._joint_dofs[name] = np.array(dofs, dtype=int)
+            self._joint_qpos[name] = np.array(qps, dtype=int)
+        self.joint_bodies = np.array([self._joint_body[n] for n in self.joint_names], dtype=int)
+        names = []
+        for d in range(self.nv):
+            j = int(m.dof_jntid[d])
+            jn = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+            k = d - int(m.jnt_dofadr[j])
+            if m.jnt_type[j] == _JNT_FREE:
+                names.append(f"{jn}_{('x', 'y', 'z', 'rx', 'ry', 'rz')[k]}")
+            elif m.jnt_type[j] == _JNT_BALL:
+                names.append(f"{jn}_{'xyz'[k]}")
+            else:
+                names.append(jn)
+        self.dof_names = names
+        feet = []
+        for side in ("left", "right"):
+            for part in ("ankle", "toe"):
+                j = self.role(f"{side}_{part}", required=False)
+                if j is not None:
+                    feet.append(self._joint_body[j])
+        if not feet:  # contract fallback: foot geoms are the boxes
+            feet = sorted({int(m.geom_bodyid[g]) for g in np.flatnonzero(m.geom_type == _GEOM_BOX)})
+        self.foot_bodies = np.array(sorted(set(feet)), dtype=int)
+        self._is_foot = np.zeros(m.nbody, dtype=bool)
+        self._is_foot[self.foot_bodies] = True
+        self._side_of_body = np.full(m.nbody, -1)
+        for s, side in enumerate(("left", "right")):
+            for part in ("ankle", "toe"):
+                j = self.role(f"{side}_{part}", required=False)
+                if j is not None:
+                    self._side_of_body[self._joint_body[j]] = s
+        self._geom_body = m.geom_bodyid.astype(int)
+        self._geom_side = self._side_of_body[self._geom_body]
+        # bodies of the character: the root's subtree
+        self.character_bodies = np.flatnonzero(
+            [self._is_descendant(b, self.root_body) for b in range(m.nbody)])
+
+    def _is_descendant(self, b: int, ancestor: int) -> bool:
+        while b > 0:
+            if b == ancestor:
+                return True
+            b = int(self.model.body_parentid[b])
+        return ancestor == 0
+
+    def role(self, role: str, *, required: bool = True) -> str | None:
+        """BVH joint name that plays ``role`` (``"pelvis"``, ``"left_knee"``, ...).
+
+        For ``"spine"`` (a list in the metadata) the first spine joint is returned; use
+        :meth:`roles` for all of them. Raises :class:`CharacterError` if absent and ``required``.
+        """
+        r = self.info.roles.get(role)
+        if isinstance(r, (list, tuple)):
+            r = r[0] if r else None
+        if r is None and required:
+            raise CharacterError(f"model has no joint with role {role!r}; roles: "
+                                 f"{sorted(self.info.roles)}")
+        return r
+
+    def roles(self, role: str) -> list[str]:
+        """All BVH joint names with ``role`` (a list; empty when the role is absent)."""
+        r = self.info.roles.get(role)
+        if r is None:
+            return []
+        return list(r) if isinstance(r, (list, tuple)) else [r]
+
+    def _check_joint(self, name: str) -> None:
+        if name not in self._joint_dofs:
+            raise CharacterError(f"unknown joint {name!r}; the model's joints are "
+                                 f"{', '.join(self.joint_names)}")
+
+    def joint_dofs(self, name: str) -> np.ndarray:
+        """Dof indices (into qvel / qfrc) of BVH joint ``name``: ``(k,)`` int."""
+        self._check_joint(name)
+        return self._joint_dofs[name]
+
+    def joint_qpos(self, name: str) -> np.ndarray:
+        """qpos indices of BVH joint ``name``: ``(k,)`` int."""
+        self._check_joint(name)
+        return self._joint_qpos[name]
+
+    def dofs(self, names: Iterable[str]) -> np.ndarray:
+        """Concatenated dof indices of several BVH joints (or roles): ``(k,)`` int."""
+        out = []
+        for n in names:
+            if n not in self._joint_dofs and n in self.info.roles:
+                out.extend(self.dofs(self.roles(n)))
+            else:
+                out.extend(self.joint_dofs(n).tolist())
+        return np.array(out, dtype=int)
+
+    def body_id(self, name: str) -> int:
+        """MuJoCo body id of a body (BVH joint names are body names)."""
+        if name in self._joint_body:
+            return self._joint_body[name]
+        b = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if b < 0:
+            raise CharacterError(f"unknown body {name!r}; the model's joints are "
+                                 f"{', '.join(self.joint_names)}")
+        return b
+
+    def site_id(self, name: str) -> int:
+        """MuJoCo site id of a site (``head``, ``left_foot``, ...); unknown names raise."""
+        s = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, name)
+        if s < 0:
+            raise CharacterError(f"unknown site {name!r}")
+        return s
+
+    # -- state --------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated time in s."""
+        return float(self.data.time)
+
+    @property
+    def timestep(self) -> float:
+        """Physics time step in s."""
+        return float(self.model.opt.timestep)
+
+    @property
+    def qpos(self) -> np.ndarray:
+        """``(nq,)`` generalised positions (a view: do not write; use :meth:`set_state`)."""
+        return self.data.qpos
+
+    @property
+    def qvel(self) -> np.ndarray:
+        """``(nv,)`` generalised velocities (a view)."""
+        return self.data.qvel
+
+    @property
+    def root_position(self) -> np.ndarray:
+        """``(3,)`` world position of the root body's origin (m)."""
+        return self.data.xpos[self.root_body].copy()
+
+    @property
+    def root_quat(self) -> np.ndarray:
+        """``(4,)`` wxyz world orientation of the root body."""
+        return self.data.xquat[self.root_body].copy()
+
+    @property
+    def root_rotation(self) -> np.ndarray:
+        """``(3, 3)`` world rotation matrix of the root body (columns: its x, y, z axes)."""
+        return self.data.xmat[self.root_body].reshape(3, 3).copy()
+
+    @property
+    def root_height(self) -> float:
+        """Height (m) of the root body's origin above the floor plane z = 0."""
+        return float(self.data.xpos[self.root_body, 2])
+
+    def body_position(self, name: str) -> np.ndarray:
+        """``(3,)`` world position of a body's origin (= its BVH joint) in m."""
+        return self.data.xpos[self.body_id(name)].copy()
+
+    def joint_positions(self) -> np.ndarray:
+        """``(J, 3)`` world positions of the BVH joints (body origins), in ``joint_names`` order."""
+        return self.data.xpos[self.joint_bodies].copy()
+
+    def site_position(self, name: str) -> np.ndarray:
+        """``(3,)`` world position of a site (``left_foot``, ``head``, ...)."""
+        return self.data.site_xpos[self.site_id(name)].copy()
+
+    def reset(self, qpos: np.ndarray | None = None, qvel: np.ndarray | None = None) -> None:
+        """Reset time to 0, clear pushes and applied forces, release the root weld, and set the
+        state (default: qpos0 at rest).
+
+        ``qpos``: ``(nq,)``; ``qvel``: ``(nv,)`` (zeros when ``None``).
+        """
+        mujoco.mj_resetData(self.model, self.data)
+        if qpos is not None:
+            self.data.qpos[:] = self._vec(qpos, self.nq, "qpos")
+        if qvel is not None:
+            self.data.qvel[:] = self._vec(qvel, self.nv, "qvel")
+        self.pushes = []
+        self._xfrc_dirty = False
+        self._root_wrench[:] = 0
+        self._refresh()
+
+    def _vec(self, x, n: int, what: str) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        if x.shape != (n,):
+            raise CharacterError(f"{what} must have shape ({n},), got {x.shape}")
+        return x
+
+    def get_state(self) -> np.ndarray:
+        """The simulation state as a vector: ``mjSTATE_INTEGRATION`` (time, qpos, qvel, act,
+        everything of ``mjSTATE_FULLPHYSICS``, plus controls, applied forces, ``eq_active`` and
+        the solver warm start), so that :meth:`set_state` replays bit for bit.
+
+        Pushes are scheduled by time and stay in :attr:`pushes`; restoring an earlier state
+        replays them.
+        """
+        s = np.empty(mujoco.mj_stateSize(self.model, self._state_sig))
+        mujoco.mj_getState(self.model, self.data, s, self._state_sig)
+        return s
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Restore a vector from :meth:`get_state` and recompute everything derived from it."""
+        state = self._vec(state, mujoco.mj_stateSize(self.model, self._state_sig), "state")
+        mujoco.mj_setState(self.model, self.data, state, self._state_sig)
+        self._refresh()
+
+    def _refresh(self, check: bool = True) -> None:
+        """Recompute position/velocity-dependent quantities for the current state (mj_step1)."""
+        self._warn_before = int(self.data.warning.number[self._warn_idx].sum())
+        mujoco.mj_step1(self.model, self.data)
+        if check:
+            self._check()
+
+    # -- model settings -----------------------------------------------------------------------
+    def set_timestep(self, dt: float) -> None:
+        """Set the physics time step (s)."""
+        if not (math.isfinite(dt) and dt > 0):
+            raise CharacterError(f"time step must be a positive number of seconds, got {dt}")
+        self.model.opt.timestep = float(dt)
+
+    @property
+    def actuation(self) -> str:
+        """``"native"`` (MuJoCo position actuators apply PD) or ``"torque"`` (ctrl = N m)."""
+        return self._mode
+
+    @property
+    def torque_limited(self) -> bool:
+        """Whether actuator torques are clamped to the model's limits (``forcerange``)."""
+        return self._torque_limited
+
+    def set_torque_limits(self, enabled: bool) -> None:
+        """Clamp actuator torques to the model's ``forcerange`` (default) or lift the clamp
+        (for stability studies: MuJoCo drops the implicit damping of a clamped actuator)."""
+        self._torque_limited = bool(enabled)
+        self.model.actuator_forcelimited[:] = self._native_forcelimited if enabled else 0
+        self.set_actuation(self._mode)
+
+    def set_actuation(self, mode: str) -> None:
+        """Switch every actuator between native PD and torque control (contract, "Actuation").
+
+        Torque mode rewrites ``actuator_gainprm``/``biasprm`` to gain 1, bias 0 and widens the
+        control range to the force range, so ``ctrl`` is a torque in N m clamped to the torque
+        limit. Native mode restores the position actuators' ``kp``/``kv`` (motors on ball joints
+        stay torque-controlled).
+        """
+        if mode not in ACTUATION_MODES:
+            raise CharacterError(f"actuation must be one of {ACTUATION_MODES}, got {mode!r}")
+        m = self.model
+        if mode == "torque":
+            m.actuator_gainprm[:] = 0
+            m.actuator_gainprm[:, 0] = 1
+            m.actuator_biasprm[:] = 0
+            lim = m.actuator_forcelimited.astype(bool)
+            m.actuator_ctrlrange[:] = np.where(lim[:, None], m.actuator_forcerange, 0)
+            m.actuator_ctrllimited[:] = lim
+        else:
+            m.actuator_gainprm[:] = self._native_gainprm
+            m.actuator_biasprm[:] = self._native_biasprm
+            m.actuator_ctrlrange[:] = self._native_ctrlrange
+            m.actuator_ctrllimited[:] = self._native_ctrllimited
+        self.data.ctrl[:] = 0
+        self._mode = mode
+
+    def native_gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(kp, kd)``, each ``(nv,)``: the native PD gains per dof (N m/rad, N m s/rad).
+
+        Zero on unactuated dofs (the root) and on dofs driven by motors.
+        """
+        kp = np.zeros(self.nv)
+        kd = np.zeros(self.nv)
+        pa = self.position_actuators
+        kp[self.actuator_dof[pa]] = self._native_gainprm[pa, 0]
+        kd[self.actuator_dof[pa]] = -self._native_biasprm[pa, 2]
+        return kp, kd
+
+    def default_gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(kp, kd)``, each ``(nv,)``: the model's own gains table (as loaded, before any
+        :meth:`set_native_gains`)."""
+        return self._table[0].copy(), self._table[1].copy()
+
+    def set_native_gains(self, kp: np.ndarray, kd: np.ndarray) -> None:
+        """Set the position actuators' ``kp``/``kv`` from per-dof gains ``(nv,)`` each."""
+        kp = self._vec(kp, self.nv, "kp")
+        kd = self._vec(kd, self.nv, "kd")
+        pa = self.position_actuators
+        d = self.actuator_dof[pa]
+        self._native_gainprm[pa, 0] = kp[d]
+        self._native_biasprm[pa, 1] = -kp[d]
+        self._native_biasprm[pa, 2] = -kd[d]
+        if self._mode == "native":
+            self.model.actuator_gainprm[pa] = self._native_gainprm[pa]
+            self.model.actuator_biasprm[pa] = self._native_biasprm[pa]
+
+    def torque_limits(self) -> np.ndarray:
+        """``(nv,)`` torque limit per dof in N m (inf where unlimited or unactuated)."""
+        lim = np.full(self.nv, np.inf)
+        m = self.model
+        fl = m.actuator_forcelimited.astype(bool)
+        lim[self.actuator_dof[fl]] = np.abs(m.actuator_forcerange[fl]).max(axis=1)
+        return lim
+
+    def weld_root(self, active: bool = True) -> None:
+        """Hold the root body fixed to the world where it is now (``root_weld``), or release it."""
+        if self._weld < 0:
+            raise CharacterError("model has no equality constraint named 'root_weld'")
+        if active:
+            # weld data: anchor on body2 (the world), pose of body2 relative to body1
+            q = self.data.xquat[self.root_body]
+            self.model.eq_data[self._weld, 0:3] = self.data.xpos[self.root_body]
+            self.model.eq_data[self._weld, 3:6] = 0.0
+            self.model.eq_data[self._weld, 6:10] = q * np.array([1.0, -1.0, -1.0, -1.0])
+        self.data.eq_active[self._weld] = 1 if active else 0
+        self._refresh(check=False)
+
+    @property
+    def root_welded(self) -> bool:
+        """Whether the ``root_weld`` equality is active."""
+        return self._weld >= 0 and bool(self.data.eq_active[self._weld])
+
+    # -- dynamics quantities ------------------------------------------------------------------
+    def com(self) -> np.ndarray:
+        """``(3,)`` world centre of mass of the character (m)."""
+        return self.data.subtree_com[self.root_body].copy()
+
+    def com_jacobian(self) -> np.ndarray:
+        """``(3, nv)`` Jacobian of the centre of mass (``mj_jacSubtreeCom`` on the root body)."""
+        mujoco.mj_jacSubtreeCom(self.model, self.data, self._jac, self.root_body)
+        return self._jac.copy()
+
+    def com_velocity(self) -> np.ndarray:
+        """``(3,)`` centre-of-mass velocity in m/s (``J_com @ qvel``)."""
+        mujoco.mj_jacSubtreeCom(self.model, self.data, self._jac, self.root_body)
+        return self._jac @ self.data.qvel
+
+    def point_jacobian(self, body: str | int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Jacobians ``(jacp, jacr)``, each ``(3, nv)``, of a world ``point`` (m) fixed to
+        ``body``."""
+        b = body if isinstance(body, (int, np.integer)) else self.body_id(body)
+        jacp = np.zeros((3, self.nv))
+        jacr = np.zeros((3, self.nv))
+        mujoco.mj_jac(self.model, self.data, jacp, jacr, np.asarray(point, dtype=float), int(b))
+        return jacp, jacr
+
+    def mass_matrix(self) -> np.ndarray:
+        """``(nv, nv)`` joint-space inertia matrix M(q) (``mj_fullM``; includes armature)."""
+        mujoco.mj_fullM(self.model, self.data, self._M)
+        return self._M.copy()
+
+    def solve_mass(self, rhs: np.ndarray, diagonal: np.ndarray | None = None) -> np.ndarray:
+        """``(nv,)`` solution ``x`` of ``(M(q) + diag(diagonal)) x = rhs`` for ``rhs`` ``(nv,)``.
+
+        Uses MuJoCo's sparse ``L^T D L`` factorisation of the tree-structured mass matrix on a
+        scratch copy (``mj_factorM``/``mj_solveM``), a few microseconds for a humanoid.
+        """
+        sd = self._scratch
+        sd.M[:] = self.data.M
+        if diagonal is not None:
+            sd.M[self._M_diag] += diagonal
+        mujoco.mj_factorM(self.model, sd)
+        x = np.empty((1, self.nv))
+        mujoco.mj_solveM(self.model, sd, x, np.ascontiguousarray(rhs, dtype=float).reshape(1, -1))
+        return x[0]
+
+    def bias_forces(self) -> np.ndarray:
+        """``(nv,)`` Coriolis, centrifugal and gravity forces C(q, qdot) (``qfrc_bias``)."""
+        return self.data.qfrc_bias.copy()
+
+    def passive_forces(self) -> np.ndarray:
+        """``(nv,)`` passive forces (joint damping, springs) at the current state."""
+        return self.data.qfrc_passive.copy()
+
+    def constraint_forces(self) -> np.ndarray:
+        """``(nv,)`` contact/limit/equality forces of the last completed step (one step old)."""
+        return self.data.qfrc_constraint.copy()
+
+    def integrate(self, qpos: np.ndarray, qvel: np.ndarray, dt: float) -> np.ndarray:
+        """``(nq,)`` ``qpos`` moved by velocity ``qvel`` ``(nv,)`` for ``dt`` s
+        (quaternion-aware, ``mj_integratePos``)."""
+        q = np.array(qpos, dtype=float)
+        mujoco.mj_integratePos(self.model, q, np.asarray(qvel, dtype=float), float(dt))
+        return q
+
+    def difference(self, qpos1: np.ndarray, qpos2: np.ndarray) -> np.ndarray:
+        """``(nv,)`` joint-space difference ``qpos2 - qpos1`` (``mj_differentiatePos`` with dt=1).
+
+        Hinges: angle difference; ball and free-joint rotations: the rotation vector of
+        ``q1^-1 q2`` in the child frame; free-joint translation: world difference.
+        """
+        v = np.empty(self.nv)
+        mujoco.mj_differentiatePos(self.model, v, 1.0, np.asarray(qpos1, dtype=float),
+                                   np.asarray(qpos2, dtype=float))
+        return v
+
+    def root_wrench_to_qfrc(self, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """``(6,)`` free-joint generalised force for a world ``force`` (N, at the root origin) and
+        world ``torque`` (N m): the rotational rows are in the root body frame."""
+        R = self.root_rotation
+        return np.concatenate([np.asarray(force, dtype=float), R.T @ np.asarray(torque, float)])
+
+    @property
+    def root_wrench(self) -> np.ndarray:
+        """``(6,)`` world force (N) and torque (N m) the last action applied to the root from
+        outside (the "hand of god"); zeros for controllers that need none."""
+        return self._root_wrench.copy()
+
+    # -- contacts -----------------------------------------------------------------------------
+    def ground_contacts(self) -> list[GroundContact]:
+        """Every contact between the floor and the character (list of :class:`GroundContact`)."""
+        out = []
+        for b, p, d in zip(*self._floor_contacts(), strict=True):
+            out.append(GroundContact(mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, b)
+                                     or str(b), p, float(d)))
+        return out
+
+    def _floor_geoms(self) -> tuple[np.ndarray, np.ndarray]:
+        """(character geoms touching the floor (k,), their contact indices (k,))."""
+        n = self.data.ncon
+        if n == 0:
+            return np.zeros(0, int), np.zeros(0, int)
+        g = self.data.contact.geom[:n]
+        g0, g1 = g[:, 0], g[:, 1]
+        f = self.floor_geom
+        other = np.where(g0 == f, g1, np.where(g1 == f, g0, -1))
+        idx = np.flatnonzero(other >= 0)
+        return other[idx], idx
+
+    def _floor_contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(bodies (k,), positions (k, 3), distances (k,)) of floor contacts."""
+        geoms, idx = self._floor_geoms()
+        if len(idx) == 0:
+            return np.zeros(0, int), np.zeros((0, 3)), np.zeros(0)
+        c = self.data.contact
+        return (self.model.geom_bodyid[geoms].astype(int), c.pos[idx].copy(),
+                c.dist[idx].copy())
+
+    def foot_contacts(self) -> tuple[bool, bool]:
+        """``(left, right)``: whether each foot (ankle or toe body) touches the floor."""
+        geoms, _ = self._floor_geoms()
+        sides = self._geom_side[geoms].tolist()
+        return 0 in sides, 1 in sides
+
+    def non_foot_ground_contact(self) -> list[str]:
+        """Names of character bodies other than the feet that touch the floor (a fall)."""
+        geoms, _ = self._floor_geoms()
+        bodies = self._geom_body[geoms]
+        bad = sorted(set(bodies[~self._is_foot[bodies]].tolist()))
+        return [mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, b) or str(b)
+                for b in bad]
+
+    def support_polygon(self) -> np.ndarray:
+        """``(K, 2)`` counter-clockwise convex hull of the feet's floor contact points (x, y, m).
+
+        Empty ``(0, 2)`` when no foot touches the floor; fewer than 3 rows when the contacts are
+        a point or a segment.
+        """
+        bodies, pos, _ = self._floor_contacts()
+        return convex_hull_2d(pos[self._is_foot[bodies], :2])
+
+    def foot_sites(self) -> tuple[np.ndarray, np.ndarray]:
+        """World positions ``(3,)`` of the ``left_foot`` and ``right_foot`` sites (sole centres)."""
+        return self.site_position("left_foot"), self.site_position("right_foot")
+
+    # -- pushes -------------------------------------------------------------------------------
+    def push(self, body: str, force, duration: float, start: float | None = None) -> Push:
+        """Schedule a force ``(3,)`` N (world frame) on ``body`` for ``duration`` s from ``start``
+        (default: now). Applied at the body's centre of mass via ``xfrc_applied``."""
+        f = np.asarray(force, dtype=float)
+        if f.shape != (3,) or not np.all(np.isfinite(f)):
+            raise CharacterError(f"push force must be 3 finite numbers (N), got {force!r}")
+        if not (math.isfinite(duration) and duration > 0):
+            raise CharacterError(f"push duration must be positive seconds, got {duration}")
+        b = self.body_id(body)
+        p = Push(body, tuple(float(x) for x in f), self.time if start is None else float(start),
+                 float(duration))
+        self._push_body[body] = b
+        self.pushes.append(p)
+        return p
+
+    def clear_pushes(self) -> None:
+        """Forget every scheduled push (and stop any force being applied)."""
+        self.pushes = []
+        if self._xfrc_dirty:
+            self.data.xfrc_applied[:] = 0
+            self._xfrc_dirty = False
+
+    def _pushes_in(self, t0: float, t1: float) -> bool:
+        return any(p.start < t1 and p.end > t0 for p in self.pushes)
+
+    def _apply_pushes(self) -> None:
+        t = self.data.time + 0.5 * self.model.opt.timestep  # the step's midpoint decides
+        xf = self.data.xfrc_applied
+        xf[:] = 0
+        any_on = False
+        for p in self.pushes:
+            if p.start <= t < p.end:
+                xf[self._push_body[p.body], :3] += p.force
+                any_on = True
+        self._xfrc_dirty = any_on
+
+    def active_push_force(self) -> np.ndarray:
+        """``(3,)`` sum of the push forces (N) applied during the last step."""
+        return self.data.xfrc_applied[:, :3].sum(axis=0)
+
+    # -- stepping -----------------------------------------------------------------------------
+    def apply(self, action: Action | None) -> None:
+        """Write an action into the controls.
+
+        ``action.torque`` ``(nv,)``: actuated rows become actuator controls in torque mode (clamped
+        to the torque limits) or are added as feed-forward forces in native mode; unactuated rows
+        (the root's 6) are applied as an external generalised force (the hand of god).
+        ``action.target`` ``(nu,)``: native PD set-points (only in native mode).
+        A non-finite torque or target raises :class:`SimulationDiverged`.
+        """
+        d = self.data
+        d.qfrc_applied[:] = 0
+        self._root_wrench[:] = 0
+        if action is None:
+            if self._mode == "torque":
+                d.ctrl[:] = 0
+            return
+        tau = action.torque
+        if tau is not None:
+            if tau.shape != (self.nv,):
+                raise CharacterError(f"action torque must have shape ({self.nv},), got {tau.shape}")
+            if not np.isfinite(tau).all():
+                raise SimulationDiverged("the controller produced a non-finite torque", d.time)
+            d.qfrc_applied[self.unactuated] = tau[self.unactuated]
+            rw = tau[self.root_dofs]
+            if rw.any():
+                R = d.xmat[self.root_body].reshape(3, 3)
+                self._root_wrench[:3] = rw[:3]
+                self._root_wrench[3:] = R @ rw[3:]
+        if self._mode == "torque":
+            if action.target is not None:
+                raise CharacterError("PD targets given while the actuators are in torque mode")
+            d.ctrl[:] = 0 if tau is None else tau[self.actuator_dof]
+        else:
+            if action.target is not None:
+                if action.target.shape != (self.nu,):
+                    raise CharacterError(f"action target must have shape ({self.nu},), got "
+                                         f"{action.target.shape}")
+                if not np.isfinite(action.target).all():
+                    raise SimulationDiverged("the controller produced a non-finite target",
+                                             d.time)
+                d.ctrl[:] = action.target
+            if tau is not None:
+                d.qfrc_applied[self.actuator_dof] += tau[self.actuator_dof]
+
+    def step(self, action: Action | None = None, n: int = 1) -> None:
+        """Apply ``action`` (held for all ``n`` physics steps) and advance ``n`` steps.
+
+        Raises :class:`SimulationDiverged` when the state becomes non-finite or a velocity
+        exceeds ``max_velocity`` (also when MuJoCo had to reset a bad state).
+        """
+        if action is not None:
+            self.apply(action)
+        m, d = self.model, self.data
+        self._warn_before = int(d.warning.number[self._warn_idx].sum())
+        if self.pushes or self._xfrc_dirty:
+            t_end = d.time + (n + 1) * m.opt.timestep
+            if self._xfrc_dirty or self._pushes_in(d.time, t_end):
+                self._apply_pushes()
+                mujoco.mj_step2(m, d)
+                for _ in range(n - 1):
+                    self._apply_pushes()
+                    mujoco.mj_step(m, d)
+                mujoco.mj_step1(m, d)
+                self._check()
+                return
+        mujoco.mj_step2(m, d)
+        if n > 1:
+            mujoco.mj_step(m, d, n - 1)
+        mujoco.mj_step1(m, d)
+        self._check()
+
+    def _check(self) -> None:
+        d = self.data
+        if int(d.warning.number[self._warn_idx].sum()) != self._warn_before:
+            names = [mujoco.mjtWarning(w).name for w in _BAD_STATE_WARNINGS]
+            raise SimulationDiverged(f"MuJoCo reset a bad state (one of {', '.join(names)})",
+                                     d.time)
+        vmax = np.abs(d.qvel).max() if self.nv else 0.0
+        if not vmax <= self.max_velocity:  # also catches NaN
+            if not np.isfinite(vmax):
+                raise SimulationDiverged("non-finite velocity", d.time)
+            dof = int(np.argmax(np.abs(d.qvel)))
+            raise SimulationDiverged(f"velocity {vmax:.3g} at dof {self.dof_names[dof]} exceeds "
+                                     f"{self.max_velocity:g}", d.time)
+
+    # -- poses ---------------------------------------------------------------------------------
+    def lowest_point(self, qpos: np.ndarray) -> float:
+        """Lowest world z (m) of the character's geoms at pose ``qpos`` ``(nq,)`` (boxes, capsules,
+        spheres exactly; other shapes by their bounding sphere). Does not change the state."""
+        m = self.model
+        scratch = mujoco.MjData(m)
+        scratch.qpos[:] = self._vec(qpos, self.nq, "qpos")
+        mujoco.mj_kinematics(m, scratch)
+        geoms = np.flatnonzero(np.isin(m.geom_bodyid, self.character_bodies))
+        z = []
+        for g in geoms:
+            c = scratch.geom_xpos[g]
+            R = scratch.geom_xmat[g].reshape(3, 3)
+            s = m.geom_size[g]
+            t = m.geom_type[g]
+            if t == _GEOM_BOX:
+                z.append(c[2] - np.abs(R[2]) @ s)
+            elif t == _GEOM_CAPSULE:
+                z.append(c[2] - abs(R[2, 2]) * s[1] - s[0])
+            elif t == _GEOM_SPHERE:
+                z.append(c[2] - s[0])
+            else:
+                z.append(c[2] - m.geom_rbound[g])
+        return float(min(z))
+
+    def body_pose(self, qpos: np.ndarray, body: str | int) -> tuple[np.ndarray, np.ndarray]:
+        """World position ``(3,)`` and wxyz orientation ``(4,)`` of ``body`` at pose ``qpos``
+        ``(nq,)`` (forward kinematics on a scratch copy; the state is untouched)."""
+        b = self.body_id(body) if isinstance(body, str) else int(body)
+        sd = mujoco.MjData(self.model)
+        sd.qpos[:] = self._vec(qpos, self.nq, "qpos")
+        mujoco.mj_kinematics(self.model, sd)
+        return sd.xpos[b].copy(), sd.xquat[b].copy()
+
+    def solve_ik(self, qpos: np.ndarray, targets: list, dofs: np.ndarray, *,
+                 iterations: int = 100, damping: float = 1e-3, tol: float = 1e-11) -> np.ndarray:
+        """Damped least-squares IK on a scratch copy of the kinematics (the state is untouched).
+
+        Args:
+            qpos: ``(nq,)`` starting pose.
+            targets: list of ``(body, position, quat)``: a body name, its world origin target
+                ``(3,)`` m (or ``None``) and world orientation target ``(4,)`` wxyz (or ``None``).
+            dofs: ``(k,)`` dof indices allowed to move.
+            iterations, damping, tol: DLS iterations, damping (m), squared-error tolerance.
+        Returns:
+            ``(nq,)`` the solved pose.
+        """
+        m = self.model
+        sd = mujoco.MjData(m)
+        sd.qpos[:] = self._vec(qpos, self.nq, "qpos")
+        dofs = np.asarray(dofs, dtype=int)
+        jacp = np.zeros((3, self.nv))
+        jacr = np.zeros((3, self.nv))
+        for _ in range(iterations):
+            mujoco.mj_kinematics(m, sd)
+            mujoco.mj_comPos(m, sd)
+            rows, errs = [], []
+            for body, pos, quat in targets:
+                b = self.body_id(body) if isinstance(body, str) else int(body)
+                mujoco.mj_jacBody(m, sd, jacp, jacr, b)
+                if pos is not None:
+                    rows.append(jacp[:, dofs].copy())
+                    errs.append(np.asarray(pos, float) - sd.xpos[b])
+                if quat is not None:
+                    dq = np.empty(4)
+                    mujoco.mju_mulQuat(dq, np.asarray(quat, float),
+                                       sd.xquat[b] * np.array([1.0, -1.0, -1.0, -1.0]))
+                    rv = np.empty(3)
+                    mujoco.mju_quat2Vel(rv, dq, 1.0)
+                    rows.append(jacr[:, dofs].copy())
+                    errs.append(rv)
+            J = np.vstack(rows)
+            e = np.concatenate(errs)
+            if e @ e < tol:
+                break
+            dq = J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(len(e)), e)
+            v = np.zeros(self.nv)
+            v[dofs] = dq
+            mujoco.mj_integratePos(m, sd.qpos, v, 1.0)
+        return sd.qpos.copy()
+
+    def on_floor(self, qpos: np.ndarray, clearance: float = 0.0) -> np.ndarray:
+        """``(nq,)`` copy of ``qpos`` with the root raised/lowered so the lowest geom point is
+        ``clearance`` m above the floor."""
+        q = np.array(self._vec(qpos, self.nq, "qpos"))
+        q[self.root_qpos[2]] += clearance - self.lowest_point(q)
+        return q
+
+
+def convex_hull_2d(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull ``(K, 2)`` of ``(N, 2)`` points (Andrew's monotone chain).
+
+    Duplicate and collinear points are dropped; returns ``(0, 2)`` for no points, one row for a
+    single point and two for a segment.
+    """
+    p = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 9), axis=0)
+    if len(p) <= 2:
+        return p
+
+    def cross(o, a, b) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list = []
+    for q in p:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], q) <= 1e-12:
+            lower.pop()
+        lower.append(q)
+    upper: list = []
+    for q in p[::-1]:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], q) <= 1e-12:
+            upper.pop()
+        upper.append(q)
+    hull = np.array(lower[:-1] + upper[:-1])
+    return hull
+
+
+def point_in_polygon_margin(point: np.ndarray, polygon: np.ndarray) -> float:
+    """Signed distance (m) of a 2D ``point`` inside a CCW convex ``polygon`` ``(K, 2)``.
+
+    Positive inside (distance to the nearest edge), negative outside; ``-inf`` for an empty
+    polygon. Points and segments count as zero-area polygons (the distance to them, negated).
+    """
+    poly = np.asarray(polygon, dtype=float)
+    x = np.asarray(point, dtype=float)[:2]
+    if len(poly) == 0:
+        return -math.inf
+    if len(poly) == 1:
+        return -float(np.linalg.norm(x - poly[0]))
+    if len(poly) == 2:
+        a, b = poly
+        t = np.clip(np.dot(x - a, b - a) / max(np.dot(b - a, b - a), 1e-18), 0, 1)
+        return -float(np.linalg.norm(x - (a + t * (b - a))))
+    a = poly
+    b = np.roll(poly, -1, axis=0)
+    e = b - a
+    n = np.stack([e[:, 1], -e[:, 0]], axis=1) / np.linalg.norm(e, axis=1, keepdims=True)  # outward
+    s = np.einsum("ij,ij->i", x - a, n)  # signed distance to each edge line, + outside
+    if np.all(s <= 0):
+        return float(-s.max())
+    # outside: distance to the polygon boundary
+    d = []
+    for ai, ei in zip(a, e, strict=True):
+        t = np.clip(np.dot(x - ai, ei) / np.dot(ei, ei), 0, 1)
+        d.append(np.linalg.norm(x - (ai + t * ei)))
+    return -float(min(d))

@@ -1,0 +1,161 @@
+"""The controller registry: every controller is one module plus one :func:`register` call.
+
+A :class:`ControllerSpec` says how to build a controller and what it supports: the scenarios of
+``mjchar run``, the options its factory takes, its default physics time step, and the cells of
+``mjchar bench`` it runs (and which of them it must survive). :func:`make_controller`, the CLI's
+choices and help, the bench matrix and the environments read this registry, so adding a
+controller touches no list anywhere else::
+
+    from controllers.core.registry import ControllerSpec, register
+
+    register(ControllerSpec(
+        name="my_balance", label="my balance controller", kind="balance",
+        factory=lambda character, target=None, **options: MyBalance(**options),
+        scenarios=("stand", "push", "push-search", "random-push"), default_scenario="stand",
+        bench=("stand", "push-search"), expected=("stand",)))
+
+The registration sits at the bottom of the controller's module; the subpackage's ``__init__``
+imports its modules explicitly, and ``controllers/__init__`` imports the subpackages, which is
+what fills the registry (no directory scanning, no entry points).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from bvh.errors import MjcharError
+
+#: scenarios of ``mjchar run`` (see :mod:`controllers.core.scenarios`)
+SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
+#: scenarios of ``mjchar bench`` (``slopes``: walk up and down a slope)
+BENCH_SCENARIOS = ("stand", "random-push", "push-search", "walk", "track", "slopes")
+#: what a controller is, for the CLI and the bench: ``pd`` (PD trackers: hold the standing pose
+#: or follow the reference), ``balance`` (balance with a reference pose or clip), ``walker``
+#: (walks from its own start state, no reference), ``replay`` (plays a saved trajectory)
+KINDS = ("pd", "balance", "walker", "replay")
+#: how the bench's push-search pushes a controller: from the standing pose on the pelvis, or
+#: while walking at phases of the stride (needs the controller's FSM ``transitions``)
+PUSH_MODES = ("standing", "walking")
+
+
+class RegistryError(MjcharError):
+    """An unknown controller name, a duplicate registration or an inconsistent spec."""
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """How to build one controller and what it supports.
+
+    Attributes:
+        name: the registry key (``mjchar run NAME``, a bench row).
+        label: a short readable description (help texts, the bench table).
+        kind: one of :data:`KINDS`.
+        factory: ``factory(character, target=None, **options) -> controller``; ``target`` is what
+            trackers follow (a pose ``(nq,)`` or a ReferenceMotion), walkers ignore it; replays
+            take ``trajectory=`` (a saved trajectory or its path).
+        scenarios: the ``mjchar run`` scenarios it supports (a subset of :data:`SCENARIOS`).
+        default_scenario: the scenario ``mjchar run NAME`` runs when none is given.
+        options: the factory keyword options the CLI may pass (e.g. ``speed``, ``gait``).
+        timestep: its default physics time step in s (``None``: the model's own).
+        steps: recovers from pushes by stepping (a push then counts as survived with a step).
+        push: how the bench's push-search pushes it (:data:`PUSH_MODES`).
+        bench: the ``mjchar bench`` scenarios it runs (a subset of :data:`BENCH_SCENARIOS`).
+        expected: bench scenarios it must survive (a fall makes ``mjchar bench`` exit 1).
+        trajectory_prefixes: replays: saved-trajectory file names (``PREFIX*.npz``) it plays by
+            default, looked for in the bundled trajectories.
+    """
+
+    name: str
+    label: str
+    kind: str
+    factory: Callable[..., object]
+    scenarios: tuple[str, ...]
+    default_scenario: str
+    options: tuple[str, ...] = ()
+    timestep: float | None = None
+    steps: bool = False
+    push: str = "standing"
+    bench: tuple[str, ...] = ()
+    expected: tuple[str, ...] = ()
+    trajectory_prefixes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        def bad(what: str) -> RegistryError:
+            return RegistryError(f"controller spec {self.name!r}: {what}")
+
+        if not self.name or not self.name.replace("_", "").isalnum():
+            raise bad("the name must be letters, digits and underscores")
+        if self.kind not in KINDS:
+            raise bad(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        if not callable(self.factory):
+            raise bad("the factory must be callable")
+        if not self.scenarios or any(s not in SCENARIOS for s in self.scenarios):
+            raise bad(f"scenarios must be among {', '.join(SCENARIOS)}, got {self.scenarios}")
+        if self.default_scenario not in self.scenarios:
+            raise bad(f"the default scenario {self.default_scenario!r} is not supported")
+        if any(s not in BENCH_SCENARIOS for s in self.bench):
+            raise bad(f"bench scenarios must be among {', '.join(BENCH_SCENARIOS)}, "
+                      f"got {self.bench}")
+        if any(s not in self.bench for s in self.expected):
+            raise bad(f"expected scenarios {self.expected} must be bench scenarios")
+        if self.push not in PUSH_MODES:
+            raise bad(f"push must be one of {', '.join(PUSH_MODES)}, got {self.push!r}")
+        if self.timestep is not None and not self.timestep > 0:
+            raise bad(f"the time step must be positive, got {self.timestep}")
+
+
+_SPECS: dict[str, ControllerSpec] = {}
+
+
+def register(spec: ControllerSpec) -> ControllerSpec:
+    """Add ``spec`` to the registry (a duplicate name raises :class:`RegistryError`)."""
+    if spec.name in _SPECS:
+        raise RegistryError(f"a controller named {spec.name!r} is already registered")
+    _SPECS[spec.name] = spec
+    return spec
+
+
+def unregister(name: str) -> None:
+    """Remove a registration (for tests and interactive experiments)."""
+    get(name)
+    del _SPECS[name]
+
+
+def get(name: str) -> ControllerSpec:
+    """The spec of controller ``name``; an unknown name lists the valid ones."""
+    try:
+        return _SPECS[name]
+    except KeyError:
+        raise RegistryError(f"unknown controller {name!r}; choose from "
+                            f"{', '.join(_SPECS)}") from None
+
+
+def names(kind: str | None = None) -> tuple[str, ...]:
+    """Registered controller names in registration order (of one ``kind`` if given)."""
+    return tuple(n for n, s in _SPECS.items() if kind is None or s.kind == kind)
+
+
+def specs() -> tuple[ControllerSpec, ...]:
+    """Every registered spec, in registration order."""
+    return tuple(_SPECS.values())
+
+
+def default_timestep(name: str) -> float | None:
+    """Physics time step controller ``name`` runs at by default (``None``: the model's own)."""
+    return get(name).timestep
+
+
+def make_controller(name: str, character, target=None, **options):
+    """Build controller ``name`` for ``character`` through its registered factory.
+
+    Args:
+        name: a registered controller (:func:`names`).
+        character: the :class:`~controllers.core.character.Character` (used for defaults only;
+            the controller is reset on it later).
+        target: what trackers follow (a pose ``(nq,)`` or a ReferenceMotion); balance
+            controllers hold it when it is a pose; walkers ignore it.
+        options: keyword options of the factory (e.g. ``gains``, ``tracker`` for hand-of-god,
+            ``height`` for static balance, ``gait`` for SIMBICON, ``speed``/``heading`` for IPM).
+    """
+    return get(name).factory(character, target, **options)

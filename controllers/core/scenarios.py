@@ -1,0 +1,346 @@
+"""Scenarios shared by the tests, the CLI, the benchmarks and the environments.
+
+Each scenario puts a :class:`~controllers.core.character.Character` in a start state, schedules what
+happens to it (pushes), runs a controller and returns a :class:`~controllers.core.metrics.Result`:
+
+- ``stand``: from the standing pose, no disturbance.
+- ``push``: one horizontal push (default 0.2 s on the pelvis, 1 s in) of a given force and
+  direction (degrees in the character's heading frame: 0 forward, 90 left, 180 back, 270 right).
+- ``push-search``: per direction, the largest survivable push by bisection.
+- ``random-push``: a 10 N horizontal push on the root whose direction changes every second
+  (PKU MoCCA's standing test), random directions from the seed.
+- ``track``: start on the reference's first frame and follow it (tracking errors).
+- ``walk``: like ``track`` but reported for locomotion (distance and speed); later controllers
+  that walk without a reference start from the standing pose.
+
+Randomness comes only from ``numpy.random.default_rng(seed)``. A divergence is caught and
+reported as a fall (``diverged``), never raised.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from bvh.errors import MjcharError
+
+from .base import Gains
+from .character import Character, SimulationDiverged
+from .metrics import STEP_DISTANCE, FallDetector, Recorder, Result
+from .registry import SCENARIOS, make_controller
+
+#: the four horizontal push directions (degrees in the heading frame)
+DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
+#: default duration per scenario (s); ``None`` = the reference clip's duration
+DEFAULT_DURATION = {"stand": 10.0, "push": 4.0, "push-search": 4.0, "random-push": 30.0,
+                    "track": None, "walk": None}
+
+
+class ScenarioError(MjcharError):
+    """A scenario was asked for something impossible (unknown name, missing reference)."""
+
+
+# -- building blocks -----------------------------------------------------------------------------
+def standing_pose(character: Character) -> np.ndarray:
+    """``(nq,)`` the model's rest pose (``qpos0``) with the feet on the floor."""
+    return character.on_floor(character.model.qpos0)
+
+
+def largest_passing(trial: Callable[[float], bool], max_force: float, tolerance: float) -> float:
+    """The largest force in ``[0, max_force]`` that ``trial(force)`` survives, by bisection to
+    ``tolerance`` newtons (``max_force`` itself when it passes; assumes survival is monotone)."""
+    lo, hi = 0.0, float(max_force)
+    if trial(hi):
+        return hi
+    while hi - lo > tolerance:
+        mid = 0.5 * (lo + hi)
+        if trial(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:
+    """``(3,)`` unit horizontal world vector at ``degrees`` from the character's facing
+    direction (its root x axis projected on the floor), counter-clockwise seen from above."""
+    R = character.root_rotation
+    yaw = math.atan2(R[1, 0], R[0, 0])
+    a = yaw + math.radians(degrees)
+    return np.array([math.cos(a), math.sin(a), 0.0])
+
+
+def simulate(character: Character, controller, *, duration: float, scenario: str,
+             qpos: np.ndarray, qvel: np.ndarray | None = None, reference=None,
+             control_dt: float | None = None, events: Callable[[Character], None] | None = None,
+             seed: int | None = None, stop_on_fall: bool = True,
+             fall_height: float | None = None, frame_callback=None) -> Result:
+    """Run ``controller`` on ``character`` from ``(qpos, qvel)`` for ``duration`` s.
+
+    Args:
+        events: called once at the start (after the reset) to schedule pushes on the character.
+        control_dt: seconds between control steps (default: every physics step); rounded to a
+            whole number of physics steps.
+        frame_callback: called as ``frame_callback(character)`` after every control step
+            (video capture).
+    Returns:
+        the :class:`Result` (a fall or a divergence ends the run when ``stop_on_fall``).
+    """
+    if not (math.isfinite(duration) and duration > 0):
+        raise ScenarioError(f"duration must be a positive number of seconds, got {duration}")
+    character.reset(qpos, qvel)
+    fall = FallDetector(character, fall_height)
+    controller.reset(character)
+    if events is not None:
+        events(character)
+    dt = character.timestep
+    n_sub = 1 if control_dt is None else max(1, int(round(control_dt / dt)))
+    n_control = int(math.ceil(duration / (dt * n_sub) - 1e-9))
+    rec = Recorder(character, reference)
+    fell, fall_time, reason, diverged = False, None, None, False
+    steps = 0
+    wall0 = time.perf_counter()
+    try:
+        for _ in range(n_control):
+            action = controller.act(character, character.time)
+            character.step(action, n_sub)
+            steps += n_sub
+            rec.record(character)
+            if frame_callback is not None:
+                frame_callback(character)
+            if not fell:
+                why = fall.check(character)
+                if why is not None:
+                    fell, fall_time, reason = True, character.time, why
+                    if stop_on_fall:
+                        break
+    except SimulationDiverged as e:
+        fell, diverged, reason = True, True, str(e)
+        fall_time = e.time if fall_time is None else fall_time
+    wall = time.perf_counter() - wall0
+    agg = rec.aggregates()
+    track, root_err = rec.tracking_errors()
+    sim_time = character.time
+    return Result(
+        controller=getattr(controller, "name", type(controller).__name__), scenario=scenario,
+        fell=fell, fall_time_s=fall_time, sim_time_s=sim_time, distance_m=agg["distance_m"],
+        mean_speed_mps=agg["distance_m"] / sim_time if sim_time > 0 else 0.0,
+        tracking_error_m=track, root_error_m=root_err,
+        root_force_mean_N=agg["root_force_mean_N"], root_force_max_N=agg["root_force_max_N"],
+        root_torque_mean_Nm=agg["root_torque_mean_Nm"], max_push_N=None,
+        wall_s=wall, steps_per_s=steps / wall if wall > 0 else 0.0, timestep_s=dt,
+        control_dt_s=dt * n_sub, n_steps=steps, seed=seed, diverged=diverged, fall_reason=reason,
+        foot_travel_m=agg["foot_travel_m"], stepped=agg["foot_travel_m"] > STEP_DISTANCE,
+        com_drop_m=agg["com_drop_m"])
+
+
+# -- the scenarios -------------------------------------------------------------------------------
+def stand(character: Character, controller, *, duration: float = 10.0, **kw) -> Result:
+    """Stand from the standing pose for ``duration`` s."""
+    return simulate(character, controller, duration=duration, scenario="stand",
+                    qpos=standing_pose(character), **kw)
+
+
+def push(character: Character, controller, *, force: float, direction: float = 0.0,
+         push_duration: float = 0.2, push_time: float = 1.0, body: str | None = None,
+         duration: float = 4.0, allow_steps: bool = False, **kw) -> Result:
+    """One push of ``force`` N towards ``direction`` degrees (heading frame) on ``body``
+    (default: the pelvis) for ``push_duration`` s at ``push_time`` s; run ``duration`` s.
+
+    ``max_push_N`` is ``force`` when it was survived (no fall and, unless ``allow_steps``, no
+    foot moved more than 5 cm), else 0.
+    """
+    if not (math.isfinite(force) and force >= 0):
+        raise ScenarioError(f"push force must be a non-negative number of newtons, got {force}")
+    if push_time + push_duration > duration:
+        raise ScenarioError(f"the push ({push_time} s + {push_duration} s) ends after the run "
+                            f"({duration} s)")
+    body = body or character.role("pelvis")
+
+    def events(ch: Character) -> None:
+        f = force * heading_frame_direction(ch, direction)
+        ch.push(body, f, push_duration, start=push_time)
+
+    r = simulate(character, controller, duration=duration, scenario="push",
+                 qpos=standing_pose(character), events=events, **kw)
+    r.push_N, r.push_direction_deg = float(force), float(direction)
+    r.max_push_N = float(force) if survived(r, allow_steps) else 0.0
+    return r
+
+
+def survived(result: Result, allow_steps: bool = False) -> bool:
+    """No fall, and (unless ``allow_steps``) no foot moved by a step."""
+    return not result.fell and (allow_steps or not result.stepped)
+
+
+def push_search(character: Character, controller, *, directions: dict | None = None,
+                max_force: float = 1000.0, tolerance: float = 5.0, allow_steps: bool = False,
+                progress: Callable[[str], None] | None = None, **push_kw) -> Result:
+    """Largest survivable push per direction (bisection between 0 and ``max_force`` N, to within
+    ``tolerance`` N). ``max_push_N`` is the smallest of the per-direction values (what the
+    controller survives from every direction); ``max_push_by_direction_N`` has each one."""
+    directions = DIRECTIONS if directions is None else directions
+    frame_callback = push_kw.pop("frame_callback", None)  # only the final run is filmed
+    best: dict[str, float] = {}
+    wall = 0.0
+    steps = 0
+    for name, deg in directions.items():
+        def trial(f: float, deg=deg) -> bool:
+            nonlocal wall, steps
+            r = push(character, controller, force=f, direction=deg, allow_steps=allow_steps,
+                     **push_kw)
+            wall += r.wall_s
+            steps += r.n_steps
+            return survived(r, allow_steps)
+
+        best[name] = largest_passing(trial, max_force, tolerance)
+        if progress is not None:
+            progress(f"push-search {name}: {best[name]:.0f} N")
+    # a final run at the weakest direction's largest survivable push, for the other metrics
+    weakest = min(best, key=best.get)
+    r = push(character, controller, force=best[weakest], direction=directions[weakest],
+             allow_steps=allow_steps, frame_callback=frame_callback, **push_kw)
+    r.scenario = "push-search"
+    r.max_push_N = best[weakest]
+    r.max_push_by_direction_N = best
+    r.wall_s += wall
+    r.n_steps += steps
+    r.steps_per_s = r.n_steps / r.wall_s if r.wall_s > 0 else 0.0
+    return r
+
+
+def random_push(character: Character, controller, *, seed: int = 0, force: float = 10.0,
+                period: float = 1.0, duration: float = 30.0, body: str | None = None,
+                **kw) -> Result:
+    """A ``force`` N horizontal push on ``body`` (default: the root/pelvis) whose direction
+    (uniform on the circle, from ``numpy.random.default_rng(seed)``) changes every ``period``
+    s, for ``duration`` s."""
+    rng = np.random.default_rng(seed)
+    n = int(math.ceil(duration / period))
+    angles = rng.uniform(0.0, 2 * math.pi, size=n)
+    body = body or character.role("pelvis")
+
+    def events(ch: Character) -> None:
+        for k, a in enumerate(angles):
+            ch.push(body, force * np.array([math.cos(a), math.sin(a), 0.0]), period,
+                    start=k * period)
+
+    r = simulate(character, controller, duration=duration, scenario="random-push",
+                 qpos=standing_pose(character), events=events, seed=seed, **kw)
+    r.push_N = float(force)
+    return r
+
+
+def track(character: Character, controller, reference, *, duration: float | None = None,
+          scenario: str = "track", **kw) -> Result:
+    """Start on the reference's first frame (pose and velocity) and run for ``duration`` s
+    (default: the clip's duration); reports tracking and root errors against it."""
+    if reference is None:
+        raise ScenarioError(f"the {scenario} scenario needs a reference motion")
+    duration = reference.duration if duration is None else duration
+    return simulate(character, controller, duration=duration, scenario=scenario,
+                    qpos=reference.qpos(0.0), qvel=reference.qvel(0.0), reference=reference, **kw)
+
+
+def walk(character: Character, controller, reference=None, *, duration: float | None = None,
+         **kw) -> Result:
+    """Locomotion: from the reference's first frame (or the standing pose without one), report
+    the distance covered and the mean speed (and tracking errors when there is a reference)."""
+    if reference is None:
+        return simulate(character, controller, duration=10.0 if duration is None else duration,
+                        scenario="walk", qpos=standing_pose(character), **kw)
+    return track(character, controller, reference, duration=duration, scenario="walk", **kw)
+
+
+@dataclass
+class HoldResult:
+    """Outcome of :func:`hold_pose` (a PD stability check with the root welded).
+
+    Attributes:
+        held: no divergence, and over the last second the RMS joint error stayed below
+            ``HOLD_ERROR`` rad and the RMS joint velocity below ``HOLD_VELOCITY`` rad/s.
+        diverged: the simulation blew up (NaN, exploding velocity).
+        rms_error: RMS joint error over the last second (rad; ``inf`` if diverged).
+        rms_velocity: RMS joint velocity over the last second (rad/s; ``inf`` if diverged).
+        time_s: simulated time reached.
+    """
+
+    held: bool
+    diverged: bool
+    rms_error: float
+    rms_velocity: float
+    time_s: float
+
+
+#: thresholds of :func:`hold_pose` (rad, rad/s)
+HOLD_ERROR = 0.05
+HOLD_VELOCITY = 0.5
+
+
+def hold_pose(character: Character, controller: str, *, kp: float, timestep: float,
+              duration: float = 5.0, seed: int = 0, perturbation: float = 0.2,
+              kd: float | None = None, torque_limits: bool = False) -> HoldResult:
+    """Can PD variant ``controller`` (``pd``, ``spd``, ``native_pd``) hold the standing pose?
+
+    The root is welded 0.1 m above its standing height (no floor contact), every actuated dof
+    starts off target by a uniform random error in ``[-perturbation, perturbation]`` rad (seeded),
+    and the controller, with uniform gains ``kp`` and ``kd`` (default ``kp / 10``), runs for
+    ``duration`` s at ``timestep`` s, acting every physics step. The torque limits are lifted
+    unless ``torque_limits``: the check is about integrating the PD law; with limits, a clamped
+    native actuator loses its implicit damping in MuJoCo and saturation limit cycles appear.
+    """
+    if controller not in ("pd", "spd", "native_pd"):
+        raise ScenarioError(f"hold_pose is for the PD variants, not {controller!r}")
+    rng = np.random.default_rng(seed)
+    character.set_timestep(timestep)
+    pose = standing_pose(character)
+    pose[character.root_qpos[2]] += 0.1
+    v = np.zeros(character.nv)
+    v[character.actuated] = rng.uniform(-perturbation, perturbation, int(character.actuated.sum()))
+    start = character.integrate(pose, v, 1.0)
+    character.reset(start)
+    character.weld_root(True)  # the root of `start` is the root of `pose`
+    ctrl = make_controller(controller, character, pose, gains=Gains.uniform(character, kp, kd))
+    ctrl.reset(character)
+    character.set_torque_limits(torque_limits)
+    n = int(round(duration / timestep))
+    tail = max(1, int(round(1.0 / timestep)))
+    act = character.actuated
+    err2 = vel2 = 0.0
+    try:
+        for k in range(n):
+            character.step(ctrl.act(character, character.time))
+            if k >= n - tail:
+                e = character.difference(character.qpos, pose)[act]
+                err2 += float(e @ e) / len(e)
+                q = character.qvel[act]
+                vel2 += float(q @ q) / len(q)
+    except SimulationDiverged:
+        return HoldResult(False, True, math.inf, math.inf, character.time)
+    finally:
+        character.set_torque_limits(True)
+        character.weld_root(False)
+    rms_e, rms_v = math.sqrt(err2 / tail), math.sqrt(vel2 / tail)
+    return HoldResult(rms_e < HOLD_ERROR and rms_v < HOLD_VELOCITY, False, rms_e, rms_v,
+                      character.time)
+
+
+def run_scenario(name: str, character: Character, controller, *, reference=None, **kw) -> Result:
+    """Dispatch by scenario name (:data:`SCENARIOS`)."""
+    if name == "stand":
+        return stand(character, controller, **kw)
+    if name == "push":
+        return push(character, controller, **kw)
+    if name == "push-search":
+        return push_search(character, controller, **kw)
+    if name == "random-push":
+        return random_push(character, controller, **kw)
+    if name == "track":
+        return track(character, controller, reference, **kw)
+    if name == "walk":
+        return walk(character, controller, reference, **kw)
+    raise ScenarioError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")

@@ -1,0 +1,503 @@
+"""Terrain and gait scenarios for walking controllers (SIMBICON and any controller with an FSM).
+
+- **Slopes**: :func:`tilt_floor` turns the ``floor`` plane of a Character's model at run time
+  (``geom_quat``/``geom_pos``; no XML edit), :func:`floor_height` gives its height anywhere.
+- **Walks**: :func:`walk` runs a walking controller from its own start state (with small seeded
+  perturbations), on flat ground or a slope, and reports the steady speed (over the last
+  ``steady_window`` s) besides the shared :class:`~controllers.core.metrics.Result`.
+- **Pushes at a phase of the stride**: :func:`push_walk` pushes the torso horizontally for
+  0.2 s at a chosen fraction of the stride (a stride = two steps, from one entry into FSM state
+  0 to the next; its length is the previous stride's) and direction (degrees in the heading
+  frame: 0 forward, 90 left, 180 back, 270 right), after a warm-up, and checks that the
+  walker is still walking ``after`` s later; :func:`phase_push_test` does that at ``n`` phases
+  spread over a stride, :func:`push_search` finds per direction the largest push survived at
+  every one of those phases (bisection).
+- **Slope walks**: :func:`slope_walk` walks up or down a tilted floor and checks the distance
+  covered along the slope.
+
+Every run goes through :func:`controllers.core.scenarios.simulate` (falls, divergence, root force
+bookkeeping). On a slope the shared fall test (root height in world z, bodies touching the floor)
+is complemented by a terrain-relative one (root height above the floor under it), done by
+:class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
+
+A controller used here needs ``reset``/``act`` (the Controller protocol) and, for phase pushes,
+``transitions``: a list of ``(time, state)`` whose entries with state 0 mark stride starts.
+``start_state(character, rng)`` is used when present (else the standing pose).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from bvh.errors import MjcharError
+
+from .character import Character
+from .metrics import FALL_HEIGHT_FRACTION, Result
+from .scenarios import DIRECTIONS, largest_passing, simulate, standing_pose
+
+
+class TerrainError(MjcharError):
+    """A terrain or gait scenario was given something impossible (bad slope, phase, force)."""
+
+
+# -- slopes ----------------------------------------------------------------------------------------
+def tilt_floor(
+    character: Character, degrees: float, *, heading: float = 0.0, height: float = 0.0
+) -> None:
+    """Tilt the character's floor plane so it rises by ``degrees`` towards ``heading``.
+
+    Args:
+        degrees: slope angle (deg, ``-45 < degrees < 45``); positive rises along ``heading``
+            (uphill), negative falls (downhill); 0 restores a level floor.
+        heading: world yaw (deg) of the uphill direction (0 = +x, the humanoid's facing).
+        height: floor height (m) at the world origin.
+    """
+    if not (math.isfinite(degrees) and abs(degrees) < 45.0):
+        raise TerrainError(f"slope must be between -45 and 45 degrees, got {degrees}")
+    if not (math.isfinite(heading) and math.isfinite(height)):
+        raise TerrainError("slope heading and height must be finite numbers")
+    m = character.model
+    g = character.floor_geom
+    a = math.radians(degrees)
+    h = math.radians(heading)
+    # rotation about the horizontal axis perpendicular to the heading: a rotation by -a about
+    # the left axis (-sin h, cos h, 0) raises the plane along (cos h, sin h, 0)
+    axis = np.array([-math.sin(h), math.cos(h), 0.0])
+    quat = np.concatenate([[math.cos(-a / 2)], math.sin(-a / 2) * axis])
+    m.geom_quat[g] = quat
+    m.geom_pos[g] = [0.0, 0.0, height]
+    # the compiler marks a geom at its body's frame ("sameframe") and kinematics then skips its
+    # own transform: clear the flag so the new pose is used
+    m.geom_sameframe[g] = 0
+    character.reset(character.qpos.copy(), character.qvel.copy())
+
+
+def floor_normal(character: Character) -> np.ndarray:
+    """``(3,)`` unit upward normal of the floor plane."""
+    q = character.model.geom_quat[character.floor_geom]
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+
+
+def floor_height(character: Character, xy) -> float:
+    """Height (m) of the floor plane at world horizontal position ``xy`` ``(2,)``."""
+    n = floor_normal(character)
+    p0 = character.model.geom_pos[character.floor_geom]
+    x = np.asarray(xy, dtype=float)[:2]
+    return float(p0[2] - (n[0] * (x[0] - p0[0]) + n[1] * (x[1] - p0[1])) / n[2])
+
+
+def place_on_floor(character: Character, qpos: np.ndarray, clearance: float = 0.0) -> np.ndarray:
+    """``(nq,)`` copy of ``qpos`` with the root moved vertically so the character's lowest geom
+    point (measured along the floor's normal, capsules and boxes exactly) is ``clearance`` m
+    above a level or tilted floor."""
+    import mujoco
+
+    m = character.model
+    scratch = mujoco.MjData(m)
+    q = np.array(qpos, dtype=float)
+    scratch.qpos[:] = q
+    mujoco.mj_kinematics(m, scratch)
+    n = floor_normal(character)
+    p0 = m.geom_pos[character.floor_geom]
+    lowest = math.inf
+    for gid in np.flatnonzero(np.isin(m.geom_bodyid, character.character_bodies)):
+        c = scratch.geom_xpos[gid]
+        R = scratch.geom_xmat[gid].reshape(3, 3)
+        s = m.geom_size[gid]
+        t = m.geom_type[gid]
+        if t == mujoco.mjtGeom.mjGEOM_BOX:
+            dist = (c - p0) @ n - np.abs(R.T @ n) @ s
+        elif t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            dist = (c - p0) @ n - abs(R[:, 2] @ n) * s[1] - s[0]
+        elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
+            dist = (c - p0) @ n - s[0]
+        else:
+            dist = (c - p0) @ n - m.geom_rbound[gid]
+        lowest = min(lowest, float(dist))
+    q[character.root_qpos[2]] += (clearance - lowest) / n[2]
+    return q
+
+
+# -- the scenario wrapper --------------------------------------------------------------------------
+@dataclass
+class PhasePush:
+    """A push at a phase of the stride.
+
+    Attributes:
+        force: N (horizontal magnitude).
+        direction: degrees in the heading frame (0 forward, 90 left, 180 back, 270 right).
+        phase: fraction of the stride in ``[0, 1)`` (0 = entry into FSM state 0).
+        duration: s.
+        body: body pushed (default: the last spine joint, the chest).
+        after: earliest time (s) of the stride the push falls in (warm-up).
+    """
+
+    force: float
+    direction: float
+    phase: float
+    duration: float = 0.2
+    body: str | None = None
+    after: float = 4.0
+
+    def check(self) -> None:
+        if not (math.isfinite(self.force) and self.force >= 0):
+            raise TerrainError(f"push force must be a non-negative number of N, got {self.force}")
+        if not (0.0 <= self.phase < 1.0):
+            raise TerrainError(f"push phase must be in [0, 1), got {self.phase}")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise TerrainError(f"push duration must be positive seconds, got {self.duration}")
+        if not math.isfinite(self.direction):
+            raise TerrainError(f"push direction must be a number of degrees, got {self.direction}")
+
+
+class GaitDriver:
+    """Wraps a walking controller for a scenario: schedules a :class:`PhasePush`, records the
+    root's path and checks the height above a (possibly tilted) floor.
+
+    It applies nothing itself: the push is an external force scheduled on the Character
+    (``Character.push``), the controller's actions pass through unchanged.
+
+    Attributes:
+        push_time: when the push was scheduled to start (s), ``None`` before.
+        push_world: ``(3,)`` the push force (N, world).
+        fell, fall_time: terrain-relative fall (root lower than ``fall_fraction`` of its
+            standing height above the floor under it).
+        path: list of ``(t, x, y, z)`` root positions every ``sample_dt`` s.
+    """
+
+    def __init__(
+        self,
+        controller,
+        push: PhasePush | None = None,
+        *,
+        fall_fraction: float = FALL_HEIGHT_FRACTION,
+        sample_dt: float = 0.05,
+    ):
+        self.controller = controller
+        self.name = getattr(controller, "name", type(controller).__name__)
+        self.push = push
+        self.fall_fraction = fall_fraction
+        self.fall_height = 0.0
+        self.sample_dt = sample_dt
+        self.push_time: float | None = None
+        self.push_world = np.zeros(3)
+        self.fell = False
+        self.fall_time: float | None = None
+        self.path: list[tuple[float, float, float, float]] = []
+        self._next_sample = 0.0
+
+    @property
+    def actuation(self) -> str:
+        return self.controller.actuation
+
+    def reset(self, character: Character) -> None:
+        self.controller.reset(character)
+        standing = character.on_floor(character.model.qpos0)[character.root_qpos[2]]
+        self.fall_height = self.fall_fraction * float(standing)
+        self.push_time = None
+        self.fell, self.fall_time = False, None
+        self.path = []
+        self._next_sample = character.time
+
+    def act(self, character: Character, t: float):
+        action = self.controller.act(character, t)
+        if self.push is not None and self.push_time is None:
+            self._maybe_schedule(character, t)
+        if t >= self._next_sample - 1e-9:
+            p = character.root_position
+            self.path.append((t, float(p[0]), float(p[1]), float(p[2])))
+            self._next_sample += self.sample_dt
+            if not self.fell and p[2] - floor_height(character, p[:2]) < self.fall_height:
+                self.fell, self.fall_time = True, t
+        return action
+
+    def _maybe_schedule(self, character: Character, t: float) -> None:
+        tr = getattr(self.controller, "transitions", None)
+        if tr is None:
+            raise TerrainError(f"{self.name} has no FSM transitions: cannot push at a phase")
+        if not tr or tr[-1][1] != 0 or tr[-1][0] != t or t < self.push.after:
+            return  # a stride starts now (the controller just entered state 0), after warm-up
+        starts = [s for s, state in tr if state == 0]
+        if len(starts) < 2:
+            return
+        stride = starts[-1] - starts[-2]
+        t0 = t
+        from .scenarios import heading_frame_direction
+
+        body = self.push.body or character.roles("spine")[-1]
+        f = self.push.force * heading_frame_direction(character, self.push.direction)
+        self.push_time = t0 + self.push.phase * stride
+        self.push_world = f
+        if self.push.force > 0:
+            character.push(body, f, self.push.duration, start=self.push_time)
+
+    def speed(self, t0: float, t1: float) -> float:
+        """Mean horizontal root speed (m/s) between ``t0`` and ``t1`` (s) from the path."""
+        a = np.array(self.path)
+        if len(a) < 2:
+            return 0.0
+        sel = a[(a[:, 0] >= t0 - 1e-9) & (a[:, 0] <= t1 + 1e-9)]
+        if len(sel) < 2 or sel[-1, 0] - sel[0, 0] <= 0:
+            return 0.0
+        return float(
+            np.hypot(sel[-1, 1] - sel[0, 1], sel[-1, 2] - sel[0, 2]) / (sel[-1, 0] - sel[0, 0])
+        )
+
+
+def _start(
+    character: Character, controller, seed: int | None, perturb: bool, clearance: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Start state from the controller (``start_state``) or the standing pose, on the floor."""
+    rng = np.random.default_rng(seed) if (perturb and seed is not None) else None
+    inner = getattr(controller, "controller", controller)
+    if hasattr(inner, "start_state"):
+        q, v = inner.start_state(character, rng)
+    else:
+        q, v = standing_pose(character), np.zeros(character.nv)
+    return place_on_floor(character, q, clearance), v
+
+
+def _finish(r: Result, driver: GaitDriver, steady_window: float) -> Result:
+    if driver.fell and not r.fell:
+        r.fell, r.fall_time_s = True, driver.fall_time
+        r.fall_reason = "root too low above the floor under it"
+    end = r.sim_time_s
+    r.extra["steady_speed_mps"] = driver.speed(max(0.0, end - steady_window), end)
+    return r
+
+
+# -- walks -----------------------------------------------------------------------------------------
+def walk(
+    character: Character,
+    controller,
+    *,
+    duration: float = 60.0,
+    seed: int | None = 0,
+    perturb: bool = True,
+    slope: float = 0.0,
+    steady_window: float = 10.0,
+    target_distance: float | None = None,
+    progress: Callable[[str], None] | None = None,
+    **kw,
+) -> Result:
+    """Walk for ``duration`` s from the controller's start state (seeded perturbation), on level
+    ground or a ``slope`` (deg, uphill positive) rising along the initial heading.
+
+    ``Result.extra["steady_speed_mps"]``: the root's mean horizontal speed over the last
+    ``steady_window`` s; ``Result.mean_speed_mps`` is over the whole run (start-up included).
+    On a slope, ``extra["slope_distance_m"]`` (along the slope) and, with ``target_distance``
+    (m), ``extra["time_to_distance_s"]``: when the root had first covered that much along the
+    slope (``None`` if never). Other keyword arguments go to
+    :func:`~controllers.core.scenarios.simulate`.
+    """
+    driver = GaitDriver(controller)
+    with _slope(character, slope, duration):
+        q, v = _start(character, controller, seed, perturb, clearance=0.002 if slope else 0.0)
+        r = simulate(
+            character, driver, duration=duration, scenario="walk", qpos=q, qvel=v, seed=seed, **kw
+        )
+    r = _finish(r, driver, steady_window)
+    if slope:
+        r.scenario = f"slope {slope:+g} deg"
+        r.extra["slope_distance_m"] = _slope_distance(driver, slope)
+        if target_distance is not None:
+            r.extra["time_to_distance_s"] = _time_to_distance(driver, slope, target_distance)
+    if progress is not None:
+        progress(r.summary())
+    return r
+
+
+class _slope:
+    """Context manager: tilt the floor for a run (placed so a downhill run never goes below
+    z = 0, which keeps the shared absolute-height fall test meaningful), then level it."""
+
+    def __init__(self, character: Character, degrees: float, duration: float):
+        self.character, self.degrees = character, float(degrees)
+        self.height = max(0.0, -math.sin(math.radians(self.degrees))) * 2.0 * duration
+
+    def __enter__(self):
+        if self.degrees:
+            tilt_floor(self.character, self.degrees, height=self.height)
+
+    def __exit__(self, *exc):
+        if self.degrees:
+            tilt_floor(self.character, 0.0)
+
+
+def _slope_distance(driver: GaitDriver, degrees: float) -> float:
+    """Distance (m) covered along the slope direction (+x) by the root, measured on the slope."""
+    if len(driver.path) < 2:
+        return 0.0
+    a = np.array(driver.path)
+    dx = a[-1, 1] - a[0, 1]
+    return float(dx / math.cos(math.radians(degrees)))
+
+
+def _time_to_distance(driver: GaitDriver, degrees: float, distance: float) -> float | None:
+    """First time (s) the root had covered ``distance`` m along the slope, ``None`` if never."""
+    if len(driver.path) < 2:
+        return None
+    a = np.array(driver.path)
+    along = (a[:, 1] - a[0, 1]) / math.cos(math.radians(degrees))
+    hit = np.flatnonzero(along >= distance)
+    return float(a[hit[0], 0]) if len(hit) else None
+
+
+def slope_walk(
+    character: Character,
+    controller,
+    *,
+    degrees: float,
+    distance: float = 20.0,
+    duration: float | None = None,
+    seed: int | None = 0,
+    **kw,
+) -> Result:
+    """Walk up (``degrees`` > 0) or down (< 0) a slope; success = no fall and at least
+    ``distance`` m covered along the slope. ``duration`` defaults to ``distance / 0.6`` s.
+
+    ``Result.extra``: ``slope_distance_m``, ``reached`` (bool), ``time_to_distance_s`` (when
+    ``distance`` was first covered, ``None`` if never), ``steady_speed_mps``.
+    """
+    if not degrees:
+        raise TerrainError("slope_walk needs a non-zero slope (use walk() for level ground)")
+    duration = distance / 0.6 if duration is None else duration
+    r = walk(
+        character,
+        controller,
+        duration=duration,
+        seed=seed,
+        slope=degrees,
+        target_distance=distance,
+        **kw,
+    )
+    r.extra["reached"] = bool(not r.fell and r.extra["slope_distance_m"] >= distance)
+    return r
+
+
+# -- pushes at a phase of the stride ---------------------------------------------------------------
+def push_walk(
+    character: Character,
+    controller,
+    *,
+    force: float,
+    direction: float = 0.0,
+    phase: float = 0.0,
+    push_duration: float = 0.2,
+    body: str | None = None,
+    warmup: float = 4.0,
+    after: float = 10.0,
+    seed: int | None = 0,
+    min_speed: float = 0.3,
+    **kw,
+) -> Result:
+    """Walk, push the torso (``body``, default the chest) with ``force`` N for ``push_duration``
+    s towards ``direction`` (deg, heading frame) at ``phase`` of the first stride that starts
+    after ``warmup`` s, and keep going ``after`` s past the push's end.
+
+    Survived (``max_push_N == force``) when it did not fall and still walks: mean speed over the
+    last 5 s at least ``min_speed`` m/s. ``Result.extra``: ``push_time_s``, ``phase``,
+    ``walking_after`` (bool), ``steady_speed_mps``.
+    """
+    push = PhasePush(force, direction, phase, push_duration, body, warmup)
+    push.check()
+    driver = GaitDriver(controller, push)
+    q, v = _start(character, controller, seed, True)
+    # the push starts within two strides after the warm-up
+    duration = warmup + 3.0 + push_duration + after
+    r = simulate(
+        character, driver, duration=duration, scenario="push", qpos=q, qvel=v, seed=seed, **kw
+    )
+    r = _finish(r, driver, 5.0)
+    r.push_N, r.push_direction_deg = float(force), float(direction)
+    pt = driver.push_time
+    r.extra.update(push_time_s=pt, phase=phase)
+    walking = (
+        pt is not None
+        and not r.fell
+        and r.sim_time_s >= pt + push_duration + after - 1e-6
+        and r.extra["steady_speed_mps"] >= min_speed
+    )
+    r.extra["walking_after"] = bool(walking)
+    r.max_push_N = float(force) if walking else 0.0
+    return r
+
+
+def stride_phases(n: int = 8) -> list[float]:
+    """``n`` phases spread evenly over a stride: ``[0, 1/n, ..., (n-1)/n]``."""
+    if n < 1:
+        raise TerrainError(f"need at least one phase, got {n}")
+    return [k / n for k in range(n)]
+
+
+def phase_push_test(
+    character: Character,
+    controller,
+    *,
+    forces: dict[str, float],
+    phases: int | list[float] = 8,
+    stop_at_first_failure: bool = False,
+    progress: Callable[[str], None] | None = None,
+    **kw,
+) -> dict:
+    """Push from each direction in ``forces`` (name in
+    :data:`~controllers.core.scenarios.DIRECTIONS`
+    -> N) at each phase; returns ``{direction: {phase: Result}}``."""
+    ph = stride_phases(phases) if isinstance(phases, int) else list(phases)
+    out: dict[str, dict[float, Result]] = {}
+    for name, f in forces.items():
+        if name not in DIRECTIONS:
+            raise TerrainError(f"unknown direction {name!r}; choose from {', '.join(DIRECTIONS)}")
+        out[name] = {}
+        for p in ph:
+            r = push_walk(character, controller, force=f, direction=DIRECTIONS[name], phase=p, **kw)
+            out[name][p] = r
+            if progress is not None:
+                progress(
+                    f"{name} {f:.0f} N at phase {p:.3f}: "
+                    + ("survived" if r.max_push_N else f"FAILED ({r.fall_reason or 'stopped'})")
+                )
+            if stop_at_first_failure and not r.max_push_N:
+                break
+    return out
+
+
+def push_search(
+    character: Character,
+    controller,
+    *,
+    directions: list[str] | None = None,
+    phases: int | list[float] = 8,
+    max_force: float = 800.0,
+    tolerance: float = 10.0,
+    progress: Callable[[str], None] | None = None,
+    **kw,
+) -> dict[str, float]:
+    """Per direction, the largest push (N, within ``tolerance``) survived at every phase.
+
+    Bisection on the force between 0 and ``max_force``; a trial stops at its first failing
+    phase. Returns ``{direction: N}``.
+    """
+    directions = list(DIRECTIONS) if directions is None else directions
+    ph = stride_phases(phases) if isinstance(phases, int) else list(phases)
+    best: dict[str, float] = {}
+    for name in directions:
+
+        def ok(f: float, name=name) -> bool:
+            res = phase_push_test(
+                character, controller, forces={name: f}, phases=ph, stop_at_first_failure=True, **kw
+            )[name]
+            good = all(r.max_push_N for r in res.values()) and len(res) == len(ph)
+            if progress is not None:
+                progress(f"  {name} {f:.0f} N: {'ok' if good else 'fails'}")
+            return good
+
+        best[name] = largest_passing(ok, max_force, tolerance)
+        if progress is not None:
+            progress(f"push search {name}: {best[name]:.0f} N at all {len(ph)} phases")
+    return best

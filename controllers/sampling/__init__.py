@@ -1,0 +1,18 @@
+"""Sampling control: batched rollouts on ``mujoco.rollout`` and their executors (local threads,
+Ray), saved PD-target trajectories and their open-loop replay, SAMCON and CMA-ES trajectory
+optimisation. Registered as ``replay``, ``samcon_replay`` and ``cmaes_replay``."""
+
+# Registration order: replay, samcon_replay, cmaes_replay:
+# isort: off
+from .trajectory import ReplayController, Trajectory, load_trajectory, make_replay, replay
+from .samcon import CostWeights, Samcon, SamconOptions, SamconResult
+# isort: on
+from .executors import Executor, LocalExecutor, make_executor
+from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner, rollout
+from .trajopt import TrajectoryOptimizer, TrajoptOptions, optimise_jump, track_clip
+
+__all__ = ["CostWeights", "Executor", "LocalExecutor", "ReplayController", "RolloutModel",
+           "RolloutRequest", "RolloutResult", "RolloutRunner", "Samcon", "SamconOptions",
+           "SamconResult", "TrajectoryOptimizer", "Trajectory", "TrajoptOptions",
+           "load_trajectory", "make_executor", "make_replay", "optimise_jump", "replay",
+           "rollout", "track_clip"]

@@ -1,0 +1,313 @@
+"""SIMBICON gait parameters as data (Yin, Loken and van de Panne, "SIMBICON: Simple Biped
+Locomotion Control", SIGGRAPH 2007).
+
+A :class:`Gait` is plain data: the per-state target angles of the four-state finite-state
+machine, the balance-feedback gains, the torso lean, the pose of the rest of the body and the
+PD gains, all JSON round-trippable (:meth:`Gait.to_dict` / :meth:`Gait.from_dict`). States 0 and
+2 (and 1 and 3) are mirror images, so a gait stores two :class:`StateParams`: the lift-off state
+(0/2, timed) and the swing state (1/3, ended by the swing foot's contact or a timeout).
+
+Angle conventions (anatomical, independent of any model's hinge axes; the controller finds the
+sign of each hinge on the model itself, see :mod:`controllers.walking.simbicon`):
+
+- hip: ``+`` = flexion (thigh forward); ``coronal`` ``+`` = abduction (thigh away from the
+  body's midline). The swing hip's angles are in the *heading* frame (world-aligned, yawed with
+  the pelvis), not relative to the pelvis.
+- knee: ``+`` = flexion. (The paper writes knee flexion as a negative angle: its 3D walk's swing
+  knee ``-1.10`` is ``1.10`` here.)
+- ankle: ``+`` = dorsiflexion (toes up), relative to the shank.
+- torso: ``pitch`` ``+`` = forward lean of the pelvis in the heading frame.
+
+The balance feedback on the swing hip is ``theta_d = theta_d0 + cd * d + cv * v`` per plane,
+with ``d``/``v`` the centre of mass's horizontal offset from the stance ankle and its velocity in
+the heading frame (sagittal: forward; coronal: towards the swing leg's side).
+
+Gains are ``(kp, kd)`` in N m/rad and N m s/rad.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+
+from bvh.errors import MjcharError
+
+
+class GaitError(MjcharError):
+    """A gait was asked for by an unknown name, or given a parameter it does not have."""
+
+
+@dataclass(frozen=True)
+class StateParams:
+    """Targets and feedback of one FSM state (written for either stance leg).
+
+    Attributes:
+        duration: s; the state's length when timed (states 0/2); for the swing states (1/3) the
+            nominal length that the phase is measured against.
+        ends_on_contact: end when the swing foot lands (phase > ``contact_phase`` and its normal
+            force > ``contact_force``) or after ``timeout``; else after ``duration``.
+        swing_hip: swing-hip flexion target theta_d0 in the sagittal plane of the heading
+            frame (rad).
+        swing_hip_coronal: swing-hip abduction target in the coronal plane (rad).
+        swing_knee: swing-knee flexion (rad).
+        swing_ankle: swing-ankle dorsiflexion (rad).
+        stance_knee: stance-knee flexion (rad).
+        stance_ankle: stance-ankle dorsiflexion (rad).
+        cd, cv: sagittal feedback gains (rad/m, rad s/m).
+        cd_coronal, cv_coronal: coronal feedback gains (rad/m, rad s/m).
+        timeout: s; a contact-ended state ends after this long even without contact.
+    """
+
+    duration: float
+    ends_on_contact: bool
+    swing_hip: float
+    swing_hip_coronal: float
+    swing_knee: float
+    swing_ankle: float
+    stance_knee: float
+    stance_ankle: float
+    cd: float
+    cv: float
+    cd_coronal: float
+    cv_coronal: float
+    timeout: float = 1.0
+
+
+@dataclass(frozen=True)
+class Gait:
+    """One SIMBICON gait.
+
+    Attributes:
+        name: the gait's name.
+        states: ``(lift-off state 0/2, swing state 1/3)``.
+        torso_pitch: forward lean of the pelvis, heading frame (rad).
+        spine_pitch: flexion of each spine joint relative to its parent (rad; ``+`` forward).
+        shoulder_down: arms lowered from the rest pose's T-pose (rad, ``+`` down).
+        elbow_flexion: rad.
+        arm_swing: shoulder flexion (rad) of the arm opposite the swing leg (the other arm
+            extends as much): arms swing against the legs, which cancels part of the legs' yaw.
+        swing_ankle_world: control the swing foot in the desired-heading frame (``swing_ankle`` =
+            its pitch, toes up) instead of relative to the shank.
+        contact_phase, contact_force: the swing-foot contact test of states 1/3 (phase > this
+            fraction of ``duration`` and normal force > this many N).
+        max_twist: rad; bound on the stance hip's twist target (the heading control).
+        gains: ``(kp, kd)`` per group: ``torso`` (world-frame pelvis pitch and roll),
+            ``stance_twist`` (the stance hip's twist, heading control), ``swing_hip`` (world
+            frame), ``knee``, ``ankle``, ``toe``, ``spine``, ``head``, ``arm``. A group left out
+            uses the model's own gains table.
+        start_speed: forward speed (m/s) given to the standing start pose.
+        speed_target, speed_gain, speed_limit: optional step-to-step speed regulation (off when
+            ``speed_target`` is ``None``): at every lift-off the sagittal swing-hip offset
+            ``delta += speed_gain (v_step - speed_target)`` (rad; ``v_step`` the mean forward
+            speed of the centre of mass over the last step, m/s), bounded by ``speed_limit``,
+            is added to theta_d. It is integral action on the speed (e.g. on slopes, where the
+            proportional feedback ``cv v`` alone settles at another speed).
+    """
+
+    name: str
+    states: tuple[StateParams, StateParams]
+    torso_pitch: float = 0.0
+    spine_pitch: float = 0.0
+    shoulder_down: float = 1.3
+    elbow_flexion: float = 0.2
+    arm_swing: float = 0.0
+    swing_ankle_world: bool = False
+    contact_phase: float = 0.5
+    contact_force: float = 20.0
+    max_twist: float = 0.5
+    gains: dict = field(default_factory=dict)
+    start_speed: float = 0.0
+    speed_target: float | None = None
+    speed_gain: float = 0.0
+    speed_limit: float = 0.3
+
+    # -- data in and out ----------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """A JSON-ready dict (``states`` as a list of two dicts, gains as lists)."""
+        d = dataclasses.asdict(self)
+        d["states"] = [dataclasses.asdict(s) for s in self.states]
+        d["gains"] = {k: list(v) for k, v in self.gains.items()}
+        return d
+
+    def to_json(self, **kw) -> str:
+        return json.dumps(self.to_dict(), **kw)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Gait:
+        """Inverse of :meth:`to_dict`; raises :class:`GaitError` on unknown or missing keys."""
+        d = dict(d)
+        try:
+            states = tuple(StateParams(**s) for s in d.pop("states"))
+        except (KeyError, TypeError) as e:
+            raise GaitError(f"gait states: {e}") from None
+        if len(states) != 2:
+            raise GaitError(f"a gait has 2 states (0/2 and 1/3), got {len(states)}")
+        gains = {k: (float(v[0]), float(v[1])) for k, v in d.pop("gains", {}).items()}
+        try:
+            return cls(states=states, gains=gains, **d)  # type: ignore[arg-type]
+        except TypeError as e:
+            raise GaitError(f"gait: {e}") from None
+
+    @classmethod
+    def from_json(cls, text: str) -> Gait:
+        return cls.from_dict(json.loads(text))
+
+    # -- variations ----------------------------------------------------------------------------
+    def with_overrides(self, **overrides) -> Gait:
+        """A copy with some parameters changed.
+
+        Keys may be any :class:`Gait` field; any :class:`StateParams` field (applied to both
+        states, e.g. ``cd=0``); ``state0_<field>`` / ``state1_<field>`` for one state;
+        ``gain_<group>``
+        = ``(kp, kd)``; and ``feedback=False`` (all ``cd``/``cv`` zero).
+        """
+        gait_fields = {f.name for f in dataclasses.fields(Gait)}
+        state_fields = {f.name for f in dataclasses.fields(StateParams)}
+        top: dict = {}
+        per_state: list[dict] = [{}, {}]
+        gains = dict(self.gains)
+        for key, value in overrides.items():
+            if key == "feedback":
+                if not value:
+                    for ps in per_state:
+                        ps.update(cd=0.0, cv=0.0, cd_coronal=0.0, cv_coronal=0.0)
+            elif key.startswith("gain_"):
+                kp, kd = value
+                gains[key[5:]] = (float(kp), float(kd))
+            elif key in state_fields:
+                for ps in per_state:
+                    ps[key] = value
+            elif key[:7] in ("state0_", "state1_") and key[7:] in state_fields:
+                per_state[int(key[5])][key[7:]] = value
+            elif key in gait_fields and key not in ("states", "gains"):
+                top[key] = value
+            else:
+                raise GaitError(
+                    f"unknown gait parameter {key!r}; use a Gait field "
+                    f"({', '.join(sorted(gait_fields - {'states', 'gains'}))}), a state "
+                    f"field ({', '.join(sorted(state_fields))}), state0_/state1_<field>, "
+                    f"gain_<group> or feedback"
+                )
+        states = tuple(
+            dataclasses.replace(s, **ps) for s, ps in zip(self.states, per_state, strict=True)
+        )
+        return dataclasses.replace(self, states=states, gains=gains, **top)
+
+
+#: Normal walk. Started from REFERENCE.md's 3D SIMBICON walk targets and tuned on the bundled
+#: humanoid by CMA-ES (walk speed, heading, pushes at random phases, 5 degree slopes; see
+#: docs/simbicon.md). Steady speed 1.05 m/s on level ground; no speed regulation (it made the
+#: uphill walk slower, see docs/simbicon.md).
+WALK = Gait(
+    name="walk",
+    states=(
+        StateParams(
+            duration=0.261,
+            ends_on_contact=False,
+            swing_hip=0.576,
+            swing_hip_coronal=-0.023,
+            swing_knee=1.583,
+            swing_ankle=0.739,
+            stance_knee=-0.009,
+            stance_ankle=0.003,
+            cd=0.534,
+            cv=0.208,
+            cd_coronal=0.657,
+            cv_coronal=0.188,
+        ),
+        StateParams(
+            duration=0.3,
+            ends_on_contact=True,
+            swing_hip=0.131,
+            swing_hip_coronal=-0.023,
+            swing_knee=0.083,
+            swing_ankle=0.087,
+            stance_knee=0.146,
+            stance_ankle=0.163,
+            cd=0.534,
+            cv=0.208,
+            cd_coronal=0.657,
+            cv_coronal=0.188,
+        ),
+    ),
+    torso_pitch=0.298,
+    spine_pitch=-0.029,
+    arm_swing=0.442,
+    max_twist=0.21,
+    gains={
+        "torso": (873.399, 87.34),
+        "swing_hip": (260.881, 26.088),
+        "ankle": (363.157, 36.316),
+        "stance_twist": (600.0, 60.0),
+    },
+)
+
+#: Crouch walk: the same controller with bent stance knees (0.5 rad, 29 degrees, in both
+#: states), a 0.283 rad forward lean and dorsiflexed stance ankles; derived from an earlier walk
+#: (its gains) and re-tuned by CMA-ES for 0.9 m/s at 4 seeds (docs/simbicon.md). Level ground
+#: only: it does not meet the walk's push and slope figures.
+CROUCH = Gait(
+    name="crouch",
+    states=(
+        StateParams(
+            duration=0.253,
+            ends_on_contact=False,
+            swing_hip=0.667,
+            swing_hip_coronal=-0.023,
+            swing_knee=1.486,
+            swing_ankle=0.913,
+            stance_knee=0.5,
+            stance_ankle=0.225,
+            cd=0.493,
+            cv=0.275,
+            cd_coronal=0.585,
+            cv_coronal=0.291,
+        ),
+        StateParams(
+            duration=0.3,
+            ends_on_contact=True,
+            swing_hip=0.142,
+            swing_hip_coronal=-0.023,
+            swing_knee=0.1,
+            swing_ankle=0.062,
+            stance_knee=0.5,
+            stance_ankle=0.467,
+            cd=0.493,
+            cv=0.275,
+            cd_coronal=0.585,
+            cv_coronal=0.291,
+        ),
+    ),
+    torso_pitch=0.283,
+    spine_pitch=-0.029,
+    arm_swing=0.442,
+    max_twist=0.21,
+    speed_target=0.9,
+    speed_gain=0.002,
+    gains={
+        "torso": (843.423, 84.342),
+        "swing_hip": (337.36, 33.736),
+        "ankle": (363.157, 36.316),
+        "stance_twist": (600.0, 60.0),
+    },
+)
+
+#: The gaits by name.
+GAITS: dict[str, Gait] = {"walk": WALK, "crouch": CROUCH}
+
+
+def get_gait(gait: str | Gait | dict, **overrides) -> Gait:
+    """A :class:`Gait` from a name in :data:`GAITS`, a Gait, or a dict (:meth:`Gait.from_dict`),
+    with ``overrides`` applied (:meth:`Gait.with_overrides`)."""
+    if isinstance(gait, Gait):
+        g = gait
+    elif isinstance(gait, dict):
+        g = Gait.from_dict(gait)
+    elif isinstance(gait, str):
+        if gait not in GAITS:
+            raise GaitError(f"unknown gait {gait!r}; choose from {', '.join(GAITS)}")
+        g = GAITS[gait]
+    else:
+        raise GaitError(f"a gait is a name, a Gait or a dict, got {type(gait).__name__}")
+    return g.with_overrides(**overrides) if overrides else g

@@ -1,0 +1,908 @@
+"""IPM stepping: generalised biped walking control (Coros, Beaudoin, van de Panne, SIGGRAPH 2010).
+
+No force is ever applied to the root: the character starts from standing, walks, stops, turns
+and recovers from pushes with joint torques only (torque actuation; the PD terms are computed
+here every physics step, their damping evaluated implicitly, see below).
+
+Per step (stance foot on the ground, swing foot in the air, nominal step time ``T``; the step
+ends when the swing foot touches the ground after half the step):
+
+1. **Foot placement** from an inverted pendulum that comes to rest over the foot. With the COM
+   velocity ``v`` in the heading frame (the pelvis's yaw) and ``h`` the COM height over the
+   stance foot (:func:`ipm_step_offset`, :meth:`IPMController.foot_placement`)::
+
+       d(v) = v * sqrt(h / g + v^2 / (4 g^2))
+       d_sagittal = s_s d(v_s) - k_v v_d - b        b: integral speed bias, updated every step
+       d_coronal  = s_c d(v_c) +- w                 w towards the swing side
+
+   relative to the COM, at least ``min_width`` beside the stance foot (no crossed legs; the hip
+   width when coming to a stop), each axis clamped to +-0.4 leg length.
+2. **Swing foot** (:class:`~controllers.walking.swing.SwingTrajectory`): sole height through
+   ``swing_heights`` at phases 0, 0.5, 1 (then sinking until contact); the horizontal offset from
+   the COM blends from the lift-off offset to the IPM point. Hip and knee come from analytic
+   two-link IK (:func:`~controllers.walking.swing.two_link_ik`) for the ankle; the foot is kept flat
+   at the desired heading.
+3. **Tracking**: the swing thigh, both feet and the pelvis are PD-controlled in the world frame
+   (a world torque ``T = kp log(R_bar R^T) + kd (omega_bar - omega)`` mapped to a joint's hinges
+   by their world axes, ``tau = A^T T``); the swing thigh and knee follow the IK targets'
+   velocities (finite differences). Knees, spine, arms, head and toes are PD-controlled in joint
+   space. The stance hip takes what the pelvis needs (SIMBICON's rule, extended to every joint
+   acting on the pelvis)::
+
+       T_stance_hip = -T_pelvis - T_swing_hip - T_spine
+
+   Its vertical component is limited to what the stance foot's contact patch can hold
+   (``yaw_friction m g r``), and the stance ankle's moment to what keeps the centre of pressure
+   inside the foot, so the stance foot neither spins nor rolls.
+4. **Gravity compensation**: an upward ``m_i g`` at the COM of every link that is not part of the
+   stance leg, mapped by the Jacobian transpose to the joints between the link and the pelvis;
+   for dof ``j`` (axis ``a_j`` at ``p_j``) with subtree mass ``M_j`` and subtree COM ``C_j``
+   this is ``tau_j = a_j . ((C_j - p_j) x M_j g z)``.
+5. **Speed control**: a virtual force on the COM::
+
+       F = m [30 (v_d - v_s),  c_p (-d_c) + c_v (v_dc - v_c)]     (clamped to 60 N / 100 N)
+
+   with ``d_c`` the coronal COM offset from the stance foot, realised by the stance leg
+   (hip, knee, ankle) as ``tau = -J_x^T F``, ``J_x`` the Jacobian of the COM point attached to the
+   stance foot (as in :mod:`controllers.balance.static_balance`).
+
+The damping of all these PD terms is linear in ``qdot``: ``tau = tau0 - D qdot``. Explicitly the
+pelvis term, applied through the stance hip to the light pelvis body, oscillates at the model's
+2 ms step (it needs about 0.5 ms); with ``implicit_damping`` it is evaluated at the next step's
+velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-diagonal ``D``::
+
+    (M + dt D) qddot = tau0 - D qdot - C + tau_ext,    tau = tau0 - D (qdot + dt qddot)
+
+Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
+counter-clockwise), each a number or a function of time. The speed target follows the command at
+``acceleration``; the heading target turns at ``turn_rate`` (less when fast); swing feet land
+turned with it.
+
+Standing: the controller starts standing and stands whenever nothing is commanded, with
+:class:`~controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where the
+feet are. A speed or heading command starts a walk with a short first step (the COM, centred between
+the feet, falls a little towards the swing side, which starts the lateral sway); a push starts
+stepping when the capture point ``c + v sqrt(h/g)`` leaves the support polygon. A zero command
+brings the character to a stop: a step ends in standing once the sagittal speed is low and the
+capture point is over both feet.
+
+Defaults differ from the paper where this humanoid and MuJoCo's contacts needed it (measured in
+docs/ipm.md): step time 0.5 s (paper ~0.6), scales ``s_s = s_c = 1.0`` (1.1 / 1.3), ``k_v = 0.1``
+(0.05) plus the integral bias, ``w = 0.03`` m (~0.1), final swing height 0.02 m (0.05), a smooth
+blend (``(1 - phase)^2`` is available), swing hip 600/60 (300/35), pelvis yaw 300/60 (1000/200)
+and no coronal virtual force (20 / 9): the stance ankle cannot apply the roll moment it asks for.
+
+Use :func:`make_ipm` or :class:`IPMController` directly::
+
+    ch = Character()
+    ctrl = make_ipm(ch, speed=1.0, heading=0.0)
+    result = scenarios.walk(ch, ctrl, duration=20.0)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields, replace
+
+import mujoco
+import numpy as np
+
+from ..balance.static_balance import StaticBalance
+from ..core.base import Action, ControllerError
+from ..core.character import Character, point_in_polygon_margin
+from ..core.registry import ControllerSpec, register
+from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
+
+GRAVITY = 9.81
+_LEFT, _RIGHT = 0, 1
+
+
+class IPMError(ControllerError):
+    """The IPM controller was configured with impossible options or used on an unsuitable model."""
+
+
+@dataclass(frozen=True)
+class IPMParams:
+    """Every tunable number of :class:`IPMController` (SI units, angles in rad).
+
+    Attributes:
+        step_time: nominal step duration ``T`` (s).
+        min_phase: swing-foot contact ends the step only after this phase.
+        max_phase: the step is ended at this phase even without contact.
+        sagittal_scale, coronal_scale: IPM offset scales ``s_s``, ``s_c`` (paper: 1.1, 1.3).
+        speed_offset: ``k_v`` in ``- k_v v_d`` (s): how far before the IPM point to step
+            (paper: 0.05).
+        speed_integral, max_speed_bias: after every step the sagittal placement moves back by
+            ``speed_integral`` (s) x the step's mean speed error (m/s), up to ``max_speed_bias`` m
+            (integral action on top of ``- speed_offset v_d``).
+        step_width: ``w``, coronal offset of the swing foot from the COM (m).
+        min_width: least coronal distance (m) of the swing foot target from the stance foot
+            (the hip width when coming to a stop).
+        clamp: step offset limit as a fraction of the leg length (per axis).
+        swing_heights: sole heights (m) at phases 0, 0.5, 1.
+        descent_speed: m/s the swing target sinks after phase 1.
+        swing_blend: ``"quadratic"`` (lift-off weight ``(1 - phase)^2``, the paper's) or
+            ``"smooth"`` (``1 - smoothstep(phase)``), see :class:`SwingTrajectory`.
+        swing_ankle_kp, swing_ankle_kd: the swing foot's (world frame) gains, so it lands flat.
+        hip_kp, hip_kd, knee_kp, knee_kd, ankle_kp, ankle_kd, pelvis_kp, pelvis_kd: PD gains
+            (N m/rad, N m s/rad); pelvis in the world frame.
+        pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
+        stance_knee: stance knee flexion target (rad).
+        upper_gain_scale: factor on the model's gains table for spine, arms, head and toes.
+        vf_sagittal, vf_coronal_pos, vf_coronal_vel: virtual-force gains ``30``, ``c_p``,
+            ``c_v`` (1/s, 1/s^2, 1/s; paper: 30, 20, 9).
+        vf_max_sagittal, vf_max_coronal: virtual-force clamps (N).
+        coronal_offset: desired coronal COM offset from the stance foot (m, towards the swing
+            side positive) in the virtual force.
+        lean: forward pelvis pitch target (rad) per m/s of desired speed.
+        turn_rate: rad/s the heading target turns at, at most; and at most
+            ``turn_acceleration / v_d`` (m/s^2 of centripetal acceleration) when walking.
+        acceleration: m/s^2 the speed target (used by the placement and the virtual force)
+            follows the speed command at.
+        gravity_compensation: apply the gravity compensation.
+        feedforward: track the swing thigh's and knee's target velocities (finite differences
+            of the IK targets), not zero velocity.
+        max_target_rate: clamp on those target velocities (rad/s).
+        implicit_damping: evaluate every damping term at the next step's velocity (stable PD
+            generalised to the controller's damping matrix); explicit damping needs a time step
+            of about 0.5 ms.
+        stop_speed: COM speed (m/s) under which a step may end in standing (zero command).
+        heading_tolerance: heading error (rad) below which the character may stand.
+        capture_margin: the capture point may lie this far (m) outside the support polygon
+            before standing turns into stepping (3x that during ``settle_time`` after a stop).
+        stance_ankle_limit: ``(pitch_fwd, pitch_back, roll)`` moments (N m per N of body weight,
+            i.e. m) the stance ankle may apply, so the foot does not roll; ``None`` = no limit.
+        arm_abduction: arms hang this far (rad) from the body.
+        stance_yaw_limit: largest vertical (yaw) moment (N m) the stance hip may apply to the
+            pelvis; more spins the stance foot on the ground.
+        yaw_friction: the stance hip's yaw moment is also limited to ``yaw_friction x m g x r``
+            with ``r`` the spread of the stance foot's contact points (0 on a single point).
+        first_step_time: duration (s) of the first step out of standing: short, so the COM
+            falls only a little towards the swing side before the swing foot catches it, which
+            starts the lateral sway of walking.
+        push_step_time: duration (s) of the first step when a push (capture point outside the
+            feet) ends standing.
+        settle_time: seconds of standing before a speed or heading command starts a walk (a
+            push starts stepping at once).
+    """
+
+    step_time: float = 0.5
+    min_phase: float = 0.5
+    max_phase: float = 1.6
+    sagittal_scale: float = 1.0
+    coronal_scale: float = 1.0
+    speed_offset: float = 0.1
+    speed_integral: float = 0.02
+    max_speed_bias: float = 0.1
+    step_width: float = 0.03
+    min_width: float = 0.1
+    clamp: float = 0.4
+    swing_heights: tuple[float, float, float] = (0.04, 0.15, 0.02)
+    descent_speed: float = 1.0
+    swing_blend: str = "smooth"
+    hip_kp: float = 600.0
+    hip_kd: float = 60.0
+    knee_kp: float = 300.0
+    knee_kd: float = 35.0
+    ankle_kp: float = 50.0
+    ankle_kd: float = 15.0
+    swing_ankle_kp: float = 200.0
+    swing_ankle_kd: float = 20.0
+    pelvis_kp: float = 1000.0
+    pelvis_kd: float = 200.0
+    pelvis_yaw_kp: float = 300.0
+    pelvis_yaw_kd: float = 60.0
+    stance_knee: float = 0.15
+    upper_gain_scale: float = 1.0
+    vf_sagittal: float = 30.0
+    vf_coronal_pos: float = 0.0
+    vf_coronal_vel: float = 0.0
+    vf_max_sagittal: float = 60.0
+    vf_max_coronal: float = 100.0
+    coronal_offset: float = 0.0
+    lean: float = 0.0
+    turn_rate: float = 0.5
+    turn_acceleration: float = 0.3
+    acceleration: float = 0.5
+    gravity_compensation: bool = True
+    implicit_damping: bool = True
+    feedforward: bool = True
+    max_target_rate: float = 10.0
+    stop_speed: float = 0.15
+    heading_tolerance: float = 0.1
+    capture_margin: float = 0.03
+    stance_ankle_limit: tuple[float, float, float] | None = (0.08, 0.03, 0.025)
+    arm_abduction: float = 0.15
+    settle_time: float = 0.3
+    stance_yaw_limit: float = 40.0
+    yaw_friction: float = 0.5
+    first_step_time: float = 0.3
+    push_step_time: float = 0.3
+
+    def check(self) -> IPMParams:
+        """Raise :class:`IPMError` on non-finite or out-of-range values; returns self."""
+        if self.swing_blend not in ("quadratic", "smooth"):
+            raise IPMError(f"swing_blend must be 'quadratic' or 'smooth', got "
+                           f"{self.swing_blend!r}")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, str):
+                continue
+            vals = v if isinstance(v, tuple) else (() if v is None else (v,))
+            for x in vals:
+                if not isinstance(x, bool) and not (isinstance(x, (int, float))
+                                                    and math.isfinite(x)):
+                    raise IPMError(f"IPM option {f.name} must be finite numbers, got {v!r}")
+        if self.step_time <= 0:
+            raise IPMError(f"step_time must be positive seconds, got {self.step_time}")
+        if not 0 <= self.min_phase < self.max_phase:
+            raise IPMError("need 0 <= min_phase < max_phase")
+        if self.clamp <= 0:
+            raise IPMError("clamp must be a positive fraction of the leg length")
+        return self
+
+
+def ipm_step_offset(v, h: float, g: float = GRAVITY):
+    """Inverted-pendulum step offset ``d = v sqrt(h/g + v^2/(4 g^2))`` (m) for a COM speed ``v``
+    (m/s, scalar or array) at height ``h`` (m) over the stance foot: stepping ``d`` ahead of the
+    COM brings a pendulum of that energy to rest over the foot."""
+    v = np.asarray(v, dtype=float)
+    if not (math.isfinite(h) and h > 0):
+        raise IPMError(f"COM height must be positive metres, got {h}")
+    d = v * np.sqrt(h / g + v * v / (4.0 * g * g))
+    return float(d) if d.ndim == 0 else d
+
+
+def _schedule(value, what: str, scale: float = 1.0) -> Callable[[float], float | None]:
+    if value is None:
+        return lambda t: None
+    if callable(value):
+        return lambda t: (None if value(t) is None else float(value(t)) * scale)
+    v = float(value)
+    if not math.isfinite(v):
+        raise IPMError(f"{what} must be a finite number, got {value!r}")
+    return lambda t: v * scale
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def _rotvec(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """World rotation vector (rad) of ``R_des R^T``."""
+    E = R_des @ R.T
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, E.ravel())
+    if q[0] < 0:
+        q = -q
+    s = math.sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if s < 1e-12:
+        return 2.0 * q[1:]
+    return q[1:] * (2.0 * math.atan2(s, q[0]) / s)
+
+
+def _inv3(A: np.ndarray) -> np.ndarray:
+    """Inverse of a ``(3, 3)`` matrix by the adjugate (cheaper than ``np.linalg.inv``)."""
+    (a, b, c), (d, e, f), (g, h, i) = A.tolist()
+    co = [e * i - f * h, f * g - d * i, d * h - e * g]
+    det = a * co[0] + b * co[1] + c * co[2]
+    if abs(det) < 1e-12:
+        return np.linalg.pinv(A)
+    return np.array([[co[0], c * h - b * i, b * f - c * e],
+                     [co[1], a * i - c * g, c * d - a * f],
+                     [co[2], b * g - a * h, a * e - b * d]]) / det
+
+
+def _yaw(R: np.ndarray) -> float:
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+class _Leg:
+    """Indices of one leg (hip, knee, ankle, toe) of a Character."""
+
+    def __init__(self, ch: Character, side: str):
+        m = ch.model
+        self.side = side
+        self.hip_name = ch.role(f"{side}_hip")
+        self.knee_name = ch.role(f"{side}_knee")
+        self.ankle_name = ch.role(f"{side}_ankle")
+        self.toe_name = ch.role(f"{side}_toe", required=False)
+        self.hip = ch.joint_dofs(self.hip_name)
+        self.knee = ch.joint_dofs(self.knee_name)
+        self.ankle = ch.joint_dofs(self.ankle_name)
+        self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
+        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3:
+            raise IPMError(f"IPM needs 3-dof hips and ankles and a hinge knee ({side} leg has "
+                           f"{len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs); convert "
+                           "with joint_model='hinge'")
+        self.thigh = ch.body_id(self.hip_name)
+        self.shank = ch.body_id(self.knee_name)
+        self.foot = ch.body_id(self.ankle_name)
+        self.site = ch.site_id(f"{side}_foot")
+        if int(m.site_bodyid[self.site]) != self.foot:
+            raise IPMError(f"site {side}_foot is not on the {side} ankle body")
+        self.site_offset = m.site_pos[self.site].copy()            # in the foot frame
+        self.hip_jnt = m.dof_jntid[self.hip]
+        self.ankle_jnt = m.dof_jntid[self.ankle]
+        self.knee_q = ch.joint_qpos(self.knee_name)[0]
+        self.knee_dof = int(self.knee[0])
+        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
+        self.all = np.concatenate([self.leg, self.toe])
+        # geometry from the model (bodies world-aligned at rest, contract)
+        qk = m.body_quat[self.shank]
+        knee_in_thigh = m.body_pos[self.shank].copy()
+        ankle_in_shank = m.body_pos[self.foot].copy()
+        self.l1 = float(np.linalg.norm(knee_in_thigh))
+        self.l2 = float(np.linalg.norm(ankle_in_shank))
+        Rk = np.empty(9)
+        mujoco.mju_quat2Mat(Rk, qk)
+        axis_in_thigh = Rk.reshape(3, 3) @ m.jnt_axis[m.dof_jntid[self.knee_dof]]
+        self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns
+
+
+class IPMController:
+    """IPM stepping with no root force; see the module docstring.
+
+    Args:
+        speed: desired forward speed (m/s) in the heading frame, a number or ``t -> m/s``.
+        heading: desired heading (degrees, world yaw, 0 = +X, counter-clockwise), a number,
+            ``t -> degrees`` or ``None`` (keep the heading the character starts with).
+        lateral_speed: desired coronal speed (m/s, + = left), a number or ``t -> m/s``.
+        params: an :class:`IPMParams`; keyword ``options`` override its fields.
+
+    Attributes (readable during a run):
+        mode: ``"step"`` or ``"stand"``.
+        stance: ``"left"`` or ``"right"`` (the stance foot while stepping, else ``None``).
+        phase: step phase (0 at lift-off, 1 at the nominal step time).
+        steps: number of completed steps.
+        last_offset: ``(2,)`` last IPM step offset (sagittal, coronal) from the COM (m).
+        last_force: ``(3,)`` last virtual COM force (N, world).
+        speed_target: the ramped desired speed (m/s) in use.
+        heading_target: the rate-limited desired heading (rad) in use.
+        stand_switches: times (s) the controller switched to standing; ``step_switches`` when
+            each step started.
+        transitions: ``(time, state)`` at every step start, SIMBICON-style: state 0 when a
+            left-stance step starts, 2 for a right-stance one (a stride runs from one 0 to the
+            next), so :func:`controllers.core.terrain.push_walk` can push IPM at a stride phase.
+    """
+
+    name = "ipm"
+    actuation = "torque"
+
+    def __init__(self, speed=0.0, heading=None, *, lateral_speed=0.0,
+                 params: IPMParams | None = None, **options):
+        base = params if params is not None else IPMParams()
+        unknown = set(options) - {f.name for f in fields(IPMParams)}
+        if unknown:
+            raise IPMError(f"unknown IPM option(s) {', '.join(sorted(unknown))}; choose from "
+                           f"{', '.join(f.name for f in fields(IPMParams))}")
+        if "swing_heights" in options:
+            options["swing_heights"] = tuple(float(x) for x in options["swing_heights"])
+        self.params = replace(base, **options).check()
+        self.speed = _schedule(speed, "speed")
+        self.heading = _schedule(heading, "heading", math.pi / 180.0)
+        self.lateral_speed = _schedule(lateral_speed, "lateral_speed")
+        self.trajectory = SwingTrajectory(self.params.swing_heights, self.params.descent_speed,
+                                          blend=self.params.swing_blend)
+        self._ready = False
+
+    # -- set-up -------------------------------------------------------------------------------
+    def reset(self, character: Character) -> None:
+        """Switch to torque actuation, index the legs and the pelvis, and pick the first mode
+        from the commands at time 0."""
+        ch = character
+        ch.set_actuation("torque")
+        m = ch.model
+        self._legs = (_Leg(ch, "left"), _Leg(ch, "right"))
+        self._pelvis = ch.root_body
+        self.leg_length = self._legs[0].l1 + self._legs[0].l2 + float(-self._legs[0].site_offset[2])
+        # joints acting directly on the pelvis other than the hips (the spine)
+        leg_jnts = {int(j) for lg in self._legs for j in lg.hip_jnt}
+        pelvis_jnts = [j for j in range(m.njnt) if m.jnt_bodyid[j] != self._pelvis
+                       and m.body_parentid[m.jnt_bodyid[j]] == self._pelvis
+                       and j not in leg_jnts and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+        by_body: dict[int, list[int]] = {}
+        for j in pelvis_jnts:
+            by_body.setdefault(int(m.jnt_bodyid[j]), []).append(j)
+        self._pelvis_children = []
+        for js in by_body.values():
+            if len(js) != 3:
+                continue  # only 3-dof joints are mapped to a world torque
+            self._pelvis_children.append((np.array(js), np.array([m.jnt_dofadr[j] for j in js])))
+        # per-dof data for gravity compensation and PD
+        act = ch.actuated.copy()
+        self._act = np.flatnonzero(act)
+        self._dof_body = m.dof_bodyid.copy()
+        self._dof_jnt = m.dof_jntid.copy()
+        self._dof_qpos = m.jnt_qposadr[self._dof_jnt]
+        self._subtree_mass = m.body_subtreemass.copy()
+        legs = np.concatenate([lg.all for lg in self._legs])
+        upper = np.setdiff1d(self._act, legs)
+        toes = np.concatenate([lg.toe for lg in self._legs])
+        self._upper = np.concatenate([upper, toes]).astype(int)
+        kp, kd = ch.default_gains()
+        s = self.params.upper_gain_scale
+        self._upper_kp = kp[self._upper] * s
+        self._upper_kd = kd[self._upper] * s
+        self._limits = ch.torque_limits()
+        self.upper_pose = self._upper_body_pose(ch)
+        self._q_upper = self.upper_pose[self._dof_qpos[self._upper]]
+        self.mass = ch.mass
+        rest = ch.on_floor(ch.model.qpos0)
+        scratch = mujoco.MjData(ch.model)
+        scratch.qpos[:] = rest
+        mujoco.mj_kinematics(ch.model, scratch)
+        self._root_above_soles = float(rest[ch.root_qpos[2]] - np.mean(
+            [scratch.site_xpos[lg.site][2] for lg in self._legs]))
+        self.stand_width = float(np.linalg.norm(ch.data.xanchor[self._legs[0].hip_jnt[0]]
+                                                - ch.data.xanchor[self._legs[1].hip_jnt[0]]))
+        self._stopping = False
+        # commands and state
+        R = ch.data.xmat[self._pelvis].reshape(3, 3)
+        self._start_yaw = _yaw(R)
+        self.heading_target = self._start_yaw
+        self.speed_target = 0.0
+        self.speed_bias = 0.0
+        self._heading_rate = 0.0
+        self._last_t = ch.time
+        self.steps = 0
+        self.stand_switches: list[float] = []
+        self.step_switches: list[float] = []
+        self.transitions: list[tuple[float, int]] = []
+        self.last_offset = np.zeros(2)
+        self.last_force = np.zeros(3)
+        self.phase = 0.0
+        self._stand: StaticBalance | None = None
+        self._ready = True
+        self._reset_time = ch.time
+        self._walk_cache = (None, False)
+        # always settle on both feet first (the start pose may not even touch the floor yet)
+        self._start_standing(ch, ch.time)
+
+    def _upper_body_pose(self, ch: Character) -> np.ndarray:
+        """``(nq,)`` the rest pose with the arms hanging (shoulders turned by IK)."""
+        q = ch.model.qpos0.copy()
+        for side, sgn in (("left", 1.0), ("right", -1.0)):
+            sh = ch.role(f"{side}_shoulder", required=False)
+            hand = ch.role(f"{side}_wrist", required=False)
+            if sh is None or hand is None:
+                continue
+            scratch = mujoco.MjData(ch.model)
+            scratch.qpos[:] = q
+            mujoco.mj_kinematics(ch.model, scratch)
+            p_sh = scratch.xpos[ch.body_id(sh)]
+            p_hand = scratch.xpos[ch.body_id(hand)]
+            arm = float(np.linalg.norm(p_hand - p_sh))
+            a = self.params.arm_abduction
+            target = p_sh + arm * np.array([0.0, sgn * math.sin(a), -math.cos(a)])
+            q = ch.solve_ik(q, [(hand, target, None)], ch.joint_dofs(sh))
+        return q
+
+    # -- commands -----------------------------------------------------------------------------
+    def desired_speed(self, t: float) -> float:
+        """Desired forward speed (m/s) at ``t``."""
+        return float(self.speed(t) or 0.0)
+
+    def desired_heading(self, t: float) -> float:
+        """Desired heading (rad, world yaw) at ``t``."""
+        h = self.heading(t)
+        return self._start_yaw if h is None else h
+
+    @property
+    def stance(self) -> str | None:
+        """``"left"`` or ``"right"``: the stance foot while stepping (``None`` when standing)."""
+        if not self._ready or self.mode != "step":
+            return None
+        return "right" if self._swing == _LEFT else "left"
+
+    def _update_commands(self, t: float) -> None:
+        """Move the speed target towards the command at ``acceleration`` m/s^2 and the heading
+        target towards the commanded heading at the turn rate (sets ``_heading_rate``)."""
+        p = self.params
+        dt = max(t - self._last_t, 0.0)
+        self._last_t = t
+        err = self.desired_speed(t) - self.speed_target
+        step = p.acceleration * dt
+        self.speed_target += max(-step, min(step, err))
+        err = _wrap(self.desired_heading(t) - self.heading_target)
+        rate = min(p.turn_rate, p.turn_acceleration / max(abs(self.speed_target), 1e-3))
+        step = rate * dt
+        self.heading_target = _wrap(self.heading_target + max(-step, min(step, err)))
+        self._heading_rate = rate * (1.0 if err > step else -1.0 if err < -step else 0.0)
+
+    def _wants_to_walk(self, ch: Character, t: float) -> bool:
+        """Whether the commands at ``t`` ask for walking (a speed, or a heading away from the
+        pelvis's); evaluated once per control step."""
+        if self._walk_cache[0] == t:
+            return self._walk_cache[1]
+        R = ch.data.xmat[self._pelvis].reshape(3, 3)
+        walk = (abs(self.desired_speed(t)) > 0.05 or abs(float(self.lateral_speed(t) or 0)) > 0.05
+                or abs(_wrap(self.desired_heading(t) - _yaw(R))) > self.params.heading_tolerance)
+        self._walk_cache = (t, walk)
+        return walk
+
+    # -- mode switches ------------------------------------------------------------------------
+    def _start_stepping(self, ch: Character, t: float, swing: int,
+                        duration: float | None = None) -> None:
+        self.mode = "step"
+        self._stand = None
+        self._swing = swing
+        self._t0 = t
+        self._T = self.params.step_time if duration is None else duration
+        self.phase = 0.0
+        self._liftoff = self._foot_offset(ch, swing)
+        self._prev_swing = None
+        self._step_com0 = ch.com()
+        self.step_switches.append(t)
+        # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
+        # stride-phase tools (controllers.core.terrain.push_walk) work with IPM too
+        self.transitions.append((t, 2 if swing == _LEFT else 0))
+
+    def _start_standing(self, ch: Character, t: float) -> None:
+        self.mode = "stand"
+        pose = self._standing_pose(ch)
+        self._stand = StaticBalance(pose)
+        self._stand.reset(ch)
+        self.stand_switches.append(t)
+
+    def _standing_pose(self, ch: Character) -> np.ndarray:
+        """``(nq,)`` a standing pose for the feet where they are: upper body as
+        :attr:`upper_pose`, pelvis upright at the current heading, legs by IK."""
+        q = ch.qpos.copy()
+        up = self._dof_qpos[self._upper]
+        q[up] = self.upper_pose[up]
+        yaw = _yaw(ch.data.xmat[self._pelvis].reshape(3, 3))
+        q[ch.root_qpos[3:7]] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        # pelvis over the middle of the feet (COM offset kept) at standing height
+        soles = np.array([ch.data.site_xpos[lg.site] for lg in self._legs])
+        q[ch.root_qpos[:2]] += soles[:, :2].mean(axis=0) - ch.com()[:2]
+        q[ch.root_qpos[2]] = min(q[ch.root_qpos[2]], soles[:, 2].mean() + self._root_above_soles)
+        # knees bent like the stance knee while walking (no sudden drop when a step starts):
+        # seed hip and ankle pitch with half the flexion each, lower the pelvis, then IK
+        k = self.params.stance_knee
+        m = ch.model
+        drop = 0.0
+        for lg in self._legs:
+            q[lg.knee_q] = k
+            for dof in (lg.hip[0], lg.ankle[0]):  # first hinge = pitch for y-first orders
+                j = m.dof_jntid[dof]
+                if abs(m.jnt_axis[j] @ m.jnt_axis[m.dof_jntid[lg.knee_dof]]) > 0.99:
+                    q[m.jnt_qposadr[j]] = -0.5 * k
+            drop = max(drop, lg.l1 + lg.l2 - math.hypot(
+                lg.l1 * math.cos(0.5 * k) + lg.l2 * math.cos(0.5 * k), 0.0))
+        q[ch.root_qpos[2]] -= drop
+        # feet flat on the floor where they are (a foot still on its heel or toes is laid flat)
+        touch = {}
+        for gc in ch.ground_contacts():
+            touch[gc.body] = min(touch.get(gc.body, math.inf), float(gc.position[2]))
+        targets = []
+        for lg in self._legs:
+            fy = _yaw(ch.data.xmat[lg.foot].reshape(3, 3))
+            ground = min(touch.get(lg.ankle_name, math.inf), touch.get(lg.toe_name, math.inf),
+                         float(ch.data.site_xpos[lg.site][2]))
+            R = rotation_z(fy)
+            ankle = ch.data.site_xpos[lg.site].copy() - R @ lg.site_offset
+            ankle[2] = ground - lg.site_offset[2]
+            targets.append((lg.foot, ankle,
+                            np.array([math.cos(fy / 2), 0.0, 0.0, math.sin(fy / 2)])))
+        dofs = np.concatenate([lg.leg for lg in self._legs])
+        return ch.solve_ik(q, targets, dofs)
+
+    def _foot_offset(self, ch: Character, side: int) -> np.ndarray:
+        """``(2,)`` (sagittal, coronal) offset of a foot sole from the COM, heading frame."""
+        c = ch.com()
+        p = ch.data.site_xpos[self._legs[side].site]
+        f, l = self._heading_axes(ch)
+        d = p[:2] - c[:2]
+        return np.array([d @ f[:2], d @ l[:2]])
+
+    def _heading_axes(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
+        yaw = _yaw(ch.data.xmat[self._pelvis].reshape(3, 3))
+        c, s = math.cos(yaw), math.sin(yaw)
+        return np.array([c, s, 0.0]), np.array([-s, c, 0.0])
+
+    # -- the step -----------------------------------------------------------------------------
+    def foot_placement(self, v_heading: np.ndarray, h: float, swing: int, v_desired: float,
+                       stance_lateral: float | None = None) -> np.ndarray:
+        """``(2,)`` step offset (sagittal, coronal) from the COM in the heading frame (m).
+
+        Args:
+            v_heading: ``(2,)`` COM velocity (sagittal, coronal) in m/s.
+            h: COM height over the stance foot (m).
+            swing: 0 (left foot swings) or 1 (right).
+            v_desired: desired forward speed (m/s).
+            stance_lateral: coronal offset (m) of the stance foot from the COM; when given the
+                swing foot lands at least ``min_width`` beside it (no crossed legs).
+        """
+        p = self.params
+        d = np.asarray(ipm_step_offset(np.asarray(v_heading, float), h))
+        side = 1.0 if swing == _LEFT else -1.0
+        out = np.array([p.sagittal_scale * d[0] - p.speed_offset * v_desired - self.speed_bias,
+                        p.coronal_scale * d[1] + side * p.step_width])
+        if stance_lateral is not None:
+            width = self.stand_width if self._stopping else p.min_width
+            out[1] = stance_lateral + side * max(side * (out[1] - stance_lateral), width)
+        lim = p.clamp * self.leg_length
+        return np.clip(out, -lim, lim)
+
+    def act(self, character: Character, t: float) -> Action:
+        """Torques ``(nv,)`` for this physics step (root rows zero)."""
+        if not self._ready:
+            raise IPMError("ipm: act() called before reset()")
+        ch = character
+        self._update_commands(t)
+        if self.mode == "stand":
+            trigger = self._should_step(ch, t)
+            if trigger == "push":
+                self._start_stepping(ch, t, swing=self._first_swing(ch),
+                                     duration=self.params.push_step_time)
+            elif trigger == "walk":
+                self._start_stepping(ch, t, swing=_LEFT, duration=self.params.first_step_time)
+            else:
+                self.speed_target = 0.0
+                return self._stand.act(ch, t)
+        # step mode: end the step on swing-foot contact
+        p = self.params
+        self.phase = (t - self._t0) / self._T
+        contacts = ch.foot_contacts()
+        if (self.phase >= p.min_phase and contacts[self._swing]) or self.phase >= p.max_phase:
+            self.steps += 1
+            self._adapt_speed_bias(ch, t)
+            if self._should_stand(ch, t):
+                self._start_standing(ch, t)
+                return self._stand.act(ch, t)
+            self._start_stepping(ch, t, swing=1 - self._swing)
+            self.phase = 0.0
+        return Action(torque=self._step_torques(ch, t))
+
+    def _adapt_speed_bias(self, ch: Character, t: float) -> None:
+        """Integral speed control: after each step, move the sagittal placement bias by
+        ``speed_integral`` x (desired - mean forward speed over the step)."""
+        p = self.params
+        if p.speed_integral <= 0 or t <= self._t0:
+            return
+        f, _ = self._heading_axes(ch)
+        mean = float((ch.com()[:2] - self._step_com0[:2]) @ f[:2]) / (t - self._t0)
+        self.speed_bias += p.speed_integral * (self.speed_target - mean)
+        self.speed_bias = min(max(self.speed_bias, -p.max_speed_bias), p.max_speed_bias)
+
+    def _first_swing(self, ch: Character) -> int:
+        """Swing the foot on the side the capture point moves to (left on a tie)."""
+        c = ch.com()
+        v = ch.com_velocity()
+        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
+        f, l = self._heading_axes(ch)
+        mid = 0.5 * (ch.data.site_xpos[self._legs[0].site][:2]
+                     + ch.data.site_xpos[self._legs[1].site][:2])
+        return _LEFT if (cp - mid) @ l[:2] >= 0 else _RIGHT
+
+    def _should_step(self, ch: Character, t: float) -> str | None:
+        """``"walk"`` (a command), ``"push"`` (capture point outside the feet) or ``None``."""
+        if self._wants_to_walk(ch, t) and t - self.stand_switches[-1] >= self.params.settle_time:
+            return "walk"
+        c = ch.com()
+        v = ch.com_velocity()
+        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
+        poly = ch.support_polygon()
+        if len(poly) < 3 or t - self._reset_time < self.params.settle_time:
+            return None  # not (yet) standing on the feet: nothing to measure against
+        # just after a stop the landing foot's contact patch is still forming: be lenient
+        margin = self.params.capture_margin
+        if t - self.stand_switches[-1] < self.params.settle_time:
+            margin *= 3.0
+        return "push" if point_in_polygon_margin(cp, poly) < -margin else None
+
+    def _should_stand(self, ch: Character, t: float) -> bool:
+        """At the end of a step: stand when no walk is commanded, the sagittal speed is below
+        ``stop_speed``, both feet are down and the capture point is over the feet."""
+        if self._wants_to_walk(ch, t) or not all(ch.foot_contacts()):
+            return False
+        c = ch.com()
+        v = ch.com_velocity()
+        f, _ = self._heading_axes(ch)
+        if abs(float(v @ f)) > self.params.stop_speed:
+            return False
+        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
+        return point_in_polygon_margin(cp, ch.support_polygon()) >= 0.0
+
+    def _step_torques(self, ch: Character, t: float) -> np.ndarray:
+        """``(nv,)`` stepping torques. Every PD term is split into a part that depends on the
+        position, ``tau0``, and a linear damping ``-D qdot``; with ``implicit_damping`` the
+        damping is evaluated at the next step's velocity (stable PD's trick, Tan et al. 2011)::
+
+            (M + dt D) qddot = tau0 - D qdot - C + tau_ext,   tau = tau0 - D (qdot + dt qddot)
+        """
+        p = self.params
+        d = ch.data
+        sw = self._legs[self._swing]
+        st = self._legs[1 - self._swing]
+        nv = ch.nv
+        tau = np.zeros(nv)
+        D = np.zeros((nv, nv))
+        qvel = d.qvel
+        qpos = d.qpos
+
+        c = ch.com()
+        v = ch.com_velocity()
+        f, l = self._heading_axes(ch)
+        vh = np.array([v @ f, v @ l])
+        ground = float(d.site_xpos[st.site][2])
+        h = max(c[2] - ground, 0.3)
+        vd = self.speed_target
+        vcd = float(self.lateral_speed(t) or 0.0)
+        # coming to a stop: the next foot lands at standing width
+        self._stopping = (not self._wants_to_walk(ch, t) and abs(vd) < 0.05
+                          and abs(vh[0]) < 2 * p.stop_speed)
+
+        # 1. foot placement and 2. swing-foot target
+        stance_lat = float((d.site_xpos[st.site][:2] - c[:2]) @ l[:2])
+        offset = self.foot_placement(vh, h, self._swing, vd, stance_lat)
+        self.last_offset = offset
+        rel = self.trajectory.horizontal(self.phase, self._liftoff, offset)
+        xy = np.array([c[0] + rel[0] * f[0] + rel[1] * l[0], c[1] + rel[0] * f[1] + rel[1] * l[1]])
+        site_target = np.array([xy[0], xy[1],
+                                ground + self.trajectory.height(self.phase, self._T)])
+        self.swing_target = site_target
+        R_foot_des = rotation_z(self.heading_target)
+        ankle_target = site_target - R_foot_des @ sw.site_offset
+        hip_pos = d.xanchor[sw.hip_jnt[0]]
+        pole = R_foot_des[:, 0]
+        thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
+        R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+
+        # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
+        # target velocities by finite differences (feed-forward: no lag from the damping)
+        w_des, flex_rate = np.zeros(3), 0.0
+        if self._prev_swing is not None and p.feedforward:
+            R_prev, flex_prev, t_prev = self._prev_swing
+            if t > t_prev:
+                w_des = _rotvec(R_thigh_des, R_prev) / (t - t_prev)
+                flex_rate = (flexion - flex_prev) / (t - t_prev)
+                n = float(np.linalg.norm(w_des))
+                if n > p.max_target_rate:
+                    w_des *= p.max_target_rate / n
+                flex_rate = max(-p.max_target_rate, min(p.max_target_rate, flex_rate))
+        self._prev_swing = (R_thigh_des, flexion, t)
+        R_thigh = d.xmat[sw.thigh].reshape(3, 3)
+        A_sw = d.xaxis[sw.hip_jnt].T                         # (3, 3) columns = hinge axes
+        tau[sw.hip] = A_sw.T @ (p.hip_kp * _rotvec(R_thigh_des, R_thigh) + p.hip_kd * w_des)
+        _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
+        D[sw.hip] = p.hip_kd * (A_sw.T @ jr_thigh)
+        tau[sw.knee_dof] = p.knee_kp * (flexion - qpos[sw.knee_q]) + p.knee_kd * flex_rate
+        tau[st.knee_dof] = p.knee_kp * (p.stance_knee - qpos[st.knee_q])
+        D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
+        for leg, R_des, kp, kd in ((sw, R_foot_des, p.swing_ankle_kp, p.swing_ankle_kd),
+                                   (st, None, p.ankle_kp, p.ankle_kd)):
+            R_foot = d.xmat[leg.foot].reshape(3, 3)
+            if R_des is None:  # stance foot: flat, keep its own yaw
+                R_des = rotation_z(_yaw(R_foot))
+            A = d.xaxis[leg.ankle_jnt].T
+            tau[leg.ankle] = A.T @ (kp * _rotvec(R_des, R_foot))
+            D[leg.ankle, leg.ankle] = kd
+        up = self._upper
+        tau[up] = self._upper_kp * (self._q_upper - qpos[self._dof_qpos[up]])
+        D[up, up] = self._upper_kd
+
+        # 4. gravity compensation on everything but the stance leg
+        if p.gravity_compensation:
+            gdofs = np.concatenate([up, sw.all])
+            b = self._dof_body[gdofs]
+            j = self._dof_jnt[gdofs]
+            lever = d.subtree_com[b] - d.xanchor[j]
+            ax = d.xaxis[j]
+            # a . (lever x z) = a_x lever_y - a_y lever_x
+            tau[gdofs] += GRAVITY * self._subtree_mass[b] * (ax[:, 0] * lever[:, 1]
+                                                             - ax[:, 1] * lever[:, 0])
+
+        # pelvis in the world frame; the stance hip takes the difference:
+        # T_stance = -T_pelvis - T_swing_hip - T_spine, each as (position part, damping rows)
+        lean = p.lean * vd
+        R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
+                                                                  lean)
+        R_p = d.xmat[self._pelvis].reshape(3, 3)
+        _, jr_p = ch.point_jacobian(self._pelvis, d.xpos[self._pelvis])
+        kp_p = np.array([p.pelvis_kp, p.pelvis_kp, p.pelvis_yaw_kp])
+        kd_p = np.array([p.pelvis_kd, p.pelvis_kd, p.pelvis_yaw_kd])
+        T0 = -(kp_p * _rotvec(R_p_des, R_p)
+               + kd_p * np.array([0.0, 0.0, self._heading_rate]))
+        DT = -kd_p[:, None] * jr_p                            # world torque rows on qdot
+        inv = _inv3(A_sw.T)
+        T0 -= inv @ tau[sw.hip]
+        DT -= inv @ D[sw.hip]
+        for jnts, dofs in self._pelvis_children:
+            inv = _inv3(d.xaxis[jnts])
+            T0 -= inv @ tau[dofs]
+            DT -= inv @ D[dofs]
+        A_st = d.xaxis[st.hip_jnt]                            # rows = hinge axes
+        tau[st.hip] = A_st @ T0
+        D[st.hip] = A_st @ DT
+
+        # 5. virtual COM force through the stance leg
+        dc = (c[:2] - d.site_xpos[st.site][:2]) @ l[:2]
+        side = 1.0 if self._swing == _LEFT else -1.0
+        fs = self.mass * p.vf_sagittal * (vd - vh[0])
+        fc = self.mass * (p.vf_coronal_pos * (side * p.coronal_offset - dc)
+                          + p.vf_coronal_vel * (vcd - vh[1]))
+        fs = max(-p.vf_max_sagittal, min(p.vf_max_sagittal, fs))
+        fc = max(-p.vf_max_coronal, min(p.vf_max_coronal, fc))
+        F = fs * f + fc * l
+        self.last_force = F
+        jacp, _ = ch.point_jacobian(st.foot, c)
+        tau[st.leg] -= jacp[:, st.leg].T @ F
+
+        # damping: explicit or implicit (next-step velocity)
+        if p.implicit_damping:
+            dt = ch.timestep
+            M = ch.mass_matrix()
+            rhs = tau - D @ qvel - d.qfrc_bias + d.qfrc_passive + d.qfrc_constraint
+            qacc = np.linalg.solve(M + dt * D, rhs)
+            tau = tau - D @ (qvel + dt * qacc)
+        else:
+            tau = tau - D @ qvel
+
+        # the stance foot holds only so much yaw moment before it spins on the ground: clamp
+        # the vertical component of the stance hip's world torque
+        A_st = d.xaxis[st.hip_jnt]
+        T_st = _inv3(A_st) @ tau[st.hip]
+        lim = self._yaw_capacity(ch, st) if abs(T_st[2]) > 2.0 else math.inf
+        if abs(T_st[2]) > lim:
+            T_st[2] = math.copysign(lim, T_st[2])
+            tau[st.hip] = A_st @ T_st
+        if p.stance_ankle_limit is not None:
+            self._limit_stance_ankle(ch, st, tau)
+        tau[ch.root_dofs] = 0.0
+        return np.clip(tau, -self._limits, self._limits)
+
+    def _yaw_capacity(self, ch: Character, st: _Leg) -> float:
+        """Yaw moment (N m) the stance foot can hold: ``yaw_friction x m g x r``, with ``r`` the
+        mean distance of its floor contact points from their centroid (a flat foot ~0.1 m, a
+        foot on its toes or heel much less), at most ``stance_yaw_limit``."""
+        p = self.params
+        names = {st.ankle_name, st.toe_name}
+        pts = np.array([c.position[:2] for c in ch.ground_contacts() if c.body in names])
+        if len(pts) < 2:
+            return 0.0
+        r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
+        return min(p.stance_yaw_limit, p.yaw_friction * self.mass * GRAVITY * r)
+
+    def _limit_stance_ankle(self, ch: Character, st: _Leg, tau: np.ndarray) -> None:
+        """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
+        without rolling: limits are metres x body weight."""
+        d = ch.data
+        fwd, back, roll = self.params.stance_ankle_limit
+        W = self.mass * GRAVITY
+        A = d.xaxis[st.ankle_jnt].T
+        T = _inv3(A.T) @ tau[st.ankle]
+        R_foot = d.xmat[st.foot].reshape(3, 3)
+        Tl = R_foot.T @ T
+        # the moment on the foot about +y (toes down) shifts the pressure forward
+        Tl[1] = min(max(Tl[1], -back * W), fwd * W)
+        Tl[0] = min(max(Tl[0], -roll * W), roll * W)
+        tau[st.ankle] = A.T @ (R_foot @ Tl)
+
+
+def make_ipm(character: Character | None = None, speed=0.0, heading=None, **opts
+             ) -> IPMController:
+    """Build an :class:`IPMController` (``name == "ipm"``).
+
+    Args:
+        character: unused (kept for the ``make_controller`` signature; the controller binds to a
+            character at ``reset``).
+        speed: desired forward speed (m/s), number or ``t -> m/s``.
+        heading: desired heading (degrees, world yaw, 0 = +X, CCW), number, ``t -> degrees``
+            or ``None`` (keep the start heading).
+        opts: ``lateral_speed`` and any :class:`IPMParams` field (e.g. ``step_time=0.5``).
+    """
+    return IPMController(speed=speed, heading=heading, **opts)
+
+
+register(ControllerSpec(
+    name="ipm", label="IPM stepping", kind="walker",
+    factory=lambda character, target=None, **options: make_ipm(character, **options),
+    scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
+    options=("speed", "heading"), steps=True,
+    bench=("stand", "random-push", "push-search", "walk", "slopes"), expected=("stand", "walk")))

@@ -1,0 +1,609 @@
+"""SIMBICON: simple biped locomotion control (Yin, Loken and van de Panne, SIGGRAPH 2007).
+
+A four-state finite-state machine per gait (:mod:`controllers.walking.gaits`): for each stance leg a
+lift-off state (0 or 2, timed) and a swing state (1 or 3, ended when the swing foot lands: phase
+> 0.5 and swing-foot normal force > 20 N, or a timeout). In every state each joint has a target
+angle and explicit PD torques ``tau = kp (theta_d - theta) - kd theta_dot`` drive it, computed in
+Python and applied as joint torques (the Character in ``"torque"`` actuation). Three things make
+it balance and walk:
+
+- **Torso and swing hip in the world (heading) frame.** The pelvis is driven to a world target
+  (the desired heading, a forward lean ``torso_pitch``) by a virtual torque
+  ``tau_torso = kp log(R_d R^T) - kd omega``; the swing thigh to a target orientation in the
+  heading frame by ``tau_swing = kp log(R_d R^T) - kd omega_thigh``. World torques become hinge
+  torques by the Jacobian transpose ``tau_i = a_i . tau`` (``a_i`` the hinge's world axis).
+- **Stance hip** ``tau_stance_hip = -tau_torso - tau_swing_hip`` (minus the torques of the
+  pelvis's other child joints, the spine), so the net torque on the pelvis is ``tau_torso``:
+  the stance leg, pushing on the ground, rotates the torso.
+- **Balance feedback** on the swing hip's target in the sagittal and coronal planes of the
+  heading frame: ``theta_d = theta_d0 + cd d + cv v``, ``d`` the horizontal offset of the centre
+  of mass from the stance ankle, ``v`` the centre-of-mass velocity (sagittal: forward; coronal:
+  towards the swing side).
+
+No force is ever applied to the root.
+
+Angles in a :class:`~controllers.walking.gaits.Gait` are anatomical (flexion ``+``); the sign of
+each hinge is measured on the model at :meth:`Simbicon.reset` (e.g. on the bundled humanoid hip
+flexion is a negative rotation about the lateral axis and knee flexion a positive one).
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from ..core.base import Action, ControllerError
+from ..core.character import Character
+from ..core.registry import ControllerSpec, register
+from .gaits import Gait, get_gait
+
+#: default physics time step for SIMBICON (explicit PD torques from Python), s
+DEFAULT_TIMESTEP = 1.0 / 1000.0
+_SIDES = ("left", "right")
+
+
+def _rot_x(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _rot_y(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _rot_z(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _log(R: np.ndarray) -> np.ndarray:
+    """``(3,)`` rotation vector (rad) of a rotation matrix ``(3, 3)``."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, R.reshape(9))
+    if q[0] < 0:
+        q = -q
+    v = np.empty(3)
+    mujoco.mju_quat2Vel(v, q, 1.0)
+    return v
+
+
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(3,)`` rotation vector turning unit vector ``u`` onto unit vector ``v`` (shortest arc)."""
+    ax = _cross(u, v)
+    s = math.sqrt(ax @ ax)
+    if s < 1e-12:
+        return np.zeros(3)
+    return ax * (math.atan2(s, float(u @ v)) / s)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """``(3,)`` world torque that hinges with world ``axes`` ``(k, 3)`` apply to their child body
+    when their generalised forces are ``tau`` ``(k,)`` (``axes @ T = tau``; least squares for
+    fewer than three hinges)."""
+    if len(tau) == 3:  # Cramer's rule: T = sum_i tau_i (a_j x a_k) / det
+        a1, a2, a3 = axes
+        c23, c31, c12 = _cross(a2, a3), _cross(a3, a1), _cross(a1, a2)
+        det = float(a1 @ c23)
+        if abs(det) > 1e-9:
+            return (tau[0] * c23 + tau[1] * c31 + tau[2] * c12) / det
+    return np.linalg.lstsq(axes, tau, rcond=None)[0]
+
+
+def yaw_of(R: np.ndarray) -> float:
+    """Heading angle (rad) of a body orientation ``(3, 3)``: its x axis projected on the floor."""
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(2,)`` total floor normal force (N) on the bodies ``feet[0]`` and ``feet[1]``
+    (left, right).
+
+    The contacts are those of the current state (after ``mj_step1``); their forces are solved for
+    the current state and the last controls (the actuation, acceleration and constraint stages
+    that the next ``mj_step2`` recomputes anyway). Stand-in until the Character offers contact
+    forces itself.
+    """
+    m, d = character.model, character.data
+    out = np.zeros(2)
+    n = d.ncon
+    if n == 0:
+        return out
+    mujoco.mj_fwdActuation(m, d)
+    mujoco.mj_fwdAcceleration(m, d)
+    mujoco.mj_fwdConstraint(m, d)
+    f = np.zeros(6)
+    floor = character.floor_geom
+    for i in range(n):
+        c = d.contact[i]
+        g1, g2 = int(c.geom[0]), int(c.geom[1])
+        if g1 != floor and g2 != floor or c.efc_address < 0:
+            continue
+        b = int(m.geom_bodyid[g2 if g1 == floor else g1])
+        for s in (0, 1):
+            if b in feet[s]:
+                mujoco.mj_contactForce(m, d, i, f)
+                out[s] += abs(f[0])
+    return out
+
+
+class _Hinge:
+    """One hinge dof of a joint: dof index, qpos address, joint id and actuator index."""
+
+    __slots__ = ("dof", "qadr", "jnt", "act")
+
+    def __init__(self, dof: int, qadr: int, jnt: int, act: int):
+        self.dof, self.qadr, self.jnt, self.act = dof, qadr, jnt, act
+
+
+class Simbicon:
+    """SIMBICON walking controller (see the module docstring).
+
+    Args:
+        gait: a gait name (``"walk"``, ``"crouch"``), a :class:`~controllers.walking.gaits.Gait` or
+            its dict.
+        heading: desired heading (rad, world yaw); ``None`` = the pelvis's heading at reset.
+        first_stance: ``"left"`` or ``"right"``: the stance leg of state 0.
+        overrides: gait parameters to change
+            (:meth:`~controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
+
+    Attributes (read by scenarios):
+        state: FSM state 0-3 (0/1: ``first_stance`` leg on the ground; 0/2 lift-off, 1/3 swing).
+        state_start: simulated time (s) the state began.
+        stance: ``"left"`` or ``"right"``.
+        transitions: list of ``(time s, new state)``.
+        last_swing_target: ``(2,)`` swing-hip (sagittal, coronal) targets of the last step (rad).
+        step_speed: mean forward speed of the centre of mass over the last step (m/s).
+        speed_offset: the speed regulation's swing-hip offset (rad; 0 unless the gait has a
+            ``speed_target``).
+    """
+
+    name = "simbicon"
+    actuation = "torque"
+
+    def __init__(
+        self,
+        gait: str | Gait | dict = "walk",
+        *,
+        heading: float | None = None,
+        first_stance: str = "left",
+        **overrides,
+    ):
+        self.gait = get_gait(gait, **overrides)
+        if first_stance not in _SIDES:
+            raise ControllerError(f"first_stance must be 'left' or 'right', got {first_stance!r}")
+        self.heading = heading
+        self.first_stance = first_stance
+        self.state = 0
+        self.state_start = 0.0
+        self.transitions: list[tuple[float, int]] = []
+        self.last_swing_target = np.zeros(2)
+        self.speed_offset = 0.0
+        self.step_speed: float | None = None
+        self._step_start: tuple[float, np.ndarray] | None = None
+        self._ready = False
+
+    # -- set-up ---------------------------------------------------------------------------------
+    def reset(self, character: Character) -> None:
+        """Switch to torque actuation, map the model (hinges, signs, gains) and start state 0."""
+        character.set_actuation("torque")
+        self._map(character)
+        m = character.model
+        R = character.data.xmat[self._pelvis].reshape(3, 3)
+        self.desired_heading = yaw_of(R) if self.heading is None else float(self.heading)
+        self.state = 0
+        self.state_start = character.time
+        self.transitions = [(character.time, 0)]
+        self.speed_offset = 0.0
+        self.step_speed: float | None = None
+        self._step_start = (character.time, character.com())
+        self._limits = character.torque_limits()[self._act_dof]
+        del m
+        self._ready = True
+
+    def _hinges(self, character: Character, joint: str) -> dict[str, _Hinge]:
+        """The joint's hinges keyed by the world axis they are closest to at rest (``x y z``)."""
+        m = character.model
+        out: dict[str, _Hinge] = {}
+        for dof in character.joint_dofs(joint):
+            j = int(m.dof_jntid[dof])
+            if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
+                raise ControllerError(
+                    f"SIMBICON needs hinge joints (joint_model='hinge'); {joint} is not"
+                )
+            a = self._rest.xaxis[j]
+            key = "xyz"[int(np.argmax(np.abs(a)))]
+            out[key] = _Hinge(int(dof), int(m.jnt_qposadr[j]), j, int(self._dof2act[dof]))
+        return out
+
+    def _map(self, ch: Character) -> None:
+        m = ch.model
+        if not np.all(ch.actuator_qpos >= 0):
+            raise ControllerError("SIMBICON needs one hinge actuator per dof (joint_model='hinge')")
+        self._act_dof = ch.actuator_dof.copy()
+        self._act_qpos = ch.actuator_qpos.copy()
+        self._dof2act = np.full(ch.nv, -1)
+        self._dof2act[self._act_dof] = np.arange(ch.nu)
+        # rest-pose kinematics: hinge axes and body positions with every joint at zero
+        rest = mujoco.MjData(m)
+        rest.qpos[:] = m.qpos0
+        mujoco.mj_kinematics(m, rest)
+        self._rest = rest
+        pelvis = ch.role("pelvis")
+        self._pelvis = ch.body_id(pelvis)
+        Rp = rest.xmat[self._pelvis].reshape(3, 3)
+        fwd, left, up = Rp[:, 0], Rp[:, 1], Rp[:, 2]
+
+        def pos(j: str) -> np.ndarray:
+            return rest.xpos[ch.body_id(j)]
+
+        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray) -> float:
+            """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``."""
+            s = float(np.dot(np.cross(axis, lever), towards))
+            if abs(s) < 1e-9:
+                raise ControllerError("cannot tell a hinge's sign on this model")
+            return 1.0 if s > 0 else -1.0
+
+        g = self.gait
+        kp, kd = ch.default_gains()
+        kp, kd = kp[self._act_dof].copy(), kd[self._act_dof].copy()
+        self._legs = []
+        for side in _SIDES:
+            hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
+            toe = ch.role(f"{side}_toe", required=False)
+            H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
+            if "y" not in K or len(K) != 1:
+                raise ControllerError(
+                    f"{knee}: SIMBICON expects a single flexion hinge at the knee"
+                )
+            out = left if side == "left" else -left
+            thigh = pos(knee) - pos(hip)
+            shank = pos(ankle) - pos(knee)
+            foot = (pos(toe) if toe else rest.site_xpos[ch.site_id(f"{side}_foot")]) - pos(ankle)
+            leg = {
+                "side": side,
+                "hip": H,
+                "knee": K["y"],
+                "ankle": A,
+                "hip_body": ch.body_id(hip),
+                "ankle_body": ch.body_id(ankle),
+                "foot_bodies": np.array([ch.body_id(ankle)] + ([ch.body_id(toe)] if toe else [])),
+                "hip_joints": np.array([h.jnt for h in H.values()]),
+                "hip_dofs": np.array([h.dof for h in H.values()]),
+                "hip_acts": np.array([h.act for h in H.values()]),
+                "ankle_joints": np.array([h.jnt for h in A.values()]),
+                "ankle_acts": np.array([h.act for h in A.values()]),
+                # hinge signs measured on the model (anatomical + = this many times hinge +)
+                "knee_flex": -sign(rest.xaxis[K["y"].jnt], shank, fwd),
+                "ankle_dorsi": sign(rest.xaxis[A["y"].jnt], foot, up),
+                "hip_flex": sign(rest.xaxis[H["y"].jnt], thigh + shank, fwd),
+                # heading-frame rotations of the thigh: flexion about left, abduction about fwd
+                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd),
+                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out),
+                "out": out,
+                "thigh_dir": thigh / np.linalg.norm(thigh),
+                # + rotation about the heading frame's lateral axis lifts the toes?
+                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
+                "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
+            }
+            self._legs.append(leg)
+        self._feet = (self._legs[0]["foot_bodies"], self._legs[1]["foot_bodies"])
+
+        # the rest of the body: spine, head, arms, toes
+        self._arm_swing: dict[str, tuple[int, float]] = {}
+        base = np.zeros(ch.nu)
+        group = np.array(["other"] * ch.nu, dtype=object)
+        for leg in self._legs:
+            for h in leg["hip"].values():
+                group[h.act] = "hip"
+            group[leg["knee"].act] = "knee"
+            for h in leg["ankle"].values():
+                group[h.act] = "ankle"
+        for j in ch.roles("spine"):
+            hs = self._hinges(ch, j)
+            for h in hs.values():
+                group[h.act] = "spine"
+            if "y" in hs:
+                base[hs["y"].act] = g.spine_pitch * sign(rest.xaxis[hs["y"].jnt], up, fwd)
+        head = ch.role("head", required=False)
+        if head:
+            for h in self._hinges(ch, head).values():
+                group[h.act] = "head"
+        for side in _SIDES:
+            toe = ch.role(f"{side}_toe", required=False)
+            if toe:
+                for h in self._hinges(ch, toe).values():
+                    group[h.act] = "toe"
+            for part in ("clavicle", "shoulder", "elbow", "wrist"):
+                j = ch.role(f"{side}_{part}", required=False)
+                if j:
+                    for h in self._hinges(ch, j).values():
+                        group[h.act] = "arm"
+            sh = ch.role(f"{side}_shoulder", required=False)
+            el = ch.role(f"{side}_elbow", required=False)
+            if sh and el:
+                hs = self._hinges(ch, sh)
+                if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
+                    arm = pos(el) - pos(sh)
+                    base[hs["x"].act] = g.shoulder_down * sign(rest.xaxis[hs["x"].jnt], arm, -up)
+                if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
+                    self._arm_swing[side] = (hs["y"].act, sign(rest.xaxis[hs["y"].jnt], -up, fwd))
+                wr = ch.role(f"{side}_wrist", required=False)
+                he = self._hinges(ch, el)
+                if wr and he:
+                    h = next(iter(he.values()))
+                    fore = pos(wr) - pos(el)
+                    # flexion brings the forearm forward once the arm hangs down
+                    base[h.act] = g.elbow_flexion * sign(rest.xaxis[h.jnt], fore, fwd)
+        for grp, (gkp, gkd) in g.gains.items():
+            sel = group == grp
+            if grp in ("hip",):
+                sel = group == "hip"
+            kp[sel], kd[sel] = gkp, gkd
+        self._kp, self._kd = kp, kd
+        self._base = base
+        kpt, kdt = g.gains.get("torso", (1000.0, 100.0))
+        kpy, kdy = g.gains.get("torso_yaw", (kpt, kdt))
+        self._twist_kp, self._twist_kd = g.gains.get("stance_twist", (300.0, 30.0))
+        self._torso_kp = np.array([kpt, kpt, kpy])
+        self._torso_kd = np.array([kdt, kdt, kdy])
+        self._swing_gains = g.gains.get("swing_hip", (600.0, 60.0))
+        self._ankle_world_gains = g.gains.get("swing_ankle_world", (100.0, 10.0))
+        # joints (other than the hips) that attach to the pelvis: their torques react on it
+        others = []
+        hip_bodies = {leg["hip_body"] for leg in self._legs}
+        for b in range(m.nbody):
+            if m.body_parentid[b] == self._pelvis and b not in hip_bodies:
+                js = [
+                    j
+                    for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
+                    if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
+                ]
+                if js:
+                    acts = np.array([self._dof2act[m.jnt_dofadr[j]] for j in js])
+                    others.append((np.array(js), acts))
+        self._pelvis_children = others
+        self._targets = [self._state_targets(s) for s in range(4)]
+
+    def _stance_leg(self, state: int) -> int:
+        first = _SIDES.index(self.first_stance)
+        return first if state < 2 else 1 - first
+
+    def _state_targets(self, state: int) -> np.ndarray:
+        """``(nu,)`` local hinge targets of ``state`` (the hips are overwritten by the world-frame
+        control every step)."""
+        p = self.gait.states[state % 2]
+        q = self._base.copy()
+        st = self._legs[self._stance_leg(state)]
+        sw = self._legs[1 - self._stance_leg(state)]
+        q[st["knee"].act] = st["knee_flex"] * p.stance_knee
+        q[sw["knee"].act] = sw["knee_flex"] * p.swing_knee
+        q[st["ankle"]["y"].act] = st["ankle_dorsi"] * p.stance_ankle
+        q[sw["ankle"]["y"].act] = sw["ankle_dorsi"] * p.swing_ankle
+        # arms swing against the legs: the stance side's arm forward, the swing side's back
+        for leg, sgn in ((st, 1.0), (sw, -1.0)):
+            if leg["side"] in self._arm_swing:
+                a, s = self._arm_swing[leg["side"]]
+                q[a] = s * sgn * self.gait.arm_swing
+        return q
+
+    # -- the finite-state machine ---------------------------------------------------------------
+    @property
+    def stance(self) -> str:
+        """The stance leg now (``"left"``/``"right"``)."""
+        return _SIDES[self._stance_leg(self.state)]
+
+    def phase(self, t: float) -> float:
+        """Fraction of the current state's duration elapsed at ``t`` (s)."""
+        return (t - self.state_start) / self.gait.states[self.state % 2].duration
+
+    def _advance(self, character: Character, t: float) -> None:
+        p = self.gait.states[self.state % 2]
+        phase = self.phase(t)
+        if p.ends_on_contact:
+            done = t - self.state_start >= p.timeout
+        else:
+            done = phase >= 1.0
+        if not done and p.ends_on_contact and phase > self.gait.contact_phase:
+            sw = 1 - self._stance_leg(self.state)
+            if character.foot_contacts()[sw]:
+                force = foot_normal_forces(character, self._feet)[sw]
+                done = force > self.gait.contact_force
+        if done:
+            self.state = (self.state + 1) % 4
+            self.state_start = t
+            self.transitions.append((t, self.state))
+            if self.state % 2 == 0:
+                self._step_update(character, t)
+
+    def _step_update(self, character: Character, t: float) -> None:
+        """At lift-off: the last step's mean forward speed and the speed regulation."""
+        g = self.gait
+        c = character.com()
+        if self._step_start is not None:
+            t0, c0 = self._step_start
+            if t > t0:
+                H = _rot_z(self.desired_heading)
+                self.step_speed = float((c - c0) @ H[:, 0]) / (t - t0)
+                if g.speed_target is not None:
+                    self.speed_offset = float(
+                        np.clip(
+                            self.speed_offset + g.speed_gain * (self.step_speed - g.speed_target),
+                            -g.speed_limit,
+                            g.speed_limit,
+                        )
+                    )
+        self._step_start = (t, c)
+
+    # -- control --------------------------------------------------------------------------------
+    def torques(self, character: Character, t: float) -> np.ndarray:
+        """``(nu,)`` actuator torques (N m) for this control step (advances the FSM first)."""
+        if not self._ready:
+            raise ControllerError("simbicon: act() called before reset()")
+        self._advance(character, t)
+        d = character.data
+        g = self.gait
+        p = g.states[self.state % 2]
+        lim = self._limits
+        q = d.qpos[self._act_qpos]
+        qd = d.qvel[self._act_dof]
+        # every joint: local PD towards the state's pose
+        tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
+
+        si = self._stance_leg(self.state)
+        st, sw = self._legs[si], self._legs[1 - si]
+        Rp = d.xmat[self._pelvis].reshape(3, 3)
+        heading = yaw_of(Rp)
+        H = _rot_z(heading)
+
+        # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
+        dd, vv = self._feedback_terms(character, st, H)
+        sag = p.swing_hip + p.cd * dd[0] + p.cv * vv[0] + self.speed_offset
+        cor = p.swing_hip_coronal + p.cd_coronal * dd[1] + p.cv_coronal * vv[1]
+        self.last_swing_target = np.array([sag, cor])
+
+        # swing hip, world (heading) frame: the thigh's direction u -> u_d
+        u_d = H @ (_rot_x(sw["abd_sign"] * cor) @ (_rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
+        u = d.xmat[sw["hip_body"]].reshape(3, 3) @ sw["thigh_dir"]
+        w = d.cvel[sw["hip_body"], :3]
+        kps, kds = self._swing_gains
+        tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
+        acts = sw["hip_acts"]
+        tau[acts] = d.xaxis[sw["hip_joints"]] @ tau_w
+        if "z" in sw["hip"]:
+            # its twist stays local, towards the twist that points the foot at the desired
+            # heading (thigh yaw = pelvis yaw + s q_twist)
+            hz = sw["hip"]["z"]
+            err = math.remainder(self.desired_heading - heading, 2 * math.pi)
+            want = sw["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
+        tau[acts] = np.minimum(np.maximum(tau[acts], -lim[acts]), lim[acts])
+        tau_sw = _world_torque(d.xaxis[sw["hip_joints"]], tau[acts])
+
+        # torso (pelvis), world frame: desired heading and forward lean
+        Rpd = _rot_z(self.desired_heading) @ _rot_y(g.torso_pitch)
+        tau_torso = self._torso_kp * _log(Rpd @ Rp.T) - self._torso_kd * d.cvel[self._pelvis, :3]
+
+        # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
+        react = np.zeros(3)
+        for js, a in self._pelvis_children:
+            tau[a] = np.minimum(np.maximum(tau[a], -lim[a]), lim[a])
+            react += _world_torque(d.xaxis[js], tau[a])
+        tau_st = -tau_torso - tau_sw - react
+        acts = st["hip_acts"]
+        if "z" in st["hip"]:
+            # Its vertical part turns the pelvis only as far as the stance foot's friction holds
+            # (and spins a lightly loaded leg), so the heading is a local PD on the hip twist
+            # towards the twist that points the pelvis at the desired heading.
+            tau_st[2] = 0.0
+            hz = st["hip"]["z"]
+            tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
+            thigh_yaw = yaw_of(d.xmat[st["hip_body"]].reshape(3, 3))
+            err = math.remainder(thigh_yaw - self.desired_heading, 2 * math.pi)
+            want = st["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
+        else:
+            tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
+
+        if g.swing_ankle_world:
+            # swing foot pitched by swing_ankle (toes up) in the desired-heading frame
+            Rfd = _rot_z(self.desired_heading) @ _rot_y(sw["foot_pitch_sign"] * p.swing_ankle)
+            Rf = d.xmat[sw["ankle_body"]].reshape(3, 3)
+            kpa, kda = self._ankle_world_gains
+            tau_f = kpa * _log(Rfd @ Rf.T) - kda * d.cvel[sw["ankle_body"], :3]
+            tau[sw["ankle_acts"]] = d.xaxis[sw["ankle_joints"]] @ tau_f
+        return np.minimum(np.maximum(tau, -lim), lim)
+
+    def _feedback_terms(
+        self, character: Character, st: dict, H: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        d = character.data
+        fwd, lat = H[:, 0], -st["out"][1] * H[:, 1]  # lateral: towards the swing leg's side
+        off = character.com() - d.xpos[st["ankle_body"]]
+        v = character.com_velocity()
+        return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
+
+    def balance_feedback(self, character: Character) -> tuple[np.ndarray, np.ndarray]:
+        """``(d, v)``: the centre of mass's horizontal offset ``(2,)`` (m) from the stance ankle
+        and its velocity ``(2,)`` (m/s) in the heading frame (forward, towards the swing side)."""
+        st = self._legs[self._stance_leg(self.state)]
+        H = _rot_z(yaw_of(character.data.xmat[self._pelvis].reshape(3, 3)))
+        return self._feedback_terms(character, st, H)
+
+    def act(self, character: Character, t: float) -> Action:
+        """The :class:`~controllers.core.base.Action` for simulated time ``t``: joint torques only
+        (the root rows are zero: no hand of god)."""
+        full = np.zeros(character.nv)
+        full[self._act_dof] = self.torques(character, t)
+        return Action(torque=full)
+
+    # -- start states --------------------------------------------------------------------------
+    def start_state(
+        self,
+        character: Character,
+        rng: np.random.Generator | None = None,
+        *,
+        joint_noise: float = 0.02,
+        velocity_noise: float = 0.05,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(qpos (nq,), qvel (nv,))``: the gait's standing start (arms down, lean, knees) on the
+        floor, moving forward at ``start_speed`` m/s, with small random perturbations from
+        ``rng`` (joint angles ~N(0, ``joint_noise``) rad, root velocity ~N(0, ``velocity_noise``)
+        m/s per horizontal axis) when given. Call after :meth:`reset` or it resets the mapping
+        itself without touching the state."""
+        if not self._ready:
+            self._map(character)
+            self._ready = True
+        m = character.model
+        q = m.qpos0.copy()
+        targets = self._state_targets(3)  # both legs nearly straight, stance-knee flexion
+        q[self._act_qpos] = targets
+        for leg in self._legs:
+            q[leg["knee"].qadr] = leg["knee_flex"] * self.gait.states[1].stance_knee
+            q[leg["ankle"]["y"].qadr] = leg["ankle_dorsi"] * self.gait.states[1].stance_ankle
+        if self.gait.torso_pitch:
+            # lean the pelvis and give it back at the hips so the legs stay vertical
+            qw = math.cos(0.5 * self.gait.torso_pitch)
+            qy = math.sin(0.5 * self.gait.torso_pitch)
+            root_quat = character.root_qpos[3:7]
+            q[root_quat] = [qw, 0.0, qy, 0.0]
+            for leg in self._legs:
+                h = leg["hip"]["y"]
+                q[h.qadr] = leg["hip_flex"] * self.gait.torso_pitch
+        qv = np.zeros(character.nv)
+        if rng is not None:
+            q[self._act_qpos] += rng.normal(0.0, joint_noise, size=len(self._act_qpos))
+            lo, hi = m.jnt_range[m.dof_jntid[self._act_dof]].T
+            q[self._act_qpos] = np.clip(q[self._act_qpos], lo, hi)
+            qv[character.root_dofs[:2]] = rng.normal(0.0, velocity_noise, size=2)
+        qv[character.root_dofs[0]] += self.gait.start_speed
+        q = character.on_floor(q, clearance=0.0)
+        return q, qv
+
+
+def make_simbicon(
+    character: Character | None = None, gait: str | Gait | dict = "walk", **overrides
+) -> Simbicon:
+    """The SIMBICON controller for ``character`` (only used for validation here; the controller
+    binds to a character at ``reset``) with ``gait`` and parameter ``overrides``.
+
+    Besides gait parameters, ``heading`` (rad) and ``first_stance`` go to :class:`Simbicon`.
+    """
+    kw = {k: overrides.pop(k) for k in ("heading", "first_stance") if k in overrides}
+    return Simbicon(gait, **kw, **overrides)
+
+
+register(ControllerSpec(
+    name="simbicon", label="SIMBICON walk", kind="walker",
+    factory=lambda character, target=None, **options: make_simbicon(character, **options),
+    scenarios=("walk",), default_scenario="walk", options=("gait",),
+    timestep=DEFAULT_TIMESTEP, push="walking",
+    bench=("walk", "push-search", "slopes"), expected=("walk",)))

@@ -1,0 +1,182 @@
+"""Settings of ``mjchar bench``: the scenarios, durations, seeds and search settings
+(:class:`BenchConfig`, :func:`quick_config`, :func:`full_config`), the performance section's
+(:class:`PerfConfig`), the paths the bench reads, and the JSON helpers every part shares."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from bvh.errors import MjcharError
+from controllers.core.registry import BENCH_SCENARIOS
+
+#: the project root (holds ``docs/`` and, beside it, ``../shared``)
+ROOT = Path(__file__).resolve().parents[2]
+SCHEMA_PATH = ROOT / "docs" / "bench_schema.json"
+SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
+SCHEMA_NAME = "mjchar-bench"
+SCHEMA_VERSION = 1
+
+SCENARIOS = BENCH_SCENARIOS
+#: scenarios whose runs count in the survival column (push-search is a measurement)
+SURVIVAL_SCENARIOS = ("stand", "random-push", "walk", "track", "slopes")
+DIRECTION_NAMES = ("forward", "left", "backward", "right")
+#: keys of a run's result that are timings (the rest is physics, identical for equal seeds)
+TIMING_KEYS = ("wall_s", "steps_per_s")
+
+
+class BenchError(MjcharError):
+    """The benchmark was asked for something impossible (unknown controller or scenario, bad
+    option, an output folder that cannot be written)."""
+
+
+@dataclass
+class PerfConfig:
+    """Settings of the performance section (see :mod:`mjchar.perf`).
+
+    Attributes:
+        raw_steps, raw_repeats: bare ``mj_step`` throughput run length and repeats.
+        cost_steps, cost_repeats: physics steps and repeats of each controller's step cost.
+        rollout_samples, rollout_steps, rollout_repeats, rollout_threads: batched rollouts.
+        env_steps, env_repeats: env throughput (env steps per env per round, rounds).
+        bvh_budget_s: seconds of timing per BVH file.
+        envelope_duration_s, envelope_grid, envelope_finer, envelope_kps: the PD stability
+            envelope (:func:`mjchar.perf.stability_envelope`).
+    """
+
+    raw_steps: int = 5000
+    raw_repeats: int = 5
+    cost_steps: int = 2000
+    cost_repeats: int = 5
+    rollout_samples: int = 256
+    rollout_steps: int = 50
+    rollout_repeats: int = 3
+    rollout_threads: tuple[int, ...] = (1, 2)
+    env_steps: int = 2000
+    env_repeats: int = 3
+    bvh_budget_s: float = 1.0
+    envelope_duration_s: float = 5.0
+    envelope_grid: tuple[int, ...] = (2000, 1500, 1000, 750, 500, 360, 240, 180, 120, 90, 60,
+                                      45, 30)
+    envelope_finer: tuple[int, ...] = (8000, 6000, 4000, 3000, 2500)
+    envelope_kps: tuple[float, ...] = (300.0, 1000.0, 3000.0)
+
+
+@dataclass
+class BenchConfig:
+    """Durations, seeds and search settings of a bench run (SI units: s, N, m, deg).
+
+    Use :func:`full_config` or :func:`quick_config`, then ``dataclasses.replace`` for changes.
+    """
+
+    quick: bool = False
+    seeds: tuple[int, ...] = (0, 1, 2)
+    stand_duration: float = 10.0
+    random_push_duration: float = 30.0
+    random_push_force: float = 10.0
+    push_duration: float = 4.0
+    push_max_force: float = 1000.0
+    push_tolerance: float = 5.0
+    push_directions: tuple[str, ...] = DIRECTION_NAMES
+    walk_duration: float = 30.0
+    steady_window: float = 10.0
+    walk_push_phases: int = 4
+    walk_push_max_force: float = 600.0
+    walk_push_tolerance: float = 25.0
+    walk_push_warmup: float = 4.0
+    walk_push_after: float = 8.0
+    slope_degrees: float = 5.0
+    slope_distance: float = 10.0
+    slope_duration: float = 20.0
+    ipm_speed: float = 1.0
+    track_duration: float | None = None
+    sample_rate: float = 20.0
+    fps: float = 30.0
+    perf: PerfConfig = field(default_factory=PerfConfig)
+
+    def check(self) -> BenchConfig:
+        """Raise :class:`BenchError` on impossible settings; returns self."""
+        if not self.seeds or any(not isinstance(s, int | np.integer) or s < 0
+                                 for s in self.seeds):
+            raise BenchError(f"seeds must be non-negative integers, got {self.seeds!r}")
+        for name in ("stand_duration", "random_push_duration", "push_duration", "walk_duration",
+                     "slope_duration", "push_max_force", "push_tolerance", "walk_push_max_force",
+                     "walk_push_tolerance", "sample_rate", "fps", "random_push_force",
+                     "ipm_speed", "walk_push_after"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise BenchError(f"{name} must be a positive number, got {v!r}")
+        if self.push_duration <= 1.2:
+            raise BenchError("push_duration must exceed 1.2 s (the push is at 1 s for 0.2 s)")
+        if not (0 < abs(self.slope_degrees) < 45):
+            raise BenchError(f"slope_degrees must be in (0, 45), got {self.slope_degrees}")
+        bad = [d for d in self.push_directions if d not in DIRECTION_NAMES]
+        if bad or not self.push_directions:
+            raise BenchError(f"push directions must be among {', '.join(DIRECTION_NAMES)}, "
+                             f"got {self.push_directions!r}")
+        if self.walk_push_phases < 1:
+            raise BenchError("walk_push_phases must be at least 1")
+        return self
+
+    def to_dict(self) -> dict:
+        return json_ready(asdict(self))
+
+
+def full_config(seeds: int | None = None) -> BenchConfig:
+    """The full benchmark (tens of minutes on two cores); ``seeds`` = how many (default 3)."""
+    c = BenchConfig()
+    return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
+
+
+def quick_config(seeds: int | None = None) -> BenchConfig:
+    """Short durations, coarse push searches, quick performance runs, 2 seeds by default: a
+    few minutes on two cores (``mjchar bench --quick``)."""
+    perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=600, cost_repeats=3,
+                      rollout_samples=64, rollout_steps=50, rollout_repeats=2,
+                      env_steps=300, env_repeats=2, bvh_budget_s=0.15,
+                      envelope_duration_s=2.0,
+                      envelope_grid=(2000, 1000, 500, 240, 120, 60, 30),
+                      envelope_finer=(8000, 4000))
+    c = BenchConfig(quick=True, seeds=(0, 1), stand_duration=10.0, random_push_duration=10.0,
+                    push_duration=3.0, push_max_force=500.0, push_tolerance=25.0,
+                    walk_duration=10.0, steady_window=4.0, walk_push_phases=1,
+                    walk_push_max_force=400.0, walk_push_tolerance=100.0, walk_push_warmup=3.0,
+                    walk_push_after=3.0, slope_distance=3.0, slope_duration=8.0, perf=perf)
+    return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
+
+
+def _count(n) -> int:
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise BenchError(f"the number of seeds must be a positive integer, got {n!r}")
+    return n
+
+
+def json_ready(v):
+    """JSON-ready copy: numpy scalars and arrays to Python, non-finite floats to ``None``,
+    tuples to lists, paths to strings."""
+    if isinstance(v, dict):
+        return {str(k): json_ready(x) for k, x in v.items()}
+    if isinstance(v, list | tuple | np.ndarray):
+        return [json_ready(x) for x in v]
+    if isinstance(v, bool | np.bool_):
+        return bool(v)
+    if isinstance(v, int | np.integer):
+        return int(v)
+    if isinstance(v, float | np.floating):
+        v = float(v)
+        return v if math.isfinite(v) else None
+    if isinstance(v, Path):
+        return str(v)
+    return v
+
+
+def relative_path(p: Path) -> str:
+    try:
+        return str(Path(p).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(p)
+
+

@@ -1,0 +1,505 @@
+"""The bench matrix: every registered controller in every bench scenario it declares.
+
+The rows, their scenarios and the runs that must not fall come from the controller registry
+(:mod:`controllers.core.registry`: each spec's ``bench`` and ``expected``), so a newly
+registered controller appears here with no other edit. Every run goes through the shared
+scenarios (:mod:`controllers.core.scenarios`, :mod:`controllers.core.terrain`,
+:func:`controllers.sampling.trajectory.replay`), so each number is measured the way the tests
+and ``mjchar run`` measure it.
+
+Scenarios (:data:`~mjchar.bench.config.SCENARIOS`):
+
+- ``stand``: the standing pose, no disturbance.
+- ``random-push``: 10 N on the pelvis, new random direction every second, once per seed.
+- ``push-search``: per direction (forward, left, backward, right) the largest 0.2 s push
+  survived, by bisection. Standing controllers: pushes on the pelvis 1 s in, no fall (and no
+  step unless the controller is a stepping one). Walking controllers: pushes on the chest at
+  ``walk_push_phases`` phases of the stride, still walking afterwards.
+- ``walk``: walkers from their own start state (seeded perturbation) on level ground.
+- ``track``: follow ``walk60`` (``../shared/data/bvh``) or the bundled walk; replays play a
+  saved SAMCON / CMA-ES trajectory against its stored reference.
+- ``slopes``: walk up and down a ``slope_degrees`` slope.
+
+Replays without a saved trajectory get a "not available" row instead of a crash.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from bvh.assets import TRAJECTORIES
+from bvh.errors import MjcharError
+from controllers import registry
+from controllers.core import scenarios as S
+from controllers.core.registry import ControllerSpec
+from controllers.core.terrain import push_search, push_walk, slope_walk, walk
+from controllers.sampling.trajectory import find_trajectory
+
+from .config import SCENARIOS, SHARED_BVH, BenchConfig, BenchError, relative_path
+
+
+# -- the matrix: read from the controller registry -----------------------------------------------
+def bench_specs() -> dict[str, ControllerSpec]:
+    """The registered controllers that run in the bench (a non-empty ``bench``), in
+    registration order: the rows of the table."""
+    return {s.name: s for s in registry.specs() if s.bench}
+
+
+def matrix() -> dict[str, tuple[str, ...]]:
+    """``{controller: its bench scenarios}``: the cells that make sense, from the registry."""
+    return {n: s.bench for n, s in bench_specs().items()}
+
+
+def expected_cells() -> tuple[tuple[str, str], ...]:
+    """The ``(controller, scenario)`` runs that must not fall (each spec's ``expected``); a fall
+    (or an error) there makes ``mjchar bench`` exit with status 1."""
+    return tuple((n, s) for n, spec in bench_specs().items() for s in spec.expected)
+
+
+def find_trajectories(directory: str | os.PathLike | None = None) -> dict[str, Path]:
+    """Saved trajectories for the replay rows: ``{controller name: path}``.
+
+    Looks in ``directory`` (default: the bundled ``assets/trajectories``) for ``*.npz`` files
+    whose name starts with one of a replay spec's ``trajectory_prefixes`` (``samcon...npz``,
+    ``cmaes...npz``); the first in sorted order wins.
+    """
+    out: dict[str, Path] = {}
+    for spec in bench_specs().values():
+        path = find_trajectory(spec.trajectory_prefixes, directory)
+        if path is not None:
+            out[spec.name] = path
+    return out
+
+
+def availability(name: str, trajectories: dict[str, Path] | None = None
+                 ) -> tuple[bool, str | None]:
+    """``(available, reason)`` for controller ``name``: always available unless it is a replay
+    without a saved trajectory."""
+    spec = _spec(name)
+    if spec.kind == "replay":
+        path = (trajectories or {}).get(name)
+        if path is None:
+            return False, (f"no saved trajectory (give one with --{name.split('_')[0]}-"
+                           f"trajectory FILE or put {spec.trajectory_prefixes[0]}*.npz in "
+                           f"{relative_path(TRAJECTORIES)})")
+        if not Path(path).is_file():
+            return False, f"trajectory file {path} not found"
+    return True, None
+
+
+def _spec(name: str) -> ControllerSpec:
+    specs = bench_specs()
+    if name not in specs:
+        raise BenchError(f"unknown controller {name!r}; choose from {', '.join(specs)}")
+    return specs[name]
+
+
+def select_cells(controllers: Iterable[str] | None = None,
+                 scenarios: Iterable[str] | None = None) -> list[tuple[str, str]]:
+    """The ``(controller, scenario)`` cells of :func:`matrix` among the chosen ones (default:
+    all), in matrix order. Unknown names raise :class:`BenchError`."""
+    table = matrix()
+    cs = list(table) if controllers is None else list(dict.fromkeys(controllers))
+    ss = list(SCENARIOS) if scenarios is None else list(dict.fromkeys(scenarios))
+    for c in cs:
+        _spec(c)
+    for s in ss:
+        if s not in SCENARIOS:
+            raise BenchError(f"unknown scenario {s!r}; choose from {', '.join(SCENARIOS)}")
+    cells = [(c, s) for c in table for s in table[c] if c in cs and s in ss]
+    if not cells:
+        raise BenchError(f"no cell of the matrix has controller(s) {', '.join(cs)} and "
+                         f"scenario(s) {', '.join(ss)}; the matrix: "
+                         + "; ".join(f"{c}: {', '.join(v)}" for c, v in table.items()))
+    return cells
+
+
+# -- running the cells ---------------------------------------------------------------------------
+class _Probe:
+    """A frame callback sampling time, centre of mass and (with a reference) joint positions at
+    ``rate`` Hz, for the plots; :meth:`series` turns them into JSON-ready lists."""
+
+    def __init__(self, rate: float, reference=None):
+        self.dt = 1.0 / rate
+        self.reference = reference
+        self._next = -math.inf
+        self.t: list[float] = []
+        self.com: list[list[float]] = []
+        self.joints: list[np.ndarray] = []
+
+    def __call__(self, ch) -> None:
+        if ch.time + 1e-9 < self._next:
+            return
+        self._next = ch.time + self.dt
+        self.t.append(float(ch.time))
+        self.com.append([float(x) for x in ch.com()])
+        if self.reference is not None:
+            self.joints.append(ch.joint_positions())
+
+    def series(self) -> dict:
+        err = None
+        if self.reference is not None and self.t:
+            t = np.asarray(self.t)
+            ref = self.reference.body_positions(t)[:, self.reference.joint_body_ids]
+            err = np.linalg.norm(np.asarray(self.joints) - ref, axis=-1).mean(axis=1).tolist()
+        return {"t_s": [round(x, 6) for x in self.t], "com_m": self.com,
+                "tracking_error_m": err}
+
+
+class _LazyVideo:
+    """A :class:`~mjchar.render.VideoRecorder` created on the first frame (so it can film
+    a Character built inside a scenario function)."""
+
+    def __init__(self, path: Path, fps: float):
+        self.path, self.fps = path, fps
+        self.recorder = None
+
+    def capture(self, ch) -> None:
+        if self.recorder is None:
+            from ..render import VideoRecorder
+
+            self.recorder = VideoRecorder(ch, self.path, fps=self.fps)
+        self.recorder.capture(ch)
+
+    def close(self) -> int:
+        if self.recorder is None:
+            return 0
+        self.recorder.close()
+        return self.recorder.frames
+
+
+class BenchContext:
+    """What the cells share: the pristine model, the references, the trajectories, videos."""
+
+    def __init__(self, config: BenchConfig, trajectories: dict[str, Path],
+                 video_dir: Path | None, log: Callable[[str], None]):
+        from controllers.core.character import Character
+
+        self.config = config
+        self.base_model = Character().model  # pristine; every run copies it
+        self.trajectories = trajectories
+        self.video_dir = video_dir
+        self.log = log
+        self.track_motion = default_track_motion()
+        self._refs: dict[str, object] = {}
+        self._trajs: dict[str, object] = {}
+        self.videos: list[dict] = []
+
+    def character(self, timestep: float | None = None):
+        from controllers.core.character import Character
+
+        return Character(self.base_model, timestep=timestep)
+
+    def reference(self, path: Path):
+        key = str(path)
+        if key not in self._refs:
+            import bvh
+            from bvh.reference import ReferenceMotion
+
+            ch = self.character()
+            self._refs[key] = ReferenceMotion(ch.model, bvh.load(path), info=ch.info)
+        return self._refs[key]
+
+    def trajectory(self, name: str):
+        if name not in self._trajs:
+            from controllers.sampling.trajectory import load_trajectory
+
+            self._trajs[name] = load_trajectory(self.trajectories[name])
+        return self._trajs[name]
+
+    def video(self, controller: str, scenario: str) -> _LazyVideo | None:
+        if self.video_dir is None:
+            return None
+        return _LazyVideo(self.video_dir / f"{controller}_{scenario}.mp4", self.config.fps)
+
+
+def default_track_motion() -> Path:
+    """``../shared/data/bvh/walk60.bvh`` when present, else the bundled walk."""
+    shared = SHARED_BVH / "walk60.bvh"
+    if shared.is_file():
+        return shared
+    from bvh.assets import motion_path
+
+    return motion_path("walk")
+
+
+def _timestep(name: str) -> float | None:
+    """Physics time step the controller runs at (``None``: the model's)."""
+    return S.defaultregistry.default_timestep(name)
+
+
+def build_controller(ctx: BenchContext, name: str, scenario: str, reference=None):
+    """A fresh ``(character, controller)`` for one run (as ``mjchar run`` builds them: PD
+    trackers follow the reference in track/walk and hold the standing pose otherwise)."""
+    ch = ctx.character(registry.default_timestep(name))
+    spec = _spec(name)
+    if spec.kind in ("pd", "balance"):
+        target = reference if reference is not None else S.standing_pose(ch)
+        return ch, registry.make_controller(name, ch, target)
+    if spec.kind == "replay":  # replays go through trajectory.replay
+        raise BenchError(f"{name} is a replay: it is not built by build_controller")
+    options = {}
+    if "speed" in spec.options:  # walkers with a speed command walk at ipm_speed
+        options["speed"] = ctx.config.ipm_speed if scenario in ("walk", "slopes") else 0.0
+    return ch, registry.make_controller(name, ch, **options)
+
+
+def _result_run(variant: str, seed, r, probe: _Probe, frames: int | None = None) -> dict:
+    run = {"variant": variant, "seed": None if seed is None else int(seed),
+           "survived": not r.fell, "result": r.to_dict(), "series": probe.series()}
+    if frames:
+        run["video_frames"] = frames
+    return run
+
+
+def _run_one(ctx: BenchContext, cell_video: list, variant: str, seed, reference,
+             fn: Callable[[Callable], object]) -> dict:
+    """Run ``fn(frame_callback)`` with a probe (and, for the cell's first run, a video)."""
+    probe = _Probe(ctx.config.sample_rate, reference)
+    video = cell_video.pop() if cell_video else None
+
+    def callback(ch) -> None:
+        probe(ch)
+        if video is not None:
+            video.capture(ch)
+
+    frames = None
+    try:
+        r = fn(callback)
+    finally:
+        if video is not None:
+            frames = video.close()
+    run = _result_run(variant, seed, r, probe, frames)
+    if video is not None and frames:
+        run["video"] = video.path.name
+        ctx.videos.append({"file": video.path.name, "frames": frames,
+                           "controller": r.controller, "scenario": r.scenario})
+    return run
+
+
+def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
+    """All runs of one cell (a list of run records, see docs/bench.md)."""
+    cfg = ctx.config
+    spec = _spec(name)
+    vid = ctx.video(name, scenario)
+    cell_video = [vid] if vid is not None else []
+    runs: list[dict] = []
+
+    def progress(msg: str) -> None:
+        ctx.log(f"  {name} / {scenario}: {msg}")
+
+    if scenario == "stand":
+        ch, c = build_controller(ctx, name, scenario)
+        runs.append(_run_one(ctx, cell_video, "stand", None, None, lambda cb: S.stand(
+            ch, c, duration=cfg.stand_duration, frame_callback=cb)))
+    elif scenario == "random-push":
+        for s in cfg.seeds:
+            ch, c = build_controller(ctx, name, scenario)
+            runs.append(_run_one(ctx, cell_video, f"seed {s}", s, None, lambda cb, ch=ch, c=c,
+                                 s=s: S.random_push(ch, c, seed=int(s),
+                                                    force=cfg.random_push_force,
+                                                    duration=cfg.random_push_duration,
+                                                    frame_callback=cb)))
+    elif scenario == "push-search":
+        directions = {d: S.DIRECTIONS[d] for d in cfg.push_directions}
+        if spec.push == "walking":
+            runs.append(_walking_push_search(ctx, cell_video, name, directions, progress))
+        else:
+            ch, c = build_controller(ctx, name, scenario)
+            runs.append(_run_one(ctx, cell_video, "weakest direction", None, None,
+                                 lambda cb: S.push_search(
+                                     ch, c, directions=directions, max_force=cfg.push_max_force,
+                                     tolerance=cfg.push_tolerance, allow_steps=spec.steps,
+                                     duration=cfg.push_duration, progress=progress,
+                                     frame_callback=cb)))
+        runs[-1]["push_protocol"] = push_protocol(name, cfg)
+    elif scenario == "walk":
+        for s in _walk_seeds(ctx, name, scenario):
+            ch, c = build_controller(ctx, name, scenario)
+            runs.append(_run_one(ctx, cell_video, _seed_label(s), s, None, lambda cb, ch=ch, c=c,
+                                 s=s: walk(ch, c, duration=cfg.walk_duration, seed=s,
+                                           steady_window=cfg.steady_window,
+                                           frame_callback=cb)))
+    elif scenario == "slopes":
+        for deg in (abs(cfg.slope_degrees), -abs(cfg.slope_degrees)):
+            for s in _walk_seeds(ctx, name, scenario):
+                ch, c = build_controller(ctx, name, scenario)
+                runs.append(_run_one(
+                    ctx, cell_video, f"{deg:+g} deg, {_seed_label(s)}", s, None,
+                    lambda cb, ch=ch, c=c, s=s, deg=deg: slope_walk(
+                        ch, c, degrees=deg, distance=cfg.slope_distance,
+                        duration=cfg.slope_duration, seed=s, frame_callback=cb)))
+    elif scenario == "track":
+        if spec.kind == "replay":
+            runs.append(_replay_run(ctx, cell_video, name))
+        else:
+            ref = ctx.reference(ctx.track_motion)
+            ch, c = build_controller(ctx, name, scenario, ref)
+            runs.append(_run_one(ctx, cell_video, ctx.track_motion.name, None, ref,
+                                 lambda cb: S.track(ch, c, ref, duration=cfg.track_duration,
+                                                    frame_callback=cb)))
+    else:
+        raise BenchError(f"unknown scenario {scenario!r}")
+    for run in runs:
+        run["result"]["controller"] = name  # e.g. "replay" -> the row's name
+    return runs
+
+
+def _walk_seeds(ctx: BenchContext, name: str, scenario: str) -> list[int | None]:
+    """The seeds of a walk: every seed for a controller whose start state is perturbed from the
+    seed (it has ``start_state``), else one run without a seed (every seed would give the same
+    run)."""
+    _, c = build_controller(ctx, name, scenario)
+    return [int(s) for s in ctx.config.seeds] if hasattr(c, "start_state") else [None]
+
+
+def _seed_label(seed) -> str:
+    return "no seed (deterministic start)" if seed is None else f"seed {seed}"
+
+
+def push_protocol(name: str, cfg: BenchConfig) -> str:
+    """One line: how push-search measured ``name``'s largest push."""
+    spec = _spec(name)
+    if spec.push == "walking":
+        return (f"walking: 0.2 s on the chest at {cfg.walk_push_phases} phase(s) of the stride "
+                f"after {cfg.walk_push_warmup:g} s, still walking {cfg.walk_push_after:g} s "
+                f"later; bisection to {cfg.walk_push_tolerance:g} N, max "
+                f"{cfg.walk_push_max_force:g} N")
+    return (f"standing: 0.2 s on the pelvis 1 s in, no fall in {cfg.push_duration:g} s"
+            + ("" if spec.steps else " and no step") + f"; bisection to {cfg.push_tolerance:g} "
+            f"N, max {cfg.push_max_force:g} N")
+
+
+def _walking_push_search(ctx: BenchContext, cell_video: list, name: str, directions: dict,
+                         progress) -> dict:
+    """Largest push survived while walking at every phase (terrain.push_search), then one
+    filmed run at the weakest direction's value."""
+    cfg = ctx.config
+    ch, c = build_controller(ctx, name, "push-search")
+    kw = {"warmup": cfg.walk_push_warmup, "after": cfg.walk_push_after, "seed": cfg.seeds[0]}
+    best = push_search(ch, c, directions=list(directions), phases=cfg.walk_push_phases,
+                       max_force=cfg.walk_push_max_force, tolerance=cfg.walk_push_tolerance,
+                       progress=progress, **kw)
+    weakest = min(best, key=best.get)
+
+    def final(cb):
+        ch2, c2 = build_controller(ctx, name, "push-search")
+        r = push_walk(ch2, c2, force=best[weakest], direction=directions[weakest], phase=0.0,
+                      frame_callback=cb, **kw)
+        r.scenario = "push-search"
+        r.max_push_N = best[weakest]
+        r.max_push_by_direction_N = best
+        return r
+
+    return _run_one(ctx, cell_video, "weakest direction", cfg.seeds[0], None, final)
+
+
+def _replay_run(ctx: BenchContext, cell_video: list, name: str) -> dict:
+    from controllers.sampling.trajectory import StoredReference, replay
+
+    tr = ctx.trajectory(name)
+    ref = None
+    if tr.reference_qpos is not None:
+        ch = ctx.character(tr.timestep)
+        ref = StoredReference(ch.model, tr.reference_qpos, tr.control_dt, ch.joint_bodies)
+    path = ctx.trajectories[name]
+    return _run_one(ctx, cell_video, path.name, None, ref,
+                    lambda cb: replay(tr, model=ctx.base_model, frame_callback=cb,
+                                      reference=ref))
+
+
+def summarise_cell(runs: list[dict]) -> dict:
+    """Per-cell aggregates over its runs (means; ``None`` where no run has the metric)."""
+    def mean(values):
+        v = [x for x in values if x is not None]
+        return float(np.mean(v)) if v else None
+
+    res = [r["result"] for r in runs]
+    steady = [r["extra"].get("steady_speed_mps") for r in res]
+    speed = mean(steady) if all(s is not None for s in steady) and res else \
+        mean(r["mean_speed_mps"] for r in res)
+    push = next((r["max_push_by_direction_N"] for r in res
+                 if r.get("max_push_by_direction_N")), None)
+    return {"runs": len(runs), "survived": sum(bool(r["survived"]) for r in runs),
+            "fell": [r["variant"] for r in runs if not r["survived"]],
+            "distance_m": mean(r["distance_m"] for r in res), "speed_mps": speed,
+            "tracking_error_m": mean(r["tracking_error_m"] for r in res),
+            "root_force_mean_N": mean(r["root_force_mean_N"] for r in res),
+            "max_push_by_direction_N": push,
+            "push_protocol": next((r["push_protocol"] for r in runs if "push_protocol" in r),
+                                  None)}
+
+
+def progress_bar(total: int, enabled: bool, desc: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="cell", file=sys.stderr, disable=not enabled,
+                dynamic_ncols=True, leave=True)
+
+
+def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
+               trajectories: dict[str, Path] | None = None, video_dir: Path | None = None,
+               progress: bool = True) -> tuple[dict, list[dict], list[dict]]:
+    """Run every cell; returns ``(controllers, cells, videos)`` records of the JSON document.
+
+    A controller that is not available gets cells with status ``"not available"``; a cell whose
+    run raises gets status ``"error"`` (its message in ``reason``) and the others still run.
+    """
+    config.check()
+    trajectories = dict(trajectories or {})
+    bar = progress_bar(len(cells), progress, "bench")
+    log = (lambda msg: bar.write(msg, file=sys.stderr)) if progress else (lambda msg: None)
+    ctx = BenchContext(config, trajectories, video_dir, log)
+    names = list(dict.fromkeys(c for c, _ in cells))
+    controllers = {}
+    for n in names:
+        ok, why = availability(n, trajectories)
+        spec = _spec(n)
+        controllers[n] = {"label": spec.label, "available": ok, "reason": why,
+                          "timestep_s": (registry.default_timestep(n)
+                                         if ok and spec.kind != "replay" else None),
+                          "scenarios": [s for c, s in cells if c == n],
+                          "trajectory": (str(trajectories[n]) if n in trajectories else None)}
+        if ok and spec.kind == "replay":
+            try:
+                controllers[n]["timestep_s"] = ctx.trajectory(n).timestep
+            except MjcharError as e:  # a damaged or foreign file: a row saying so
+                controllers[n].update(available=False, reason=str(e))
+        if ok and controllers[n]["timestep_s"] is None:
+            controllers[n]["timestep_s"] = float(ctx.base_model.opt.timestep)
+    out = []
+    expected = set(expected_cells())
+    for name, scenario in cells:
+        bar.set_description(f"{name} / {scenario}")
+        cell = {"controller": name, "scenario": scenario, "status": "ok", "reason": None,
+                "expected_to_survive": (name, scenario) in expected, "wall_s": 0.0,
+                "runs": [], "summary": summarise_cell([])}
+        if not controllers[name]["available"]:
+            cell["status"], cell["reason"] = "not available", controllers[name]["reason"]
+        else:
+            t0 = time.perf_counter()
+            try:
+                cell["runs"] = _run_cell(ctx, name, scenario)
+            except Exception as e:  # report it in the table, keep benchmarking the rest
+                cell["status"] = "error"
+                cell["reason"] = f"{type(e).__name__}: {e}"
+                log(f"  {name} / {scenario}: ERROR {cell['reason']}")
+            cell["wall_s"] = time.perf_counter() - t0
+            cell["summary"] = summarise_cell(cell["runs"])
+            s = cell["summary"]
+            if cell["status"] == "ok":
+                log(f"{name} / {scenario}: {s['survived']}/{s['runs']} without a fall "
+                    f"({cell['wall_s']:.1f} s)")
+        out.append(cell)
+        bar.update()
+    bar.close()
+    return controllers, out, ctx.videos
+
+

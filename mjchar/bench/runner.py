@@ -1,0 +1,182 @@
+"""``run_bench``: the matrix, the performance section and the outputs (``results.json``, the
+tables, plots, videos and stills) of one bench run, plus what reads a results document back
+(:func:`physics_view`, :func:`exit_status`)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import platform
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .config import (
+    ROOT,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    TIMING_KEYS,
+    BenchConfig,
+    BenchError,
+    json_ready,
+    relative_path,
+)
+from .matrix import default_track_motion, find_trajectories, run_matrix, select_cells
+from .performance import load_average, run_performance
+from .report import TABLE_NOTES, check_expectations, markdown_table, table_rows, write_stills
+
+
+def versions() -> dict:
+    """Versions of mjchar, MuJoCo, numpy, Python (and Gymnasium when installed)."""
+    import mujoco
+
+    out = {"mjchar": _mjchar_version(), "mujoco": mujoco.__version__, "numpy": np.__version__,
+           "python": platform.python_version()}
+    try:
+        from importlib.metadata import version
+
+        out["gymnasium"] = version("gymnasium")
+    except Exception:
+        out["gymnasium"] = None
+    return out
+
+
+def _mjchar_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("mjchar")
+    except PackageNotFoundError:
+        pass
+    try:
+        import tomllib
+
+        with open(ROOT / "pyproject.toml", "rb") as f:
+            return str(tomllib.load(f)["project"]["version"])
+    except (OSError, KeyError, ValueError):
+        return "unknown"
+
+
+def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
+              scenarios: Sequence[str] | None = None, out_dir: str | os.PathLike | None = None,
+              videos: bool = False, performance: bool = True, plots: bool = True,
+              trajectories: dict[str, Path] | None = None, progress: bool = True,
+              command: Sequence[str] | None = None) -> dict:
+    """Run the matrix (and the performance section), write ``results.json``, the plots and the
+    videos into ``out_dir`` (nothing is written when it is ``None``); returns the document.
+
+    Args:
+        config: :func:`quick_config` or :func:`full_config` (possibly replaced).
+        controllers, scenarios: subsets (default: all); the cells are the matrix's among them.
+        videos: one MP4 per cell (first run) plus a PNG still of its middle frame (needs
+            ``MUJOCO_GL=egl`` and the video extra).
+        performance: run the performance section (step-cost ratios of the selected
+            controllers, raw and batched throughput, envs, BVH parsing, PD envelope).
+        plots: write the PNG plots (needs matplotlib: the bench extra).
+        trajectories: ``{"samcon_replay": path, "cmaes_replay": path}`` (default:
+            :func:`find_trajectories`).
+    """
+    config.check()
+    t_start = time.perf_counter()
+    cells = select_cells(controllers, scenarios)
+    trajectories = find_trajectories() if trajectories is None else dict(trajectories)
+    out = None if out_dir is None else Path(out_dir)
+    if out is not None:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise BenchError(f"cannot create the output folder {out}: {e}") from None
+    if plots:
+        from .plots import require_matplotlib
+
+        require_matplotlib()  # fail now, not after the whole run
+    video_dir = None
+    if videos:
+        if out is None:
+            raise BenchError("videos need an output folder")
+        video_dir = out / "videos"
+        video_dir.mkdir(exist_ok=True)
+    doc: dict = {
+        "schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "command": list(command) if command is not None else None,
+        "versions": versions(),
+        "machine": {"platform": platform.platform(), "machine": platform.machine(),
+                    "cpu_count": os.cpu_count(), "load_average_start": load_average()},
+        "config": config.to_dict(), "seeds": [int(s) for s in config.seeds],
+        "track_motion": relative_path(default_track_motion()),
+    }
+    t0 = time.perf_counter()
+    doc["controllers"], doc["cells"], vids = run_matrix(
+        cells, config, trajectories=trajectories, video_dir=video_dir, progress=progress)
+    timings = {"matrix_s": time.perf_counter() - t0}
+    doc["performance"] = None
+    if performance:
+        t0 = time.perf_counter()
+        names = [n for n in doc["controllers"]]
+        doc["performance"] = run_performance(names, config, trajectories=trajectories,
+                                             progress=progress)
+        timings["performance_s"] = time.perf_counter() - t0
+    doc["table"] = table_rows(doc)
+    doc["expectations"] = check_expectations(doc)
+    doc["videos"] = vids
+    doc["stills"] = []
+    doc["plots"] = []
+    if out is not None:
+        t0 = time.perf_counter()
+        if videos and vids:
+            doc["stills"] = write_stills(out, vids)
+            if plots:
+                from .plots import plot_walk_strip
+
+                strip = plot_walk_strip(out, vids, fps=config.fps)
+                if strip is not None:
+                    doc["stills"].append(strip.name)
+        if plots:
+            from .plots import make_plots
+
+            doc["plots"] = [p.name for p in make_plots(doc, out)]
+        (out / "table.md").write_text(markdown_table(doc["table"]) + "\n\n"
+                                      + "\n".join(f"- {n}" for n in TABLE_NOTES) + "\n")
+        timings["outputs_s"] = time.perf_counter() - t0
+    timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
+                        for c in doc["cells"]}
+    doc["timings"] = timings
+    doc["wall_s"] = time.perf_counter() - t_start
+    doc["machine"]["load_average_end"] = load_average()
+    if out is not None:
+        write_json(doc, out / "results.json")
+    return doc
+
+
+def write_json(doc: dict, path: str | os.PathLike) -> Path:
+    """Write the document as JSON (non-finite numbers as ``null``)."""
+    p = Path(path)
+    p.write_text(json.dumps(json_ready(doc), indent=1, allow_nan=False) + "\n")
+    return p
+
+
+def physics_view(doc: dict) -> dict:
+    """The parts of a document that depend only on the physics (timings, dates, loads and the
+    performance section removed): equal for equal seeds and settings."""
+    cells = []
+    for c in doc["cells"]:
+        c = copy.deepcopy(c)
+        c.pop("wall_s", None)
+        for r in c["runs"]:
+            for k in TIMING_KEYS:
+                r["result"].pop(k, None)
+        cells.append(c)
+    rows = [{k: v for k, v in r.items() if k != "step_cost_ratio"} for r in doc["table"]]
+    return json_ready({"cells": cells, "table": rows, "expectations": doc["expectations"],
+                   "seeds": doc["seeds"], "config": doc["config"]})
+
+
+def exit_status(doc: dict) -> int:
+    """0 when no expectation failed, else 1."""
+    return 1 if any(e["status"] == "fail" for e in doc["expectations"]) else 0
+
+

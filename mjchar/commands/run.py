@@ -1,0 +1,258 @@
+"""``mjchar run CONTROLLER``: run a controller in a scenario and report its metrics."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from .argtypes import add_floor_argument, integer, non_negative, positive
+
+DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
+                   "right": 270.0}
+
+
+def _direction(text: str) -> float:
+    if text.lower() in DIRECTION_NAMES:
+        return DIRECTION_NAMES[text.lower()]
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"direction must be degrees or one of {', '.join(DIRECTION_NAMES)}, got {text!r}"
+        ) from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"direction must be finite, got {text!r}")
+    return v
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
+    from controllers import registry
+
+    specs = registry.specs()
+    p = sub.add_parser(
+        "run", help="run a controller in a scenario (stand, push, track, ...) and report metrics",
+        description="Run a controller on the simulated humanoid in a scenario and print a summary "
+                    "(or one JSON object). PD trackers and hand_of_god follow the reference "
+                    "motion in track/walk and hold the standing pose otherwise. Default "
+                    "motion: the bundled walk; default model: the bundled humanoid. "
+                    "Controllers (supported scenarios, default first): "
+                    + "; ".join(f"{s.name}: {s.label} ({_scenario_list(s)})" for s in specs),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("controller", choices=registry.names(), metavar="CONTROLLER",
+                   help="one of: " + ", ".join(registry.names()))
+    p.add_argument("trajectory", nargs="?", metavar="FILE",
+                   help="replays only: a trajectory saved by mjchar samcon / mjchar trajopt "
+                        "(default for samcon_replay / cmaes_replay: the bundled one)")
+    p.add_argument("--speed", type=float, default=1.0, metavar="M/S",
+                   help="ipm: desired forward speed (default 1.0; 0 stops and stands)")
+    p.add_argument("--heading", type=float, metavar="DEG",
+                   help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
+    p.add_argument("--gait", default="walk", metavar="NAME",
+                   help="simbicon: gait parameter set (default walk)")
+    p.add_argument("--scenario", choices=registry.SCENARIOS, metavar="S",
+                   help="one of: " + ", ".join(registry.SCENARIOS)
+                        + " (default: the controller's own, see above)")
+    p.add_argument("--motion", metavar="FILE.bvh",
+                   help="reference motion for track/walk and hand_of_god (default: bundled walk)")
+    p.add_argument("--model", metavar="FILE.xml",
+                   help="converted model (default: the bundled humanoid)")
+    add_floor_argument(p)
+    p.add_argument("--duration", type=positive("duration"), metavar="T",
+                   help="simulated seconds (default: per scenario; the clip for track/walk)")
+    p.add_argument("--push", type=non_negative("push"), metavar="N",
+                   help="push force in newtons (push: required; random-push: default 10)")
+    p.add_argument("--direction", type=_direction, default=0.0, metavar="DEG",
+                   help="push direction in degrees from the facing direction (0 forward, "
+                        "90 left, 180 backward, 270 right) or a name; default forward")
+    p.add_argument("--push-duration", type=positive("push duration"), default=0.2,
+                   metavar="S", help="push length in seconds (default 0.2)")
+    p.add_argument("--push-time", type=non_negative("push time"), default=1.0, metavar="S",
+                   help="when the push starts in seconds (default 1)")
+    p.add_argument("--max-force", type=positive("max force"), default=1000.0, metavar="N",
+                   help="push-search upper bound in newtons (default 1000)")
+    p.add_argument("--tolerance", type=positive("tolerance"), default=5.0, metavar="N",
+                   help="push-search resolution in newtons (default 5)")
+    p.add_argument("--allow-steps", action="store_true",
+                   help="a push counts as survived even if a foot moved (stepping controllers)")
+    p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
+                   help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
+                        "hold 1 s and rise again")
+    p.add_argument("--tracker", choices=("pd", "spd", "native_pd"), default="spd",
+                   help="PD variant hand_of_god wraps (default spd)")
+    p.add_argument("--timestep", type=positive("timestep"), metavar="S",
+                   help="physics time step in seconds (default: 1/2000 for pd, the model's "
+                        "otherwise)")
+    p.add_argument("--control-dt", type=positive("control dt"), metavar="S",
+                   help="seconds between control steps (default: every physics step)")
+    p.add_argument("--seed", type=integer("seed"), default=0, metavar="N",
+                   help="random seed (random-push directions; default 0)")
+    p.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    p.add_argument("--render", metavar="OUT.mp4",
+                   help="write a video following the character (needs the video extra)")
+    p.add_argument("--fps", type=positive("fps"), default=30.0, help="video frame rate")
+    p.set_defaults(func=run)
+
+
+def _scenario_list(spec) -> str:
+    return ", ".join([spec.default_scenario]
+                     + [s for s in spec.scenarios if s != spec.default_scenario])
+
+
+def _controller_options(spec, args: argparse.Namespace, scenario: str) -> dict:
+    """The factory options ``spec`` takes, from the command line (one rule per option name)."""
+    options = {}
+    if "tracker" in spec.options:
+        options["tracker"] = args.tracker
+    if "height" in spec.options and args.squat:
+        from controllers.balance.static_balance import squat_profile
+
+        options["height"] = squat_profile(args.squat)
+    if "gait" in spec.options:
+        options["gait"] = args.gait
+    if "speed" in spec.options:
+        options["speed"] = args.speed if scenario == "walk" else 0.0
+    if "heading" in spec.options:
+        options["heading"] = args.heading
+    return options
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the character, reference and controller, run the scenario, print the result."""
+    import json
+    import os
+    import sys
+
+    if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
+        os.environ.setdefault("MUJOCO_GL", "egl")
+
+    import bvh
+    from bvh.errors import MjcharError
+    from controllers import registry
+    from controllers.core import scenarios as S
+    from controllers.core.character import Character
+
+    spec = registry.get(args.controller)
+    if spec.kind == "replay":
+        return _replay(args, spec)
+    if args.trajectory is not None:
+        raise MjcharError(f"unexpected argument {args.trajectory!r}: only the replays "
+                          f"({', '.join(registry.names('replay'))}) take a file")
+    walker = spec.kind == "walker"
+    scenario = args.scenario or spec.default_scenario
+    if scenario not in spec.scenarios:
+        raise MjcharError(f"{spec.name} does not run the {scenario} scenario; it runs "
+                          f"{_scenario_list(spec)}")
+    if scenario == "push" and args.push is None:
+        raise MjcharError("the push scenario needs --push NEWTONS")
+    if args.render and not args.render.lower().endswith(".mp4"):
+        raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+
+    character = Character(args.model)
+    timestep = args.timestep or spec.timestep
+    if timestep:
+        character.set_timestep(timestep)
+
+    reference = None
+    if scenario == "track" or (scenario == "walk" and not walker):
+        from bvh.assets import motion_path
+        from bvh.reference import ReferenceMotion
+
+        path = args.motion or motion_path("walk")
+        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info,
+                                    floor=args.floor)
+    elif args.motion:
+        raise MjcharError(f"--motion is used by the track and walk scenarios, not {scenario}")
+    # trackers follow the reference in track/walk, and hold the standing pose otherwise
+    target = reference if reference is not None else S.standing_pose(character)
+    controller = registry.make_controller(spec.name, character, target,
+                                          **_controller_options(spec, args, scenario))
+
+    kw: dict = {"control_dt": args.control_dt}
+    if args.duration is not None:
+        kw["duration"] = args.duration
+    progress = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+
+    video = None
+    if args.render:
+        from ..render import VideoRecorder
+
+        video = VideoRecorder(character, args.render, fps=args.fps)
+        kw["frame_callback"] = video.capture
+    try:
+        if scenario == "push":
+            result = S.push(character, controller, force=args.push, direction=args.direction,
+                            push_duration=args.push_duration, push_time=args.push_time,
+                            allow_steps=args.allow_steps, **kw)
+        elif scenario == "push-search":
+            result = S.push_search(character, controller, max_force=args.max_force,
+                                   tolerance=args.tolerance, allow_steps=args.allow_steps,
+                                   push_duration=args.push_duration, push_time=args.push_time,
+                                   progress=progress, **kw)
+        elif scenario == "random-push":
+            result = S.random_push(character, controller, seed=args.seed,
+                                   force=10.0 if args.push is None else args.push, **kw)
+        else:
+            result = S.run_scenario(scenario, character, controller, reference=reference, **kw)
+    finally:
+        if video is not None:
+            video.close()
+    result.seed = args.seed
+    if args.json:
+        out = result.to_dict()
+        out["model"] = str(args.model) if args.model else "bundled humanoid"
+        if reference is not None:
+            out["motion"] = str(args.motion) if args.motion else "bundled walk"
+        if video is not None:
+            out["video"] = args.render
+            out["video_frames"] = video.frames
+        print(json.dumps(out))
+    else:
+        print(result.summary())
+        if video is not None:
+            print(f"  video: {args.render} ({video.frames} frames)")
+    return 0
+
+
+def _replay(args: argparse.Namespace, spec) -> int:
+    """``mjchar run replay FILE`` (or a registered replay with its bundled trajectory): play a
+    saved PD-target trajectory open-loop."""
+    import json
+    import sys
+
+    from bvh.errors import MjcharError
+    from controllers.sampling.trajectory import find_trajectory, load_trajectory, replay
+
+    path = args.trajectory or find_trajectory(spec.trajectory_prefixes)
+    if path is None:
+        if not spec.trajectory_prefixes:
+            raise MjcharError(f"{spec.name} needs the trajectory file: mjchar run {spec.name} "
+                              "FILE")
+        raise MjcharError(f"{spec.name}: no bundled trajectory "
+                          f"{spec.trajectory_prefixes[0]}*.npz; give one: mjchar run "
+                          f"{spec.name} FILE")
+    trajectory = load_trajectory(path)
+    video = None
+    kw = {}
+    if args.render:
+        from controllers.core.character import Character
+
+        from ..render import VideoRecorder
+
+        if not args.render.lower().endswith(".mp4"):
+            raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+        # the recorder only reads the simulated state through the callback's character
+        video = VideoRecorder(Character(args.model), args.render, fps=args.fps)
+        kw["frame_callback"] = video.capture
+    try:
+        result = replay(trajectory, model=args.model, duration=args.duration, **kw)
+    finally:
+        if video is not None:
+            video.close()
+    if args.json:
+        out = result.to_dict()
+        out["trajectory"] = str(path)
+        print(json.dumps(out))
+    else:
+        print(result.summary(), file=sys.stdout)
+    return 0
