@@ -36,7 +36,8 @@ from gymnasium import spaces  # noqa: E402
 
 from bvh.errors import MjcharError  # noqa: E402
 from controllers.core.base import Action  # noqa: E402
-from controllers.core.character import Character, SimulationDiverged  # noqa: E402
+from controllers.core.character import Character  # noqa: E402
+from controllers.core.errors import SimulationDiverged  # noqa: E402
 from controllers.core.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
 
 __all__ = [

@@ -39,7 +39,8 @@ import mujoco
 import numpy as np
 
 from bvh.errors import MjcharError
-from controllers.core.character import Character, SimulationDiverged
+from controllers.core.character import Character
+from controllers.core.errors import SimulationDiverged
 
 __all__ = [
     "PerfError", "PerfUnavailable", "StepCost", "raw_step_rate", "step_cost",

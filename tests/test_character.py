@@ -11,13 +11,9 @@ import numpy as np
 import pytest
 
 from controllers.core.base import Action
-from controllers.core.character import (
-    Character,
-    CharacterError,
-    SimulationDiverged,
-    convex_hull_2d,
-    point_in_polygon_margin,
-)
+from controllers.core.character import Character
+from controllers.core.errors import CharacterError, SimulationDiverged
+from controllers.core.geometry import convex_hull_2d, point_in_polygon_margin
 
 
 def mini_humanoid_xml() -> str:

@@ -1,8 +1,11 @@
 """The core of the dynamic layer, shared by every controller.
 
 - :mod:`~controllers.core.character`: :class:`Character`, one converted humanoid behind named
-  access (state, centre of mass, contacts, pushes, stepping); :mod:`~controllers.core.geometry`:
-  planar support-polygon helpers.
+  access (state, centre of mass, contacts, pushes, stepping), with its pieces:
+  :mod:`~controllers.core.model` (loading, metadata), :mod:`~controllers.core.pushes`
+  (scheduled external forces), :mod:`~controllers.core.poses` (kinematics on a scratch copy:
+  lowest point, body pose, IK), :mod:`~controllers.core.geometry` (support polygon) and
+  :mod:`~controllers.core.errors`.
 - :mod:`~controllers.core.action` and :mod:`~controllers.core.base`: :class:`Action`, the
   ``Controller`` protocol, :class:`Gains`, PD targets.
 - :mod:`~controllers.core.registry`: :class:`ControllerSpec`, :func:`register`,
@@ -17,7 +20,8 @@
 from . import pd as pd  # registers pd, spd, native_pd
 from .action import Action
 from .base import Controller, ControllerError, Gains, PoseTarget, ReferenceTarget, joint_error
-from .character import Character, CharacterError, SimulationDiverged
+from .character import Character
+from .errors import CharacterError, SimulationDiverged
 from .metrics import Result
 from .pd import NativePDController, PDController, StablePDController
 from .registry import (

@@ -19,18 +19,19 @@ implicit integrators.
 
 from __future__ import annotations
 
-import copy
 import math
-import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from bvh.errors import MjcharError
-
+from . import poses
 from .action import Action
+from .errors import CharacterError, SimulationDiverged
+from .geometry import convex_hull_2d
+from .model import load_model, model_info
+from .pushes import Push, PushSchedule
 
 _GEOM_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
 _GEOM_SPHERE = int(mujoco.mjtGeom.mjGEOM_SPHERE)
@@ -50,48 +51,6 @@ _BAD_STATE_WARNINGS = (
 ACTUATION_MODES = ("native", "torque")
 
 
-class CharacterError(MjcharError):
-    """A Character was asked for something the model does not have (unknown joint, bad shape)."""
-
-
-class SimulationDiverged(MjcharError):
-    """The simulation blew up: NaN or exploding velocities (or MuJoCo reset a bad state).
-
-    Scenarios catch it and report a failure; it never escapes as a crash or a silent NaN.
-
-    Attributes:
-        time: simulated time (s) at which the divergence was detected.
-        reason: what was detected.
-    """
-
-    def __init__(self, reason: str, time: float):
-        self.reason = reason
-        self.time = float(time)
-        super().__init__(f"simulation diverged at t={time:.4f} s: {reason}")
-
-
-@dataclass(frozen=True)
-class Push:
-    """A horizontal (or any) force on one body for a time window.
-
-    Attributes:
-        body: body name (a BVH joint name for converted models).
-        force: ``(3,)`` world-frame force in N, applied at the body's centre of mass.
-        start: simulated time (s) the push begins.
-        duration: seconds it lasts.
-    """
-
-    body: str
-    force: tuple[float, float, float]
-    start: float
-    duration: float
-
-    @property
-    def end(self) -> float:
-        """Simulated time (s) the push ends."""
-        return self.start + self.duration
-
-
 @dataclass(frozen=True)
 class GroundContact:
     """One contact between the floor and a character geom.
@@ -105,33 +64,6 @@ class GroundContact:
     body: str
     position: np.ndarray
     distance: float
-
-
-def model_info(model: mujoco.MjModel):
-    """The converter's ``ModelInfo`` for ``model`` (joint map and roles), read from the
-    ``mjchar`` metadata with ``bvh.mjcf.ModelInfo.from_model``."""
-    from bvh.mjcf import ModelInfo
-
-    return ModelInfo.from_model(model)
-
-
-def _load_model(model) -> mujoco.MjModel:
-    if model is None:
-        from bvh.assets import humanoid_path
-
-        model = humanoid_path()
-    if isinstance(model, mujoco.MjModel):
-        return copy.deepcopy(model)
-    if isinstance(model, (str, os.PathLike)):
-        path = os.fspath(model)
-        if not os.path.isfile(path):
-            raise CharacterError(f"{path}: no such MJCF file")
-        try:
-            return mujoco.MjModel.from_xml_path(path)
-        except ValueError as e:
-            raise CharacterError(f"{path}: MuJoCo cannot load it: {e}") from None
-    raise CharacterError(f"model must be None, an MJCF path or an MjModel, got "
-                         f"{type(model).__name__}")
 
 
 class Character:
@@ -158,7 +90,7 @@ class Character:
 
     def __init__(self, model=None, *, info=None, timestep: float | None = None,
                  max_velocity: float = 200.0):
-        self.model = _load_model(model)
+        self.model = load_model(model)
         self.data = mujoco.MjData(self.model)
         self.info = info if info is not None else model_info(self.model)
         m = self.model
@@ -191,9 +123,7 @@ class Character:
         self._torque_limited = True
         self._mode = "native"
         self._table = self.native_gains()
-        self.pushes: list[Push] = []
-        self._push_body = {}
-        self._xfrc_dirty = False
+        self._pushes = PushSchedule(self.data)
         self._root_wrench = np.zeros(6)
         self._state_sig = int(mujoco.mjtState.mjSTATE_INTEGRATION)
         self._warn_idx = np.array(_BAD_STATE_WARNINGS)
@@ -432,8 +362,7 @@ class Character:
             self.data.qpos[:] = self._vec(qpos, self.nq, "qpos")
         if qvel is not None:
             self.data.qvel[:] = self._vec(qvel, self.nv, "qvel")
-        self.pushes = []
-        self._xfrc_dirty = False
+        self._pushes.clear()
         self._root_wrench[:] = 0
         self._refresh()
 
@@ -721,38 +650,17 @@ class Character:
     def push(self, body: str, force, duration: float, start: float | None = None) -> Push:
         """Schedule a force ``(3,)`` N (world frame) on ``body`` for ``duration`` s from ``start``
         (default: now). Applied at the body's centre of mass via ``xfrc_applied``."""
-        f = np.asarray(force, dtype=float)
-        if f.shape != (3,) or not np.all(np.isfinite(f)):
-            raise CharacterError(f"push force must be 3 finite numbers (N), got {force!r}")
-        if not (math.isfinite(duration) and duration > 0):
-            raise CharacterError(f"push duration must be positive seconds, got {duration}")
-        b = self.body_id(body)
-        p = Push(body, tuple(float(x) for x in f), self.time if start is None else float(start),
-                 float(duration))
-        self._push_body[body] = b
-        self.pushes.append(p)
-        return p
+        return self._pushes.add(body, self.body_id(body), force, duration,
+                                self.time if start is None else start)
+
+    @property
+    def pushes(self) -> list[Push]:
+        """The scheduled pushes (:class:`~controllers.core.pushes.Push`), in order."""
+        return self._pushes.pushes
 
     def clear_pushes(self) -> None:
         """Forget every scheduled push (and stop any force being applied)."""
-        self.pushes = []
-        if self._xfrc_dirty:
-            self.data.xfrc_applied[:] = 0
-            self._xfrc_dirty = False
-
-    def _pushes_in(self, t0: float, t1: float) -> bool:
-        return any(p.start < t1 and p.end > t0 for p in self.pushes)
-
-    def _apply_pushes(self) -> None:
-        t = self.data.time + 0.5 * self.model.opt.timestep  # the step's midpoint decides
-        xf = self.data.xfrc_applied
-        xf[:] = 0
-        any_on = False
-        for p in self.pushes:
-            if p.start <= t < p.end:
-                xf[self._push_body[p.body], :3] += p.force
-                any_on = True
-        self._xfrc_dirty = any_on
+        self._pushes.clear()
 
     def active_push_force(self) -> np.ndarray:
         """``(3,)`` sum of the push forces (N) applied during the last step."""
@@ -813,13 +721,14 @@ class Character:
             self.apply(action)
         m, d = self.model, self.data
         self._warn_before = int(d.warning.number[self._warn_idx].sum())
-        if self.pushes or self._xfrc_dirty:
+        pushes = self._pushes
+        if pushes.pushes or pushes.applied:
             t_end = d.time + (n + 1) * m.opt.timestep
-            if self._xfrc_dirty or self._pushes_in(d.time, t_end):
-                self._apply_pushes()
+            if pushes.applied or pushes.any_between(d.time, t_end):
+                pushes.apply(d.time + 0.5 * m.opt.timestep)  # the step's midpoint decides
                 mujoco.mj_step2(m, d)
                 for _ in range(n - 1):
-                    self._apply_pushes()
+                    pushes.apply(d.time + 0.5 * m.opt.timestep)
                     mujoco.mj_step(m, d)
                 mujoco.mj_step1(m, d)
                 self._check()
@@ -848,39 +757,19 @@ class Character:
     def lowest_point(self, qpos: np.ndarray) -> float:
         """Lowest world z (m) of the character's geoms at pose ``qpos`` ``(nq,)`` (boxes, capsules,
         spheres exactly; other shapes by their bounding sphere). Does not change the state."""
-        m = self.model
-        scratch = mujoco.MjData(m)
-        scratch.qpos[:] = self._vec(qpos, self.nq, "qpos")
-        mujoco.mj_kinematics(m, scratch)
-        geoms = np.flatnonzero(np.isin(m.geom_bodyid, self.character_bodies))
-        z = []
-        for g in geoms:
-            c = scratch.geom_xpos[g]
-            R = scratch.geom_xmat[g].reshape(3, 3)
-            s = m.geom_size[g]
-            t = m.geom_type[g]
-            if t == _GEOM_BOX:
-                z.append(c[2] - np.abs(R[2]) @ s)
-            elif t == _GEOM_CAPSULE:
-                z.append(c[2] - abs(R[2, 2]) * s[1] - s[0])
-            elif t == _GEOM_SPHERE:
-                z.append(c[2] - s[0])
-            else:
-                z.append(c[2] - m.geom_rbound[g])
-        return float(min(z))
+        return poses.lowest_point(self.model, self._vec(qpos, self.nq, "qpos"),
+                                  self.character_bodies)
 
     def body_pose(self, qpos: np.ndarray, body: str | int) -> tuple[np.ndarray, np.ndarray]:
         """World position ``(3,)`` and wxyz orientation ``(4,)`` of ``body`` at pose ``qpos``
         ``(nq,)`` (forward kinematics on a scratch copy; the state is untouched)."""
         b = self.body_id(body) if isinstance(body, str) else int(body)
-        sd = mujoco.MjData(self.model)
-        sd.qpos[:] = self._vec(qpos, self.nq, "qpos")
-        mujoco.mj_kinematics(self.model, sd)
-        return sd.xpos[b].copy(), sd.xquat[b].copy()
+        return poses.body_pose(self.model, self._vec(qpos, self.nq, "qpos"), b)
 
     def solve_ik(self, qpos: np.ndarray, targets: list, dofs: np.ndarray, *,
                  iterations: int = 100, damping: float = 1e-3, tol: float = 1e-11) -> np.ndarray:
-        """Damped least-squares IK on a scratch copy of the kinematics (the state is untouched).
+        """Damped least-squares IK on a scratch copy of the kinematics (the state is untouched):
+        :func:`controllers.core.poses.solve_ik` with body names resolved.
 
         Args:
             qpos: ``(nq,)`` starting pose.
@@ -891,39 +780,10 @@ class Character:
         Returns:
             ``(nq,)`` the solved pose.
         """
-        m = self.model
-        sd = mujoco.MjData(m)
-        sd.qpos[:] = self._vec(qpos, self.nq, "qpos")
-        dofs = np.asarray(dofs, dtype=int)
-        jacp = np.zeros((3, self.nv))
-        jacr = np.zeros((3, self.nv))
-        for _ in range(iterations):
-            mujoco.mj_kinematics(m, sd)
-            mujoco.mj_comPos(m, sd)
-            rows, errs = [], []
-            for body, pos, quat in targets:
-                b = self.body_id(body) if isinstance(body, str) else int(body)
-                mujoco.mj_jacBody(m, sd, jacp, jacr, b)
-                if pos is not None:
-                    rows.append(jacp[:, dofs].copy())
-                    errs.append(np.asarray(pos, float) - sd.xpos[b])
-                if quat is not None:
-                    dq = np.empty(4)
-                    mujoco.mju_mulQuat(dq, np.asarray(quat, float),
-                                       sd.xquat[b] * np.array([1.0, -1.0, -1.0, -1.0]))
-                    rv = np.empty(3)
-                    mujoco.mju_quat2Vel(rv, dq, 1.0)
-                    rows.append(jacr[:, dofs].copy())
-                    errs.append(rv)
-            J = np.vstack(rows)
-            e = np.concatenate(errs)
-            if e @ e < tol:
-                break
-            dq = J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(len(e)), e)
-            v = np.zeros(self.nv)
-            v[dofs] = dq
-            mujoco.mj_integratePos(m, sd.qpos, v, 1.0)
-        return sd.qpos.copy()
+        ids = [(self.body_id(b) if isinstance(b, str) else int(b), pos, quat)
+               for b, pos, quat in targets]
+        return poses.solve_ik(self.model, self._vec(qpos, self.nq, "qpos"), ids, dofs,
+                              iterations=iterations, damping=damping, tol=tol)
 
     def on_floor(self, qpos: np.ndarray, clearance: float = 0.0) -> np.ndarray:
         """``(nq,)`` copy of ``qpos`` with the root raised/lowered so the lowest geom point is
@@ -931,61 +791,3 @@ class Character:
         q = np.array(self._vec(qpos, self.nq, "qpos"))
         q[self.root_qpos[2]] += clearance - self.lowest_point(q)
         return q
-
-
-def convex_hull_2d(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull ``(K, 2)`` of ``(N, 2)`` points (Andrew's monotone chain).
-
-    Duplicate and collinear points are dropped; returns ``(0, 2)`` for no points, one row for a
-    single point and two for a segment.
-    """
-    p = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 9), axis=0)
-    if len(p) <= 2:
-        return p
-
-    def cross(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list = []
-    for q in p:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], q) <= 1e-12:
-            lower.pop()
-        lower.append(q)
-    upper: list = []
-    for q in p[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], q) <= 1e-12:
-            upper.pop()
-        upper.append(q)
-    hull = np.array(lower[:-1] + upper[:-1])
-    return hull
-
-
-def point_in_polygon_margin(point: np.ndarray, polygon: np.ndarray) -> float:
-    """Signed distance (m) of a 2D ``point`` inside a CCW convex ``polygon`` ``(K, 2)``.
-
-    Positive inside (distance to the nearest edge), negative outside; ``-inf`` for an empty
-    polygon. Points and segments count as zero-area polygons (the distance to them, negated).
-    """
-    poly = np.asarray(polygon, dtype=float)
-    x = np.asarray(point, dtype=float)[:2]
-    if len(poly) == 0:
-        return -math.inf
-    if len(poly) == 1:
-        return -float(np.linalg.norm(x - poly[0]))
-    if len(poly) == 2:
-        a, b = poly
-        t = np.clip(np.dot(x - a, b - a) / max(np.dot(b - a, b - a), 1e-18), 0, 1)
-        return -float(np.linalg.norm(x - (a + t * (b - a))))
-    a = poly
-    b = np.roll(poly, -1, axis=0)
-    e = b - a
-    n = np.stack([e[:, 1], -e[:, 0]], axis=1) / np.linalg.norm(e, axis=1, keepdims=True)  # outward
-    s = np.einsum("ij,ij->i", x - a, n)  # signed distance to each edge line, + outside
-    if np.all(s <= 0):
-        return float(-s.max())
-    # outside: distance to the polygon boundary
-    d = []
-    for ai, ei in zip(a, e, strict=True):
-        t = np.clip(np.dot(x - ai, ei) / np.dot(ei, ei), 0, 1)
-        d.append(np.linalg.norm(x - (ai + t * ei)))
-    return -float(min(d))

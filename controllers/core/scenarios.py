@@ -29,7 +29,8 @@ import numpy as np
 from bvh.errors import MjcharError
 
 from .base import Gains
-from .character import Character, SimulationDiverged
+from .character import Character
+from .errors import SimulationDiverged
 from .metrics import STEP_DISTANCE, FallDetector, Recorder, Result
 from .registry import SCENARIOS, make_controller
 

@@ -90,7 +90,8 @@ import numpy as np
 
 from ..balance.static_balance import StaticBalance
 from ..core.base import Action, ControllerError
-from ..core.character import Character, point_in_polygon_margin
+from ..core.character import Character
+from ..core.geometry import point_in_polygon_margin
 from ..core.registry import ControllerSpec, register
 from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
 

@@ -1,0 +1,88 @@
+"""Pushes: external forces on a body for a time window, scheduled on a
+:class:`~controllers.core.character.Character` and written into MuJoCo's ``xfrc_applied``
+(world-frame force at the body's centre of mass) for the physics steps they cover."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from .errors import CharacterError
+
+
+@dataclass(frozen=True)
+class Push:
+    """A horizontal (or any) force on one body for a time window.
+
+    Attributes:
+        body: body name (a BVH joint name for converted models).
+        force: ``(3,)`` world-frame force in N, applied at the body's centre of mass.
+        start: simulated time (s) the push begins.
+        duration: seconds it lasts.
+    """
+
+    body: str
+    force: tuple[float, float, float]
+    start: float
+    duration: float
+
+    @property
+    def end(self) -> float:
+        """Simulated time (s) the push ends."""
+        return self.start + self.duration
+
+
+class PushSchedule:
+    """The pushes scheduled on one ``MjData``; :meth:`apply` writes the forces active at a time.
+
+    Args:
+        data: the simulation's ``MjData`` (its ``xfrc_applied`` is written).
+
+    Attributes:
+        pushes: the scheduled :class:`Push` es, in order.
+        applied: some force is currently written into ``xfrc_applied``.
+    """
+
+    def __init__(self, data: mujoco.MjData):
+        self.data = data
+        self.pushes: list[Push] = []
+        self.applied = False
+        self._body_id: dict[str, int] = {}
+
+    def add(self, body: str, body_id: int, force, duration: float, start: float) -> Push:
+        """Schedule ``force`` ``(3,)`` N on ``body`` (MuJoCo id ``body_id``) for ``duration`` s
+        from ``start`` s."""
+        f = np.asarray(force, dtype=float)
+        if f.shape != (3,) or not np.all(np.isfinite(f)):
+            raise CharacterError(f"push force must be 3 finite numbers (N), got {force!r}")
+        if not (math.isfinite(duration) and duration > 0):
+            raise CharacterError(f"push duration must be positive seconds, got {duration}")
+        p = Push(body, tuple(float(x) for x in f), float(start), float(duration))
+        self._body_id[body] = int(body_id)
+        self.pushes.append(p)
+        return p
+
+    def clear(self) -> None:
+        """Forget every push and stop any force being applied."""
+        self.pushes = []
+        if self.applied:
+            self.data.xfrc_applied[:] = 0
+            self.applied = False
+
+    def any_between(self, t0: float, t1: float) -> bool:
+        """Whether a push acts at some time in ``(t0, t1)`` (s)."""
+        return any(p.start < t1 and p.end > t0 for p in self.pushes)
+
+    def apply(self, t: float) -> None:
+        """Write the sum of the pushes active at time ``t`` (s) into ``xfrc_applied``."""
+        xf = self.data.xfrc_applied
+        xf[:] = 0
+        on = False
+        for p in self.pushes:
+            if p.start <= t < p.end:
+                xf[self._body_id[p.body], :3] += p.force
+                on = True
+        self.applied = on
