@@ -39,6 +39,7 @@ from controllers.core.base import Action  # noqa: E402
 from controllers.core.character import Character  # noqa: E402
 from controllers.core.errors import SimulationDiverged  # noqa: E402
 from controllers.core.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
+from controllers.core.registry import make_controller  # noqa: E402
 
 __all__ = [
     "EnvError",
@@ -322,9 +323,17 @@ class CharacterEnv(gym.Env):
         """``(qpos (nq,), qvel (nv,))`` of a new episode, drawn with ``self.np_random``."""
         raise NotImplementedError
 
-    def _make_controller(self):
-        """The PD controller whose set-points the actions offset (reset by the base class)."""
+    #: the registered controller whose set-points the actions offset (native PD: its targets
+    #: are the ``Action.target`` the policy's offsets are added to)
+    BASE_CONTROLLER = "native_pd"
+
+    def _pd_target(self):
+        """What the base controller tracks: a pose ``(nq,)`` or a target ``t -> (q, qdot)``."""
         raise NotImplementedError
+
+    def _make_controller(self):
+        """The base controller (from the controller registry), reset by the base class."""
+        return make_controller(self.BASE_CONTROLLER, self.character, self._pd_target())
 
     def _extra_observation(self) -> np.ndarray:
         """Task features appended to the body features."""

@@ -46,7 +46,6 @@ import bvh
 from bvh.assets import motion_path
 from bvh.reference import ReferenceMotion
 from controllers.core.base import ReferenceTarget
-from controllers.core.pd import NativePDController
 
 from .common import OBS_POSITION_LIMIT, CharacterEnv, EnvError, heading_rotation, merge_terms
 
@@ -221,10 +220,9 @@ class ImitationEnv(CharacterEnv):
         q, v = self._ref.qpos(self._t0), self._ref.qvel(self._t0)
         return q.copy(), v.copy()
 
-    def _make_controller(self):
+    def _pd_target(self):
         # the set-point held over a step is the reference at the step's end
-        return NativePDController(ReferenceTarget(self._ref,
-                                                  time_offset=self._t0 + self.control_dt))
+        return ReferenceTarget(self._ref, time_offset=self._t0 + self.control_dt)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start at a random phase (or ``options["phase"]`` in [0, 1]) in the reference's pose

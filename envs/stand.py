@@ -2,6 +2,7 @@
 
 The policy acts at ``control_freq`` (30 Hz) on MuJoCo's native PD: the set-points are the
 standing pose (:func:`controllers.core.scenarios.standing_pose`, held by
+the registered ``native_pd`` controller,
 :class:`~controllers.core.pd.NativePDController`) plus the action times a per-joint scale (see
 :class:`~envs.common.CharacterEnv`). A zero action is plain PD holding the pose.
 
@@ -32,7 +33,6 @@ import math
 
 import numpy as np
 
-from controllers.core.pd import NativePDController
 from controllers.core.scenarios import heading_frame_direction, standing_pose
 
 from .common import CharacterEnv, EnvError, as_range, merge_terms
@@ -110,8 +110,8 @@ class StandEnv(CharacterEnv):
         self._max_push = 0.0
         return q, np.zeros(ch.nv)
 
-    def _make_controller(self):
-        return NativePDController(self.pose)
+    def _pd_target(self):
+        return self.pose
 
     def _draw(self, rng: tuple[float, float]) -> float:
         lo, hi = rng
