@@ -101,13 +101,13 @@ def make_hand_of_god(character: Character, target=None, *, gains=None, tracker: 
                      **options) -> HandOfGod:
     """Hand-of-god around the PD variant ``tracker`` (a registered ``pd``-kind controller:
     ``pd``, ``spd``, ``native_pd``) following ``target``; ``options`` go to :class:`HandOfGod`."""
-    if tracker == "hand_of_god" or get(tracker).kind != "pd":
+    if get(tracker).kind != "pd":
         raise ControllerError(f"hand_of_god wraps a PD tracker, not {tracker!r}")
     return HandOfGod(make_controller(tracker, character, target, gains=gains), **options)
 
 
 register(ControllerSpec(
-    name="hand_of_god", label="stable PD + root force", kind="pd", factory=make_hand_of_god,
+    name="hand_of_god", label="stable PD + root force", kind="balance", factory=make_hand_of_god,
     scenarios=("stand", "push", "push-search", "random-push", "track", "walk"),
     default_scenario="track", options=("tracker",),
     bench=("stand", "track"), expected=("stand", "track")))

@@ -30,9 +30,10 @@ from bvh.errors import MjcharError
 SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
 #: scenarios of ``mjchar bench`` (``slopes``: walk up and down a slope)
 BENCH_SCENARIOS = ("stand", "random-push", "push-search", "walk", "track", "slopes")
-#: what a controller is, for the CLI and the bench: ``pd`` (PD trackers: hold the standing pose
-#: or follow the reference), ``balance`` (balance with a reference pose or clip), ``walker``
-#: (walks from its own start state, no reference), ``replay`` (plays a saved trajectory)
+#: what a controller is, for the CLI and the bench: ``pd`` (the PD trackers: hold the standing
+#: pose or follow the reference; hand-of-god wraps one), ``balance`` (balance controllers, on a
+#: pose or a clip), ``walker`` (walks from its own start state, no reference), ``replay`` (plays
+#: a saved trajectory)
 KINDS = ("pd", "balance", "walker", "replay")
 #: how the bench's push-search pushes a controller: from the standing pose on the pelvis, or
 #: while walking at phases of the stride (needs the controller's FSM ``transitions``)

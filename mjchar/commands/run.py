@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 
 from .argtypes import add_floor_argument, integer, non_negative, positive
 
@@ -29,15 +30,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
     from controllers import registry
 
-    specs = registry.specs()
+    intro = textwrap.fill(
+        "Run a controller on the simulated humanoid in a scenario and print a summary (or one "
+        "JSON object). PD trackers and hand_of_god follow the reference motion in track/walk and "
+        "hold the standing pose otherwise. Default motion: the bundled walk; default model: the "
+        "bundled humanoid.", 80)
+    table = "\n".join(f"  {s.name:<15} {s.label} ({_scenario_list(s)})" for s in registry.specs())
     p = sub.add_parser(
         "run", help="run a controller in a scenario (stand, push, track, ...) and report metrics",
-        description="Run a controller on the simulated humanoid in a scenario and print a summary "
-                    "(or one JSON object). PD trackers and hand_of_god follow the reference "
-                    "motion in track/walk and hold the standing pose otherwise. Default "
-                    "motion: the bundled walk; default model: the bundled humanoid. "
-                    "Controllers (supported scenarios, default first): "
-                    + "; ".join(f"{s.name}: {s.label} ({_scenario_list(s)})" for s in specs),
+        description=f"{intro}\n\ncontrollers (scenarios, the default first):\n{table}",
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("controller", choices=registry.names(), metavar="CONTROLLER",
                    help="one of: " + ", ".join(registry.names()))
@@ -78,7 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
-    p.add_argument("--tracker", choices=("pd", "spd", "native_pd"), default="spd",
+    p.add_argument("--tracker", choices=registry.names("pd"), default="spd",
                    help="PD variant hand_of_god wraps (default spd)")
     p.add_argument("--timestep", type=positive("timestep"), metavar="S",
                    help="physics time step in seconds (default: 1/2000 for pd, the model's "
