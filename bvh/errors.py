@@ -32,3 +32,11 @@ class BVHError(MjcharError):
 
 class SkeletonError(MjcharError):
     """A skeleton or motion operation got arguments it cannot work with (unknown joint, shapes)."""
+
+
+class ReferenceMotionError(MjcharError):
+    """A motion cannot be expressed in a model (joint missing, unsupported joint layout, ...)."""
+
+
+class IKError(MjcharError):
+    """An inverse-kinematics problem or option cannot be used (bad target, nothing can move...)."""

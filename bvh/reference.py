@@ -25,7 +25,7 @@ generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-
    from ``mj_jacBody``, the error ``e`` stacking the child body's position and orientation
    (``log(G_target R^T)``, world frame) and, with a lower weight, the hinge body's position;
    ``M`` is a small regulariser on the parent's dofs that keeps the limb's swivel smooth where
-   the clip's limb is nearly straight (see :meth:`ReferenceMotion._project_ik`). Frames are
+   the clip's limb is nearly straight (see :func:`bvh.projection._project_ik`). Frames are
    solved in order, each warm-started with the previous frame's correction.
 4. **Floor.** The clip is shifted vertically so the lowest foot point over the clip (foot box
    corners, or foot sites) is at ``z = 0`` (``floor="clip"``). With ``floor="frame"`` every
@@ -44,31 +44,38 @@ semantics (linear for positions and hinge angles, slerp for quaternions); ``qvel
 per-frame central differences (``mj_differentiatePos`` semantics: free-joint linear velocity in
 the world frame, angular velocities in the body frame). A non-cyclic clip holds its first/last
 pose outside ``[0, duration]`` with zero velocity.
+
+Where the parts live: the joint map in :mod:`bvh.joint_map`, hinge angles and the projection IK in
+:mod:`bvh.projection`, foot points for the floor in :mod:`bvh.foot_points`, the qpos algebra in
+:mod:`bvh.qpos_algebra`; this module holds :class:`ReferenceMotion` and :func:`replay_errors`.
 """
 
 from __future__ import annotations
 
 import os
-import warnings
-from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from .errors import MjcharError
+from .errors import ReferenceMotionError
+from .foot_points import (
+    FOOT_SIDES,
+    _FootPoints,
+    _geom_local_points,  # noqa: F401  (tests import it from here)
+)
+from .io import load
+from .joint_map import _build_slots, _model_info
 from .kinematics import end_site_positions, forward_kinematics
 from .motion import Motion
+from .projection import _hinge_angles, _project_ik
+from .qpos_algebra import _QposAlgebra
 from .rotations import (
     heading_angle,
     quat_conj,
     quat_fix_continuity,
-    quat_from_rotvec,
     quat_mul,
     quat_normalize,
     quat_rotate,
-    quat_slerp,
-    quat_to_rotvec,
-    to_rotation,
 )
 from .units import transform_motion
 
@@ -88,319 +95,6 @@ TURN_THRESHOLD = np.radians(10.0)
 #: roles whose joints (and the end sites below them) count as end effectors in error reports
 END_EFFECTOR_ROLES = ("head", "left_wrist", "right_wrist", "left_ankle", "right_ankle",
                       "left_toe", "right_toe")
-FOOT_SIDES = ("left", "right")
-
-# projection IK: Levenberg damping (m), swivel regulariser toward the projection (m^2/rad^2),
-# weight of the knee/elbow position, iteration cap, stop when no dof moves more than this (rad),
-# orientation weight (m/rad), largest step (rad)
-_IK_DAMPING = 1e-3
-_IK_REG = 1e-4
-_IK_MID_WEIGHT = 0.3
-_IK_MAX_ITER = 40
-_IK_STEP_TOL = 1e-5
-_IK_ROT_WEIGHT = 0.3
-_IK_MAX_STEP = 0.5
-
-_AXIS_LETTERS = "XYZ"
-
-# MuJoCo enum values as plain ints (numpy ints and pybind enums do not compare inside ``in``)
-_FREE, _BALL, _SLIDE, _HINGE = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL),
-                                int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE))
-_PLANE, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX = (
-    int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_SPHERE),
-    int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
-    int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_BOX))
-
-
-class ReferenceMotionError(MjcharError):
-    """A motion cannot be expressed in a model (joint missing, unsupported joint layout, ...)."""
-
-
-# --------------------------------------------------------------------------------------------
-# joint map
-# --------------------------------------------------------------------------------------------
-@dataclass
-class _Slot:
-    """One kept BVH joint and the model joints of its body."""
-
-    name: str
-    bvh: int                    # index in the (converted) motion's skeleton
-    body: int                   # model body id
-    parent_bvh: int             # kept BVH joint owning the model parent body, -1 for the world
-    kind: str                   # "free", "ball", "hinge" or "fixed"
-    qadr: np.ndarray            # qpos addresses of the rotation joints, kinematic order
-    dadr: np.ndarray            # dof addresses of the rotation joints
-    axes: np.ndarray            # (n, 3) hinge axes in the body frame
-    slide_qadr: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    slide_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-
-    @property
-    def n_rot(self) -> int:
-        return {"free": 3, "ball": 3, "fixed": 0}.get(self.kind, len(self.qadr))
-
-
-def _model_info(model: mujoco.MjModel):
-    from .mjcf import ModelInfo  # imported late: bvh.mjcf may import this module's users
-
-    return ModelInfo.from_model(model)
-
-
-def _name2id(model: mujoco.MjModel, obj, name: str, what: str) -> int:
-    i = mujoco.mj_name2id(model, obj, name)
-    if i < 0:
-        raise ReferenceMotionError(f"the model has no {what} named {name!r} (joint map and model "
-                                   f"disagree; was the model written by bvh.mjcf?)")
-    return int(i)
-
-
-def _build_slots(model: mujoco.MjModel, info, skeleton) -> list[_Slot]:
-    names = list(info.joints)
-    missing = [n for n in names if n not in skeleton.names]
-    if missing:
-        raise ReferenceMotionError(
-            f"the motion lacks joints the model was built with: {', '.join(missing)} (the motion's "
-            f"skeleton has {', '.join(skeleton.names)})")
-    body_of = {n: _name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[n].body, "body")
-               for n in names}
-    bvh_of_body = {b: skeleton.index(n) for n, b in body_of.items()}
-    slots = []
-    for n in names:
-        b = body_of[n]
-        pb = int(model.body_parentid[b])
-        while pb != 0 and pb not in bvh_of_body:
-            pb = int(model.body_parentid[pb])
-        parent_bvh = bvh_of_body.get(pb, -1)
-        jids = np.flatnonzero(model.jnt_bodyid == b)
-        types = model.jnt_type[jids].astype(int)
-        slide = jids[types == _SLIDE]
-        rot = jids[types != _SLIDE]
-        if len(slide) and len(rot) and slide.max() > rot.min():
-            raise ReferenceMotionError(f"body {info.joints[n].body!r}: slide joints after rotation "
-                                       f"joints are not supported")
-        kinds = {int(k) for k in types[types != _SLIDE]}
-        if not len(rot):
-            kind = "fixed"
-        elif kinds == {_FREE} and len(rot) == 1:
-            kind = "free"
-        elif kinds == {_BALL} and len(rot) == 1:
-            kind = "ball"
-        elif kinds == {_HINGE} and len(rot) <= 3:
-            kind = "hinge"
-        else:
-            raise ReferenceMotionError(f"body {info.joints[n].body!r}: unsupported joint layout "
-                                       f"(types {sorted(int(k) for k in kinds)})")
-        axes = model.jnt_axis[rot].copy() if kind == "hinge" else np.zeros((0, 3))
-        axes /= np.maximum(np.linalg.norm(axes, axis=1, keepdims=True), 1e-300)
-        if kind == "hinge" and len(rot) >= 2 and not np.allclose(np.abs(axes).max(axis=1), 1.0,
-                                                                 atol=1e-6):
-            raise ReferenceMotionError(f"body {info.joints[n].body!r}: hinge triplets must turn "
-                                       f"about the body axes, got {axes.tolist()}")
-        slots.append(_Slot(
-            name=n, bvh=skeleton.index(n), body=b, parent_bvh=parent_bvh, kind=kind,
-            qadr=model.jnt_qposadr[rot].astype(int), dadr=model.jnt_dofadr[rot].astype(int),
-            axes=axes, slide_qadr=model.jnt_qposadr[slide].astype(int),
-            slide_axes=model.jnt_axis[slide].copy(),
-        ))
-    roots = [s for s in slots if s.kind == "free"]
-    if len(roots) != 1:
-        raise ReferenceMotionError(f"expected exactly one free (root) joint among the mapped "
-                                   f"bodies, found {len(roots)}")
-    return slots
-
-
-def _euler_continuous(q: np.ndarray, order: str) -> np.ndarray:
-    """``(F, 3)`` intrinsic Euler angles (radians, ``order`` like ``"ZXY"``) of ``(F, 4)`` quats,
-    continuous over frames: unwrapped, and on the Euler branch nearest the previous frame."""
-    r = to_rotation(q)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # gimbal lock: the angles still compose to r
-        a = r.as_euler(order)
-    if len(a) < 2:
-        return a
-    un = np.unwrap(a, axis=0)
-    if np.max(np.abs(np.diff(un, axis=0))) < np.pi / 2:
-        return un
-    b = np.stack([a[:, 0] + np.pi, np.pi - a[:, 1], a[:, 2] + np.pi], axis=1)
-    if order[0] == order[2]:  # proper Euler angles
-        b[:, 1] = -a[:, 1]
-    out = np.empty_like(a)
-    prev = a[0]
-    for f in range(len(a)):  # rare (gimbal crossings): greedy branch + 2 pi shift choice
-        cands = np.stack([a[f], b[f]])
-        cands = cands + 2 * np.pi * np.round((prev - cands) / (2 * np.pi))
-        prev = out[f] = cands[np.argmin(np.sum((cands - prev) ** 2, axis=1))]
-    return out
-
-
-def _centre_turns(angles: np.ndarray) -> np.ndarray:
-    """Shift each column of ``(F, n)`` unwrapped angles by whole turns so its median is in
-    ``(-pi, pi]``."""
-    med = np.median(angles, axis=0)
-    return angles - 2 * np.pi * np.round(med / (2 * np.pi))
-
-
-def _hinge_angles(slot: _Slot, local: np.ndarray) -> np.ndarray:
-    """``(F, n)`` hinge angles (radians) of a body with ``n`` hinges for local rotations ``(F, 4)``.
-    Exact for three hinges; the swing-twist (one hinge) or Euler (two hinges) projection else."""
-    n = len(slot.qadr)
-    if n == 1:
-        a = slot.axes[0]
-        ang = 2.0 * np.arctan2(local[:, 1:] @ a, local[:, 0])
-        return _centre_turns(np.unwrap(ang)[:, None])
-    idx = np.argmax(np.abs(slot.axes), axis=1)
-    sign = np.sign(slot.axes[np.arange(n), idx])
-    order = "".join(_AXIS_LETTERS[i] for i in idx)
-    if n == 2:
-        order += next(c for c in _AXIS_LETTERS if c not in order)
-    ang = _euler_continuous(local, order)[:, :n] * sign
-    return _centre_turns(ang)
-
-
-# --------------------------------------------------------------------------------------------
-# vectorised qpos algebra (mj_differentiatePos / mj_integratePos semantics)
-# --------------------------------------------------------------------------------------------
-class _QposAlgebra:
-    """Differences and interpolation of stacks of qpos vectors ``(N, nq)`` for one model."""
-
-    def __init__(self, model: mujoco.MjModel):
-        self.nq, self.nv = model.nq, model.nv
-        lin_q, lin_v, quat_q, quat_v = [], [], [], []
-        for j in range(model.njnt):
-            qa, va, t = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_type[j])
-            if t == _FREE:
-                lin_q += [qa, qa + 1, qa + 2]
-                lin_v += [va, va + 1, va + 2]
-                quat_q.append(qa + 3)
-                quat_v.append(va + 3)
-            elif t == _BALL:
-                quat_q.append(qa)
-                quat_v.append(va)
-            else:
-                lin_q.append(qa)
-                lin_v.append(va)
-        self.lin_q, self.lin_v = np.array(lin_q, int), np.array(lin_v, int)
-        self.quat_q = np.array(quat_q, int)[:, None] + np.arange(4)
-        self.quat_v = np.array(quat_v, int)[:, None] + np.arange(3)
-
-    def diff(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
-        """``(N, nv)`` velocity taking ``q0`` to ``q1`` in unit time (``mj_differentiatePos``)."""
-        v = np.zeros((*q0.shape[:-1], self.nv))
-        v[..., self.lin_v] = q1[..., self.lin_q] - q0[..., self.lin_q]
-        if len(self.quat_q):
-            a, b = q0[..., self.quat_q], q1[..., self.quat_q]
-            v[..., self.quat_v] = quat_to_rotvec(quat_mul(quat_conj(quat_normalize(a)),
-                                                          quat_normalize(b)))
-        return v
-
-    def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``(N, nq)`` result of moving ``q`` with velocity ``v`` for unit time
-        (``mj_integratePos``)."""
-        out = np.array(q, dtype=float, copy=True)
-        out[..., self.lin_q] += v[..., self.lin_v]
-        if len(self.quat_q):
-            out[..., self.quat_q] = quat_normalize(
-                quat_mul(out[..., self.quat_q], quat_from_rotvec(v[..., self.quat_v])))
-        return out
-
-    def interpolate(self, q0: np.ndarray, q1: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-        """``(N, nq)``: ``integrate(q0, alpha * diff(q0, q1))`` (linear angles, slerp quats)."""
-        out = np.array(q0, dtype=float, copy=True)
-        a = np.asarray(alpha, dtype=float)
-        out[..., self.lin_q] += a[..., None] * (q1[..., self.lin_q] - q0[..., self.lin_q])
-        if len(self.quat_q):
-            out[..., self.quat_q] = quat_slerp(q0[..., self.quat_q], q1[..., self.quat_q],
-                                               a[..., None])
-        return out
-
-
-# --------------------------------------------------------------------------------------------
-# feet
-# --------------------------------------------------------------------------------------------
-def _subtree_bodies(model: mujoco.MjModel, body: int) -> list[int]:
-    out = []
-    for b in range(model.nbody):
-        c = b
-        while c > 0 and c != body:
-            c = int(model.body_parentid[c])
-        if c == body:
-            out.append(b)
-    return out
-
-
-def _geom_local_points(model: mujoco.MjModel, g: int) -> np.ndarray:
-    """``(P, 3)`` points in the geom frame whose lowest one bounds the geom from below (corners
-    of a box; ends of a capsule/cylinder; centre of a sphere), radius handled by the caller."""
-    s = model.geom_size[g]
-    t = int(model.geom_type[g])
-    if t in (_BOX, _ELLIPSOID):
-        sign = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
-        return sign * s
-    if t in (_CAPSULE, _CYLINDER):
-        return np.array([[0.0, 0.0, -s[1]], [0.0, 0.0, s[1]]])
-    return np.zeros((1, 3))
-
-
-def _geom_drop(model: mujoco.MjModel, g: int) -> float:
-    """How far below its points the geom reaches (the radius of round geoms)."""
-    t = int(model.geom_type[g])
-    if t in (_CAPSULE, _SPHERE, _CYLINDER):
-        return float(model.geom_size[g][0])
-    if t in (_BOX, _ELLIPSOID):
-        return 0.0
-    return float(model.geom_rbound[g])
-
-
-class _FootPoints:
-    """Where to look for the feet: geoms (per side) or sites, as points sampled per frame."""
-
-    def __init__(self, model: mujoco.MjModel, info):
-        self.sides: dict[str, list[tuple[str, int]]] = {}
-        roles = dict(getattr(info, "roles", {}) or {})
-        for side in FOOT_SIDES:
-            items: list[tuple[str, int]] = []
-            for role in (f"{side}_ankle", f"{side}_toe"):
-                joint = roles.get(role)
-                if isinstance(joint, str) and joint in info.joints:
-                    b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[joint].body)
-                    if b < 0:
-                        continue
-                    for bb in _subtree_bodies(model, b):
-                        for g in np.flatnonzero(model.geom_bodyid == bb):
-                            if int(model.geom_type[g]) != _PLANE and \
-                                    ("geom", int(g)) not in items:
-                                items.append(("geom", int(g)))
-            boxes = [it for it in items if int(model.geom_type[it[1]]) == _BOX]
-            items = boxes or items
-            if not items:
-                for sname in (f"{side}_foot", f"{side}_toe"):
-                    s = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, sname)
-                    if s >= 0:
-                        items.append(("site", int(s)))
-            if items:
-                self.sides[side] = items
-        self.fallback: list[tuple[str, int]] = []
-        if not self.sides:  # no feet known: every non-plane geom bounds the character from below
-            self.fallback = [("geom", int(g)) for g in range(model.ngeom)
-                             if int(model.geom_type[g]) != _PLANE
-                             and model.geom_bodyid[g] != 0]
-        self._local = {}
-        for items in [*self.sides.values(), self.fallback]:
-            for kind, i in items:
-                if kind == "geom":
-                    self._local[i] = (_geom_local_points(model, i), _geom_drop(model, i))
-
-    def sample(self, data: mujoco.MjData, items) -> np.ndarray:
-        """``(P, 3)`` world points of ``items`` in the current ``data`` kinematics."""
-        pts = []
-        for kind, i in items:
-            if kind == "site":
-                pts.append(data.site_xpos[i][None].copy())
-            else:
-                loc, drop = self._local[i]
-                p = data.geom_xpos[i] + loc @ data.geom_xmat[i].reshape(3, 3).T
-                p[:, 2] -= drop
-                pts.append(p)
-        return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
 # --------------------------------------------------------------------------------------------
@@ -469,7 +163,8 @@ class ReferenceMotion:
                                  if s.kind == "hinge" and len(s.qadr) < 3]
         self.ik_iterations = np.zeros(self.n_frames, dtype=int)
         if project and self.projected_joints:
-            qpos = self._project_ik(qpos, fk)
+            qpos, self.ik_iterations = _project_ik(self.model, self._data, self._slots,
+                                                   self._alg, qpos, fk)
 
         # floor placement: lowest foot point over the clip (or of every frame) at z = 0
         if floor not in ("clip", "frame"):
@@ -536,116 +231,6 @@ class ReferenceMotion:
                 d = d - (rest[s.bvh] - rest[s.parent_bvh])
                 qpos[:, s.slide_qadr] = d @ s.slide_axes.T
         return qpos
-
-    def _model_geometry_positions(self, fk) -> np.ndarray:
-        """``(F, J, 3)`` positions of the kept joints when the clip's global orientations drive
-        the *model's* bones (its body offsets): the targets of the projection IK. Equal to the
-        clip's positions when the model was converted from the clip's skeleton; for a model of
-        other proportions, what the clip's pose looks like on this model."""
-        pos = fk.positions.copy()
-        for s in self._slots:  # parents first (joint-map order is BVH order)
-            if s.parent_bvh >= 0:
-                pos[:, s.bvh] = pos[:, s.parent_bvh] + quat_rotate(
-                    fk.orientations[:, s.parent_bvh], self.model.body_pos[s.body])
-        return pos
-
-    def _project_ik(self, qpos: np.ndarray, fk) -> np.ndarray:
-        """Damped-least-squares correction of the limbs around reduced (1-2 hinge) bodies.
-
-        Per frame, Gauss-Newton with Levenberg damping on
-
-            |e_end|^2 + |w_rot e_rot|^2 + |w_mid e_mid|^2 + mu |q_parent - q_proj|^2
-
-        over the limb dofs (parent triplet, hinge, child triplet): ``e_end``/``e_rot`` are the
-        child body's (ankle's, wrist's) position and orientation errors, ``e_mid`` the hinge
-        body's (knee's, elbow's) position error. The limb can always put its end exactly (hip +
-        knee reach the ankle, the ankle triplet turns the foot); the knee then lies on a circle
-        about the hip-ankle line (the swivel). Matching the clip's knee exactly on it needs a hip
-        twist of up to 90 degrees when the clip's knee is nearly straight but bent off the hinge
-        plane, flipping from frame to frame; the small regulariser on the parent's dofs (toward
-        the projected angles) trades a few millimetres of knee error for a smooth twist there,
-        and vanishes in effect when the knee is bent (then the knee term decides).
-        """
-        m, d = self.model, self._data
-        by_body = {s.body: s for s in self._slots}
-        children: dict[int, list[int]] = {}
-        for b in range(1, m.nbody):
-            children.setdefault(int(m.body_parentid[b]), []).append(b)
-        dofs: list[int] = []
-        swivel: list[int] = []  # the parent joint's dofs: where the limb's free swivel lives
-        targets: list[tuple[str, int, int]] = []  # (kind, body, bvh joint)
-        for s in self._slots:
-            if not (s.kind == "hinge" and len(s.qadr) < 3):
-                continue
-            kids = [by_body[c] for c in children.get(s.body, []) if c in by_body]
-            child = max(kids, key=lambda k: len(_subtree_bodies(m, k.body)), default=None)
-            parent = by_body.get(int(m.body_parentid[s.body]))
-            chain = [s]
-            if parent is not None and parent.kind in ("hinge", "ball") and \
-                    len(children.get(parent.body, [])) == 1:
-                chain.insert(0, parent)
-            if child is not None and child.kind in ("hinge", "ball"):
-                chain.append(child)
-            for c in chain:
-                dd = [int(x) for x in (c.dadr if c.kind == "hinge" else c.dadr[0] + np.arange(3))]
-                dofs += dd
-                if c is parent:
-                    swivel += dd
-            eff = child if child is not None else s
-            if eff is not s:
-                targets.append(("mid", s.body, s.bvh))
-            targets.append(("pos", eff.body, eff.bvh))
-            targets.append(("rot", eff.body, eff.bvh))
-        dofs = sorted(set(dofs))
-        if not dofs:
-            return qpos
-        pos_t, rot_t = self._model_geometry_positions(fk), fk.orientations
-        jacp = np.zeros((3, m.nv))
-        jacr = np.zeros((3, m.nv))
-        n_rows = 3 * len(targets)
-        out = qpos.copy()
-        prev_delta = np.zeros(m.nv)
-        reg = np.where(np.isin(dofs, swivel), _IK_REG, 0.0)
-        lm = np.diag(reg + _IK_DAMPING ** 2)
-        for f in range(self.n_frames):
-            q_ref = qpos[f]
-            q = self._alg.integrate(q_ref, prev_delta) if f else q_ref.copy()
-            for it in range(_IK_MAX_ITER + 1):
-                d.qpos[:] = q
-                mujoco.mj_kinematics(m, d)
-                mujoco.mj_comPos(m, d)
-                e = np.empty(n_rows)
-                jac = np.empty((n_rows, m.nv))
-                for k, (kind, body, j) in enumerate(targets):
-                    if kind == "mid":
-                        mujoco.mj_jacBody(m, d, jacp, None, body)
-                        e[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * (pos_t[f, j] - d.xpos[body])
-                        jac[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * jacp
-                    elif kind == "pos":
-                        mujoco.mj_jacBody(m, d, jacp, jacr, body)
-                        e[3 * k: 3 * k + 3] = pos_t[f, j] - d.xpos[body]
-                        jac[3 * k: 3 * k + 3] = jacp
-                    else:  # same body as the "pos" row before it: jacr is current
-                        err = quat_to_rotvec(quat_mul(rot_t[f, j], quat_conj(d.xquat[body])))
-                        e[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * err
-                        jac[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * jacr
-                if it == _IK_MAX_ITER:
-                    break
-                jd = jac[:, dofs]
-                back = self._alg.diff(q, q_ref)[dofs]
-                dq = np.linalg.solve(jd.T @ jd + lm, jd.T @ e + reg * back)
-                step = np.abs(dq).max()
-                if step > _IK_MAX_STEP:
-                    dq *= _IK_MAX_STEP / step
-                v = np.zeros(m.nv)
-                v[dofs] = dq
-                q = self._alg.integrate(q, v)
-                if step < _IK_STEP_TOL:
-                    break
-            self.ik_iterations[f] = it
-            out[f] = q
-            prev_delta = self._alg.diff(q_ref, q)
-        return out
 
     def _sample_points(self, qpos: np.ndarray) -> dict[str, np.ndarray]:
         """Foot points per side ``(F, P, 3)`` (and ``"all"`` when no feet are known)."""
@@ -953,8 +538,6 @@ def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
     ``end_effector_max_mm``, ...).
     """
     if isinstance(motion, (str, os.PathLike)):
-        from .io import load
-
         motion = load(motion)
     info = None
     if isinstance(model_or_converted, mujoco.MjModel):
