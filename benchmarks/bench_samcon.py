@@ -41,12 +41,8 @@ from bvh.reference import ReferenceMotion  # noqa: E402
 from controllers.core.character import Character  # noqa: E402
 from controllers.sampling.executors import LocalExecutor  # noqa: E402
 from controllers.sampling.rollout import FULLPHYSICS, RolloutRequest  # noqa: E402
-from controllers.sampling.samcon import (  # noqa: E402
-    RECONSTRUCTION_OPTIONS,
-    CostWeights,
-    Samcon,
-    SamconOptions,
-)
+from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions  # noqa: E402
+from controllers.sampling.tracking import CostWeights  # noqa: E402
 from controllers.sampling.trajectory import replay  # noqa: E402
 from controllers.sampling.trajopt import (  # noqa: E402
     JUMP_OPTIONS,

@@ -23,15 +23,13 @@ from controllers.core.scenarios import simulate
 from controllers.sampling.executors import LocalExecutor
 from controllers.sampling.rollout import RolloutRequest
 from controllers.sampling.samcon import (
-    CostWeights,
     Samcon,
     SamconError,
     SamconOptions,
-    TrackingCost,
-    sampling_widths,
     select_diverse,
     slice_layout,
 )
+from controllers.sampling.tracking import CostWeights, TrackingCost, TrackingError, sampling_widths
 from controllers.sampling.trajectory import (
     ReplayController,
     Trajectory,
@@ -72,7 +70,7 @@ def test_sampling_widths_follow_roles(character):
     assert w[names.index("lHip_y")] > w[names.index("lToeJoint_y")] > 0
     w2 = sampling_widths(character, {"knee": 0.7}, scale=2.0)
     assert w2[names.index("rKnee_y")] == pytest.approx(1.4)
-    with pytest.raises(SamconError, match="unknown joint role"):
+    with pytest.raises(TrackingError, match="unknown joint role"):
         sampling_widths(character, {"tail": 0.1})
 
 
@@ -106,7 +104,7 @@ def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(ch
 
 def test_cost_is_zero_on_the_reference_and_grows_with_error(character, walk_ref):
     from bvh.assets import humanoid_path
-    from controllers.sampling.samcon import reference_features, tracking_rollout_model
+    from controllers.sampling.tracking import reference_features, tracking_rollout_model
 
     rm = tracking_rollout_model(humanoid_path(), character)
     feats = reference_features(rm, walk_ref, [0.3])

@@ -21,7 +21,7 @@ from bvh.reference import ReferenceMotion
 from controllers.core.character import Character
 from controllers.sampling.executors import LocalExecutor
 from controllers.sampling.rollout import RolloutRequest
-from controllers.sampling.samcon import tracking_rollout_model
+from controllers.sampling.tracking import tracking_rollout_model
 from controllers.sampling.trajectory import replay
 from controllers.sampling.trajopt import (
     JumpObjective,
@@ -85,7 +85,7 @@ def test_short_tracking_improves_on_the_start_and_replays(walk_ref, executor):
 
 
 def _base_targets(ref, duration):
-    from controllers.sampling.samcon import inverse_dynamics_targets
+    from controllers.sampling.tracking import inverse_dynamics_targets
 
     ch = Character()
     t = (np.arange(int(round(duration / 0.02))) + 0.5) * 0.02

@@ -30,7 +30,7 @@ from . import poses
 from .action import Action
 from .errors import CharacterError, SimulationDiverged
 from .geometry import convex_hull_2d
-from .model import load_model, model_info
+from .model import actuator_map, load_model, model_info
 from .pushes import Push, PushSchedule
 
 _GEOM_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
@@ -139,33 +139,9 @@ class Character:
     # -- structure ----------------------------------------------------------------------------
     def _map_actuators(self) -> None:
         m = self.model
-        dof = np.full(self.nu, -1)
-        qpos = np.full(self.nu, -1)
-        for a in range(self.nu):
-            if m.actuator_trntype[a] != int(mujoco.mjtTrn.mjTRN_JOINT):
-                raise CharacterError(f"actuator {a} does not drive a joint")
-            j = int(m.actuator_trnid[a, 0])
-            t = m.jnt_type[j]
-            gear = m.actuator_gear[a, :3]
-            if t in (_JNT_HINGE, _JNT_SLIDE):
-                dof[a] = m.jnt_dofadr[j]
-                qpos[a] = m.jnt_qposadr[j]
-                ok = gear[0] == 1.0
-            elif t == _JNT_BALL:  # a motor along one body axis of a ball joint
-                k = int(np.argmax(np.abs(gear)))
-                dof[a] = m.jnt_dofadr[j] + k
-                ok = gear[k] == 1.0 and np.count_nonzero(gear) == 1
-            else:
-                raise CharacterError(f"actuator {a} drives the free joint")
-            if not ok:
-                raise CharacterError(f"actuator {a}: gear {gear.tolist()} is not a unit gear on "
-                                     f"one dof (see docs/model-contract.md)")
-        if len(set(dof.tolist())) != self.nu:
-            raise CharacterError("two actuators drive the same dof")
-        self.actuator_dof = dof
-        self.actuator_qpos = qpos
+        self.actuator_dof, self.actuator_qpos = actuator_map(m)
         self.actuated = np.zeros(self.nv, dtype=bool)
-        self.actuated[dof] = True
+        self.actuated[self.actuator_dof] = True
         self.unactuated = np.flatnonzero(~self.actuated)
         self.position_actuators = m.actuator_biasprm[:, 1] < 0  # bias -kp q: <position>
 

@@ -1,5 +1,5 @@
-"""Loading the model a :class:`~controllers.core.character.Character` drives, and reading the
-converter's metadata (joint map and roles) from it."""
+"""Loading the model a :class:`~controllers.core.character.Character` drives, reading the
+converter's metadata (joint map and roles) from it, and mapping its actuators to dofs."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import copy
 import os
 
 import mujoco
+import numpy as np
 
 from .errors import CharacterError
 
@@ -39,3 +40,40 @@ def load_model(model) -> mujoco.MjModel:
             raise CharacterError(f"{path}: MuJoCo cannot load it: {e}") from None
     raise CharacterError(f"model must be None, an MJCF path or an MjModel, got "
                          f"{type(model).__name__}")
+
+
+_JNT_BALL = int(mujoco.mjtJoint.mjJNT_BALL)
+_JNT_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
+_JNT_SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)
+
+
+def actuator_map(m: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """``(dof (nu,), qpos (nu,))``: the dof each actuator drives and, for hinge and slide
+    joints, its qpos address (-1 for ball-joint motors). Every actuator must drive one dof of a
+    hinge, slide or ball joint with a unit gear, and no two the same dof (the model contract);
+    else :class:`CharacterError`."""
+    nu = int(m.nu)
+    dof = np.full(nu, -1)
+    qpos = np.full(nu, -1)
+    for a in range(nu):
+        if m.actuator_trntype[a] != int(mujoco.mjtTrn.mjTRN_JOINT):
+            raise CharacterError(f"actuator {a} does not drive a joint")
+        j = int(m.actuator_trnid[a, 0])
+        t = m.jnt_type[j]
+        gear = m.actuator_gear[a, :3]
+        if t in (_JNT_HINGE, _JNT_SLIDE):
+            dof[a] = m.jnt_dofadr[j]
+            qpos[a] = m.jnt_qposadr[j]
+            ok = gear[0] == 1.0
+        elif t == _JNT_BALL:  # a motor along one body axis of a ball joint
+            k = int(np.argmax(np.abs(gear)))
+            dof[a] = m.jnt_dofadr[j] + k
+            ok = gear[k] == 1.0 and np.count_nonzero(gear) == 1
+        else:
+            raise CharacterError(f"actuator {a} drives the free joint")
+        if not ok:
+            raise CharacterError(f"actuator {a}: gear {gear.tolist()} is not a unit gear on "
+                                 f"one dof (see docs/model-contract.md)")
+    if len(set(dof.tolist())) != nu:
+        raise CharacterError("two actuators drive the same dof")
+    return dof, qpos

@@ -5,14 +5,15 @@ optimisation. Registered as ``replay``, ``samcon_replay`` and ``cmaes_replay``."
 # Registration order: replay, samcon_replay, cmaes_replay:
 # isort: off
 from .trajectory import ReplayController, Trajectory, load_trajectory, make_replay, replay
-from .samcon import CostWeights, Samcon, SamconOptions, SamconResult
+from .samcon import Samcon, SamconOptions, SamconResult
 # isort: on
 from .executors import Executor, LocalExecutor, make_executor
 from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner, rollout
+from .tracking import CostWeights, TrackingCost, inverse_dynamics_targets, sampling_widths
 from .trajopt import TrajectoryOptimizer, TrajoptOptions, optimise_jump, track_clip
 
 __all__ = ["CostWeights", "Executor", "LocalExecutor", "ReplayController", "RolloutModel",
            "RolloutRequest", "RolloutResult", "RolloutRunner", "Samcon", "SamconOptions",
-           "SamconResult", "TrajectoryOptimizer", "Trajectory", "TrajoptOptions",
-           "load_trajectory", "make_executor", "make_replay", "optimise_jump", "replay",
-           "rollout", "track_clip"]
+           "SamconResult", "TrackingCost", "TrajectoryOptimizer", "Trajectory", "TrajoptOptions",
+           "inverse_dynamics_targets", "load_trajectory", "make_executor", "make_replay",
+           "optimise_jump", "replay", "rollout", "sampling_widths", "track_clip"]

@@ -2,7 +2,7 @@
 
 The decision variables are PD-target offsets at spline knots every ``knot_dt`` (~0.1 s),
 linearly interpolated to the controls (``control_dt``) and added to base targets (inverse
-dynamics on the clip, :func:`controllers.sampling.samcon.inverse_dynamics_targets`, or a standing
+dynamics on the clip, :func:`controllers.sampling.tracking.inverse_dynamics_targets`, or a standing
 pose). Like SAMCON, the result is a :class:`~controllers.sampling.trajectory.Trajectory` for the
 native ``<position>`` actuators, replayed open-loop with no force on the root.
 
@@ -14,10 +14,10 @@ the first ``commit`` seconds of the window are fixed, simulated once more to get
 start state, and the window slides on (the un-committed knots warm-start the next window). A window
 as long as the horizon gives a single whole-trajectory optimisation (what the jump uses).
 
-Objectives (lower is better; a fall adds :data:`~controllers.sampling.samcon.FALL_COST` scaled by
+Objectives (lower is better; a fall adds :data:`~controllers.sampling.tracking.FALL_COST` scaled by
 how early it happened, so CMA-ES still sees a gradient among falling candidates):
 
-- :class:`TrackingObjective`: the SAMCON cost (:class:`~controllers.sampling.samcon.TrackingCost`)
+- :class:`TrackingObjective`: the SAMCON cost (:class:`~controllers.sampling.tracking.TrackingCost`)
   averaged over every control end in the window.
 - :class:`JumpObjective`: a standing vertical jump, no clip: reward the peak clearance of the
   feet (lowest foot/toe sole site) up to ``target_clearance`` plus a margin, then land and stand:
@@ -42,10 +42,11 @@ from ..core.character import Character
 from ..core.registry import ControllerSpec, register
 from .executors import Executor, LocalExecutor
 from .rollout import RolloutModel, RolloutRequest, RolloutResult
-from .samcon import (
+from .tracking import (
     FALL_COST,
     CostWeights,
     TrackingCost,
+    actuator_roles,
     inverse_dynamics_targets,
     reference_features,
     sampling_widths,
@@ -121,7 +122,7 @@ class TrackingObjective:
     Args:
         character: model structure; reference: a ``ReferenceMotion``; rmodel: the rollout model;
         control_dt: seconds per control; start: clip time of control 0; n_controls: T;
-        weights: :class:`~controllers.sampling.samcon.CostWeights`.
+        weights: :class:`~controllers.sampling.tracking.CostWeights`.
     """
 
     def __init__(self, character: Character, reference, rmodel: RolloutModel,
@@ -513,8 +514,6 @@ def track_clip(reference, *, model=None, options: TrajoptOptions | None = None,
 
 
 def _jump_matrix(character: Character, groups=JUMP_GROUPS) -> np.ndarray:
-    from .samcon import actuator_roles
-
     roles = actuator_roles(character)
     names = [character.dof_names[d] for d in character.actuator_dof]
     G = np.zeros((len(groups), character.nu))
@@ -622,9 +621,9 @@ def plain_pd_trajectory(reference, *, model=None, duration: float | None = None,
 def trajectory_cost(trajectory: Trajectory, reference, *, model=None,
                     weights: CostWeights | None = None, every: float = 0.02,
                     start: float = 0.0) -> float:
-    """The mean tracking cost (:class:`~controllers.sampling.samcon.TrackingCost`, no fall penalty)
-    of a trajectory's open-loop rollout, sampled every ``every`` s: the number compared between
-    plain PD tracking and CMA-ES. The rollout restarts the solver warm start at the
+    """The mean tracking cost (:class:`~controllers.sampling.tracking.TrackingCost`, no fall
+    penalty) of a trajectory's open-loop rollout, sampled every ``every`` s: the number compared
+    between plain PD tracking and CMA-ES. The rollout restarts the solver warm start at the
     trajectory's ``warmstart_resets`` (as its replay does)."""
     ch, rm = _setup(model)
     trajectory.validate(ch.model)

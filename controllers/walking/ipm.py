@@ -82,264 +82,21 @@ Use :func:`make_ipm` or :class:`IPMController` directly::
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import fields, replace
 
 import mujoco
 import numpy as np
 
 from ..balance.static_balance import StaticBalance
-from ..core.base import Action, ControllerError
+from ..core.base import Action
 from ..core.character import Character
 from ..core.geometry import point_in_polygon_margin
 from ..core.registry import ControllerSpec, register
+from .ipm_params import GRAVITY, IPMError, IPMParams, ipm_step_offset, schedule
+from .leg import Leg, inverse3, rotation_error, wrap_angle, yaw_of
 from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
 
-GRAVITY = 9.81
 _LEFT, _RIGHT = 0, 1
-
-
-class IPMError(ControllerError):
-    """The IPM controller was configured with impossible options or used on an unsuitable model."""
-
-
-@dataclass(frozen=True)
-class IPMParams:
-    """Every tunable number of :class:`IPMController` (SI units, angles in rad).
-
-    Attributes:
-        step_time: nominal step duration ``T`` (s).
-        min_phase: swing-foot contact ends the step only after this phase.
-        max_phase: the step is ended at this phase even without contact.
-        sagittal_scale, coronal_scale: IPM offset scales ``s_s``, ``s_c`` (paper: 1.1, 1.3).
-        speed_offset: ``k_v`` in ``- k_v v_d`` (s): how far before the IPM point to step
-            (paper: 0.05).
-        speed_integral, max_speed_bias: after every step the sagittal placement moves back by
-            ``speed_integral`` (s) x the step's mean speed error (m/s), up to ``max_speed_bias`` m
-            (integral action on top of ``- speed_offset v_d``).
-        step_width: ``w``, coronal offset of the swing foot from the COM (m).
-        min_width: least coronal distance (m) of the swing foot target from the stance foot
-            (the hip width when coming to a stop).
-        clamp: step offset limit as a fraction of the leg length (per axis).
-        swing_heights: sole heights (m) at phases 0, 0.5, 1.
-        descent_speed: m/s the swing target sinks after phase 1.
-        swing_blend: ``"quadratic"`` (lift-off weight ``(1 - phase)^2``, the paper's) or
-            ``"smooth"`` (``1 - smoothstep(phase)``), see :class:`SwingTrajectory`.
-        swing_ankle_kp, swing_ankle_kd: the swing foot's (world frame) gains, so it lands flat.
-        hip_kp, hip_kd, knee_kp, knee_kd, ankle_kp, ankle_kd, pelvis_kp, pelvis_kd: PD gains
-            (N m/rad, N m s/rad); pelvis in the world frame.
-        pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
-        stance_knee: stance knee flexion target (rad).
-        upper_gain_scale: factor on the model's gains table for spine, arms, head and toes.
-        vf_sagittal, vf_coronal_pos, vf_coronal_vel: virtual-force gains ``30``, ``c_p``,
-            ``c_v`` (1/s, 1/s^2, 1/s; paper: 30, 20, 9).
-        vf_max_sagittal, vf_max_coronal: virtual-force clamps (N).
-        coronal_offset: desired coronal COM offset from the stance foot (m, towards the swing
-            side positive) in the virtual force.
-        lean: forward pelvis pitch target (rad) per m/s of desired speed.
-        turn_rate: rad/s the heading target turns at, at most; and at most
-            ``turn_acceleration / v_d`` (m/s^2 of centripetal acceleration) when walking.
-        acceleration: m/s^2 the speed target (used by the placement and the virtual force)
-            follows the speed command at.
-        gravity_compensation: apply the gravity compensation.
-        feedforward: track the swing thigh's and knee's target velocities (finite differences
-            of the IK targets), not zero velocity.
-        max_target_rate: clamp on those target velocities (rad/s).
-        implicit_damping: evaluate every damping term at the next step's velocity (stable PD
-            generalised to the controller's damping matrix); explicit damping needs a time step
-            of about 0.5 ms.
-        stop_speed: COM speed (m/s) under which a step may end in standing (zero command).
-        heading_tolerance: heading error (rad) below which the character may stand.
-        capture_margin: the capture point may lie this far (m) outside the support polygon
-            before standing turns into stepping (3x that during ``settle_time`` after a stop).
-        stance_ankle_limit: ``(pitch_fwd, pitch_back, roll)`` moments (N m per N of body weight,
-            i.e. m) the stance ankle may apply, so the foot does not roll; ``None`` = no limit.
-        arm_abduction: arms hang this far (rad) from the body.
-        stance_yaw_limit: largest vertical (yaw) moment (N m) the stance hip may apply to the
-            pelvis; more spins the stance foot on the ground.
-        yaw_friction: the stance hip's yaw moment is also limited to ``yaw_friction x m g x r``
-            with ``r`` the spread of the stance foot's contact points (0 on a single point).
-        first_step_time: duration (s) of the first step out of standing: short, so the COM
-            falls only a little towards the swing side before the swing foot catches it, which
-            starts the lateral sway of walking.
-        push_step_time: duration (s) of the first step when a push (capture point outside the
-            feet) ends standing.
-        settle_time: seconds of standing before a speed or heading command starts a walk (a
-            push starts stepping at once).
-    """
-
-    step_time: float = 0.5
-    min_phase: float = 0.5
-    max_phase: float = 1.6
-    sagittal_scale: float = 1.0
-    coronal_scale: float = 1.0
-    speed_offset: float = 0.1
-    speed_integral: float = 0.02
-    max_speed_bias: float = 0.1
-    step_width: float = 0.03
-    min_width: float = 0.1
-    clamp: float = 0.4
-    swing_heights: tuple[float, float, float] = (0.04, 0.15, 0.02)
-    descent_speed: float = 1.0
-    swing_blend: str = "smooth"
-    hip_kp: float = 600.0
-    hip_kd: float = 60.0
-    knee_kp: float = 300.0
-    knee_kd: float = 35.0
-    ankle_kp: float = 50.0
-    ankle_kd: float = 15.0
-    swing_ankle_kp: float = 200.0
-    swing_ankle_kd: float = 20.0
-    pelvis_kp: float = 1000.0
-    pelvis_kd: float = 200.0
-    pelvis_yaw_kp: float = 300.0
-    pelvis_yaw_kd: float = 60.0
-    stance_knee: float = 0.15
-    upper_gain_scale: float = 1.0
-    vf_sagittal: float = 30.0
-    vf_coronal_pos: float = 0.0
-    vf_coronal_vel: float = 0.0
-    vf_max_sagittal: float = 60.0
-    vf_max_coronal: float = 100.0
-    coronal_offset: float = 0.0
-    lean: float = 0.0
-    turn_rate: float = 0.5
-    turn_acceleration: float = 0.3
-    acceleration: float = 0.5
-    gravity_compensation: bool = True
-    implicit_damping: bool = True
-    feedforward: bool = True
-    max_target_rate: float = 10.0
-    stop_speed: float = 0.15
-    heading_tolerance: float = 0.1
-    capture_margin: float = 0.03
-    stance_ankle_limit: tuple[float, float, float] | None = (0.08, 0.03, 0.025)
-    arm_abduction: float = 0.15
-    settle_time: float = 0.3
-    stance_yaw_limit: float = 40.0
-    yaw_friction: float = 0.5
-    first_step_time: float = 0.3
-    push_step_time: float = 0.3
-
-    def check(self) -> IPMParams:
-        """Raise :class:`IPMError` on non-finite or out-of-range values; returns self."""
-        if self.swing_blend not in ("quadratic", "smooth"):
-            raise IPMError(f"swing_blend must be 'quadratic' or 'smooth', got "
-                           f"{self.swing_blend!r}")
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, str):
-                continue
-            vals = v if isinstance(v, tuple) else (() if v is None else (v,))
-            for x in vals:
-                if not isinstance(x, bool) and not (isinstance(x, (int, float))
-                                                    and math.isfinite(x)):
-                    raise IPMError(f"IPM option {f.name} must be finite numbers, got {v!r}")
-        if self.step_time <= 0:
-            raise IPMError(f"step_time must be positive seconds, got {self.step_time}")
-        if not 0 <= self.min_phase < self.max_phase:
-            raise IPMError("need 0 <= min_phase < max_phase")
-        if self.clamp <= 0:
-            raise IPMError("clamp must be a positive fraction of the leg length")
-        return self
-
-
-def ipm_step_offset(v, h: float, g: float = GRAVITY):
-    """Inverted-pendulum step offset ``d = v sqrt(h/g + v^2/(4 g^2))`` (m) for a COM speed ``v``
-    (m/s, scalar or array) at height ``h`` (m) over the stance foot: stepping ``d`` ahead of the
-    COM brings a pendulum of that energy to rest over the foot."""
-    v = np.asarray(v, dtype=float)
-    if not (math.isfinite(h) and h > 0):
-        raise IPMError(f"COM height must be positive metres, got {h}")
-    d = v * np.sqrt(h / g + v * v / (4.0 * g * g))
-    return float(d) if d.ndim == 0 else d
-
-
-def _schedule(value, what: str, scale: float = 1.0) -> Callable[[float], float | None]:
-    if value is None:
-        return lambda t: None
-    if callable(value):
-        return lambda t: (None if value(t) is None else float(value(t)) * scale)
-    v = float(value)
-    if not math.isfinite(v):
-        raise IPMError(f"{what} must be a finite number, got {value!r}")
-    return lambda t: v * scale
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-def _rotvec(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """World rotation vector (rad) of ``R_des R^T``."""
-    E = R_des @ R.T
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, E.ravel())
-    if q[0] < 0:
-        q = -q
-    s = math.sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    if s < 1e-12:
-        return 2.0 * q[1:]
-    return q[1:] * (2.0 * math.atan2(s, q[0]) / s)
-
-
-def _inv3(A: np.ndarray) -> np.ndarray:
-    """Inverse of a ``(3, 3)`` matrix by the adjugate (cheaper than ``np.linalg.inv``)."""
-    (a, b, c), (d, e, f), (g, h, i) = A.tolist()
-    co = [e * i - f * h, f * g - d * i, d * h - e * g]
-    det = a * co[0] + b * co[1] + c * co[2]
-    if abs(det) < 1e-12:
-        return np.linalg.pinv(A)
-    return np.array([[co[0], c * h - b * i, b * f - c * e],
-                     [co[1], a * i - c * g, c * d - a * f],
-                     [co[2], b * g - a * h, a * e - b * d]]) / det
-
-
-def _yaw(R: np.ndarray) -> float:
-    return math.atan2(R[1, 0], R[0, 0])
-
-
-class _Leg:
-    """Indices of one leg (hip, knee, ankle, toe) of a Character."""
-
-    def __init__(self, ch: Character, side: str):
-        m = ch.model
-        self.side = side
-        self.hip_name = ch.role(f"{side}_hip")
-        self.knee_name = ch.role(f"{side}_knee")
-        self.ankle_name = ch.role(f"{side}_ankle")
-        self.toe_name = ch.role(f"{side}_toe", required=False)
-        self.hip = ch.joint_dofs(self.hip_name)
-        self.knee = ch.joint_dofs(self.knee_name)
-        self.ankle = ch.joint_dofs(self.ankle_name)
-        self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
-        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3:
-            raise IPMError(f"IPM needs 3-dof hips and ankles and a hinge knee ({side} leg has "
-                           f"{len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs); convert "
-                           "with joint_model='hinge'")
-        self.thigh = ch.body_id(self.hip_name)
-        self.shank = ch.body_id(self.knee_name)
-        self.foot = ch.body_id(self.ankle_name)
-        self.site = ch.site_id(f"{side}_foot")
-        if int(m.site_bodyid[self.site]) != self.foot:
-            raise IPMError(f"site {side}_foot is not on the {side} ankle body")
-        self.site_offset = m.site_pos[self.site].copy()            # in the foot frame
-        self.hip_jnt = m.dof_jntid[self.hip]
-        self.ankle_jnt = m.dof_jntid[self.ankle]
-        self.knee_q = ch.joint_qpos(self.knee_name)[0]
-        self.knee_dof = int(self.knee[0])
-        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
-        self.all = np.concatenate([self.leg, self.toe])
-        # geometry from the model (bodies world-aligned at rest, contract)
-        qk = m.body_quat[self.shank]
-        knee_in_thigh = m.body_pos[self.shank].copy()
-        ankle_in_shank = m.body_pos[self.foot].copy()
-        self.l1 = float(np.linalg.norm(knee_in_thigh))
-        self.l2 = float(np.linalg.norm(ankle_in_shank))
-        Rk = np.empty(9)
-        mujoco.mju_quat2Mat(Rk, qk)
-        axis_in_thigh = Rk.reshape(3, 3) @ m.jnt_axis[m.dof_jntid[self.knee_dof]]
-        self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns
 
 
 class IPMController:
@@ -381,9 +138,9 @@ class IPMController:
         if "swing_heights" in options:
             options["swing_heights"] = tuple(float(x) for x in options["swing_heights"])
         self.params = replace(base, **options).check()
-        self.speed = _schedule(speed, "speed")
-        self.heading = _schedule(heading, "heading", math.pi / 180.0)
-        self.lateral_speed = _schedule(lateral_speed, "lateral_speed")
+        self.speed = schedule(speed, "speed")
+        self.heading = schedule(heading, "heading", math.pi / 180.0)
+        self.lateral_speed = schedule(lateral_speed, "lateral_speed")
         self.trajectory = SwingTrajectory(self.params.swing_heights, self.params.descent_speed,
                                           blend=self.params.swing_blend)
         self._ready = False
@@ -395,7 +152,7 @@ class IPMController:
         ch = character
         ch.set_actuation("torque")
         m = ch.model
-        self._legs = (_Leg(ch, "left"), _Leg(ch, "right"))
+        self._legs = (Leg(ch, "left"), Leg(ch, "right"))
         self._pelvis = ch.root_body
         self.leg_length = self._legs[0].l1 + self._legs[0].l2 + float(-self._legs[0].site_offset[2])
         # joints acting directly on the pelvis other than the hips (the spine)
@@ -441,7 +198,7 @@ class IPMController:
         self._stopping = False
         # commands and state
         R = ch.data.xmat[self._pelvis].reshape(3, 3)
-        self._start_yaw = _yaw(R)
+        self._start_yaw = yaw_of(R)
         self.heading_target = self._start_yaw
         self.speed_target = 0.0
         self.speed_bias = 0.0
@@ -506,10 +263,10 @@ class IPMController:
         err = self.desired_speed(t) - self.speed_target
         step = p.acceleration * dt
         self.speed_target += max(-step, min(step, err))
-        err = _wrap(self.desired_heading(t) - self.heading_target)
+        err = wrap_angle(self.desired_heading(t) - self.heading_target)
         rate = min(p.turn_rate, p.turn_acceleration / max(abs(self.speed_target), 1e-3))
         step = rate * dt
-        self.heading_target = _wrap(self.heading_target + max(-step, min(step, err)))
+        self.heading_target = wrap_angle(self.heading_target + max(-step, min(step, err)))
         self._heading_rate = rate * (1.0 if err > step else -1.0 if err < -step else 0.0)
 
     def _wants_to_walk(self, ch: Character, t: float) -> bool:
@@ -518,8 +275,9 @@ class IPMController:
         if self._walk_cache[0] == t:
             return self._walk_cache[1]
         R = ch.data.xmat[self._pelvis].reshape(3, 3)
+        turn = abs(wrap_angle(self.desired_heading(t) - yaw_of(R)))
         walk = (abs(self.desired_speed(t)) > 0.05 or abs(float(self.lateral_speed(t) or 0)) > 0.05
-                or abs(_wrap(self.desired_heading(t) - _yaw(R))) > self.params.heading_tolerance)
+                or turn > self.params.heading_tolerance)
         self._walk_cache = (t, walk)
         return walk
 
@@ -553,7 +311,7 @@ class IPMController:
         q = ch.qpos.copy()
         up = self._dof_qpos[self._upper]
         q[up] = self.upper_pose[up]
-        yaw = _yaw(ch.data.xmat[self._pelvis].reshape(3, 3))
+        yaw = yaw_of(ch.data.xmat[self._pelvis].reshape(3, 3))
         q[ch.root_qpos[3:7]] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
         # pelvis over the middle of the feet (COM offset kept) at standing height
         soles = np.array([ch.data.site_xpos[lg.site] for lg in self._legs])
@@ -579,7 +337,7 @@ class IPMController:
             touch[gc.body] = min(touch.get(gc.body, math.inf), float(gc.position[2]))
         targets = []
         for lg in self._legs:
-            fy = _yaw(ch.data.xmat[lg.foot].reshape(3, 3))
+            fy = yaw_of(ch.data.xmat[lg.foot].reshape(3, 3))
             ground = min(touch.get(lg.ankle_name, math.inf), touch.get(lg.toe_name, math.inf),
                          float(ch.data.site_xpos[lg.site][2]))
             R = rotation_z(fy)
@@ -599,7 +357,7 @@ class IPMController:
         return np.array([d @ f[:2], d @ l[:2]])
 
     def _heading_axes(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
-        yaw = _yaw(ch.data.xmat[self._pelvis].reshape(3, 3))
+        yaw = yaw_of(ch.data.xmat[self._pelvis].reshape(3, 3))
         c, s = math.cos(yaw), math.sin(yaw)
         return np.array([c, s, 0.0]), np.array([-s, c, 0.0])
 
@@ -761,7 +519,7 @@ class IPMController:
         if self._prev_swing is not None and p.feedforward:
             R_prev, flex_prev, t_prev = self._prev_swing
             if t > t_prev:
-                w_des = _rotvec(R_thigh_des, R_prev) / (t - t_prev)
+                w_des = rotation_error(R_thigh_des, R_prev) / (t - t_prev)
                 flex_rate = (flexion - flex_prev) / (t - t_prev)
                 n = float(np.linalg.norm(w_des))
                 if n > p.max_target_rate:
@@ -770,7 +528,7 @@ class IPMController:
         self._prev_swing = (R_thigh_des, flexion, t)
         R_thigh = d.xmat[sw.thigh].reshape(3, 3)
         A_sw = d.xaxis[sw.hip_jnt].T                         # (3, 3) columns = hinge axes
-        tau[sw.hip] = A_sw.T @ (p.hip_kp * _rotvec(R_thigh_des, R_thigh) + p.hip_kd * w_des)
+        tau[sw.hip] = A_sw.T @ (p.hip_kp * rotation_error(R_thigh_des, R_thigh) + p.hip_kd * w_des)
         _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
         D[sw.hip] = p.hip_kd * (A_sw.T @ jr_thigh)
         tau[sw.knee_dof] = p.knee_kp * (flexion - qpos[sw.knee_q]) + p.knee_kd * flex_rate
@@ -780,9 +538,9 @@ class IPMController:
                                    (st, None, p.ankle_kp, p.ankle_kd)):
             R_foot = d.xmat[leg.foot].reshape(3, 3)
             if R_des is None:  # stance foot: flat, keep its own yaw
-                R_des = rotation_z(_yaw(R_foot))
+                R_des = rotation_z(yaw_of(R_foot))
             A = d.xaxis[leg.ankle_jnt].T
-            tau[leg.ankle] = A.T @ (kp * _rotvec(R_des, R_foot))
+            tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
         up = self._upper
         tau[up] = self._upper_kp * (self._q_upper - qpos[self._dof_qpos[up]])
@@ -808,14 +566,14 @@ class IPMController:
         _, jr_p = ch.point_jacobian(self._pelvis, d.xpos[self._pelvis])
         kp_p = np.array([p.pelvis_kp, p.pelvis_kp, p.pelvis_yaw_kp])
         kd_p = np.array([p.pelvis_kd, p.pelvis_kd, p.pelvis_yaw_kd])
-        T0 = -(kp_p * _rotvec(R_p_des, R_p)
+        T0 = -(kp_p * rotation_error(R_p_des, R_p)
                + kd_p * np.array([0.0, 0.0, self._heading_rate]))
         DT = -kd_p[:, None] * jr_p                            # world torque rows on qdot
-        inv = _inv3(A_sw.T)
+        inv = inverse3(A_sw.T)
         T0 -= inv @ tau[sw.hip]
         DT -= inv @ D[sw.hip]
         for jnts, dofs in self._pelvis_children:
-            inv = _inv3(d.xaxis[jnts])
+            inv = inverse3(d.xaxis[jnts])
             T0 -= inv @ tau[dofs]
             DT -= inv @ D[dofs]
         A_st = d.xaxis[st.hip_jnt]                            # rows = hinge axes
@@ -848,7 +606,7 @@ class IPMController:
         # the stance foot holds only so much yaw moment before it spins on the ground: clamp
         # the vertical component of the stance hip's world torque
         A_st = d.xaxis[st.hip_jnt]
-        T_st = _inv3(A_st) @ tau[st.hip]
+        T_st = inverse3(A_st) @ tau[st.hip]
         lim = self._yaw_capacity(ch, st) if abs(T_st[2]) > 2.0 else math.inf
         if abs(T_st[2]) > lim:
             T_st[2] = math.copysign(lim, T_st[2])
@@ -858,7 +616,7 @@ class IPMController:
         tau[ch.root_dofs] = 0.0
         return np.clip(tau, -self._limits, self._limits)
 
-    def _yaw_capacity(self, ch: Character, st: _Leg) -> float:
+    def _yaw_capacity(self, ch: Character, st: Leg) -> float:
         """Yaw moment (N m) the stance foot can hold: ``yaw_friction x m g x r``, with ``r`` the
         mean distance of its floor contact points from their centroid (a flat foot ~0.1 m, a
         foot on its toes or heel much less), at most ``stance_yaw_limit``."""
@@ -870,14 +628,14 @@ class IPMController:
         r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
         return min(p.stance_yaw_limit, p.yaw_friction * self.mass * GRAVITY * r)
 
-    def _limit_stance_ankle(self, ch: Character, st: _Leg, tau: np.ndarray) -> None:
+    def _limit_stance_ankle(self, ch: Character, st: Leg, tau: np.ndarray) -> None:
         """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
         without rolling: limits are metres x body weight."""
         d = ch.data
         fwd, back, roll = self.params.stance_ankle_limit
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
-        T = _inv3(A.T) @ tau[st.ankle]
+        T = inverse3(A.T) @ tau[st.ankle]
         R_foot = d.xmat[st.foot].reshape(3, 3)
         Tl = R_foot.T @ T
         # the moment on the foot about +y (toes down) shifts the pressure forward

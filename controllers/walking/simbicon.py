@@ -38,6 +38,7 @@ from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
 from .gaits import Gait, get_gait
+from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
@@ -96,11 +97,6 @@ def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
         if abs(det) > 1e-9:
             return (tau[0] * c23 + tau[1] * c31 + tau[2] * c12) / det
     return np.linalg.lstsq(axes, tau, rcond=None)[0]
-
-
-def yaw_of(R: np.ndarray) -> float:
-    """Heading angle (rad) of a body orientation ``(3, 3)``: its x axis projected on the floor."""
-    return math.atan2(R[1, 0], R[0, 0])
 
 
 def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

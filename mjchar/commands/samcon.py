@@ -13,7 +13,7 @@ from .argtypes import add_floor_argument, integer, non_negative, positive
 
 
 def _weight(text: str) -> tuple[str, float]:
-    from controllers.sampling.samcon import CostWeights
+    from controllers.sampling.tracking import CostWeights
 
     name, sep, value = text.partition("=")
     names = list(CostWeights.__dataclass_fields__)
@@ -116,12 +116,8 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from controllers.sampling.executors import executor_from_args
-    from controllers.sampling.samcon import (
-        RECONSTRUCTION_OPTIONS,
-        CostWeights,
-        Samcon,
-        SamconOptions,
-    )
+    from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
+    from controllers.sampling.tracking import CostWeights
     from controllers.sampling.trajectory import replay
 
     check_output(args.output)

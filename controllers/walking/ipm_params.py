@@ -1,0 +1,185 @@
+"""IPM stepping's numbers: every tunable parameter (:class:`IPMParams`), the inverted-pendulum
+step offset of Coros, Beaudoin and van de Panne 2010 (:func:`ipm_step_offset`) and speed or
+heading commands as functions of time (:func:`schedule`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from ..core.base import ControllerError
+
+GRAVITY = 9.81
+
+
+class IPMError(ControllerError):
+    """The IPM controller was configured with impossible options or used on an unsuitable model."""
+
+
+@dataclass(frozen=True)
+class IPMParams:
+    """Every tunable number of :class:`IPMController` (SI units, angles in rad).
+
+    Attributes:
+        step_time: nominal step duration ``T`` (s).
+        min_phase: swing-foot contact ends the step only after this phase.
+        max_phase: the step is ended at this phase even without contact.
+        sagittal_scale, coronal_scale: IPM offset scales ``s_s``, ``s_c`` (paper: 1.1, 1.3).
+        speed_offset: ``k_v`` in ``- k_v v_d`` (s): how far before the IPM point to step
+            (paper: 0.05).
+        speed_integral, max_speed_bias: after every step the sagittal placement moves back by
+            ``speed_integral`` (s) x the step's mean speed error (m/s), up to ``max_speed_bias`` m
+            (integral action on top of ``- speed_offset v_d``).
+        step_width: ``w``, coronal offset of the swing foot from the COM (m).
+        min_width: least coronal distance (m) of the swing foot target from the stance foot
+            (the hip width when coming to a stop).
+        clamp: step offset limit as a fraction of the leg length (per axis).
+        swing_heights: sole heights (m) at phases 0, 0.5, 1.
+        descent_speed: m/s the swing target sinks after phase 1.
+        swing_blend: ``"quadratic"`` (lift-off weight ``(1 - phase)^2``, the paper's) or
+            ``"smooth"`` (``1 - smoothstep(phase)``), see :class:`SwingTrajectory`.
+        swing_ankle_kp, swing_ankle_kd: the swing foot's (world frame) gains, so it lands flat.
+        hip_kp, hip_kd, knee_kp, knee_kd, ankle_kp, ankle_kd, pelvis_kp, pelvis_kd: PD gains
+            (N m/rad, N m s/rad); pelvis in the world frame.
+        pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
+        stance_knee: stance knee flexion target (rad).
+        upper_gain_scale: factor on the model's gains table for spine, arms, head and toes.
+        vf_sagittal, vf_coronal_pos, vf_coronal_vel: virtual-force gains ``30``, ``c_p``,
+            ``c_v`` (1/s, 1/s^2, 1/s; paper: 30, 20, 9).
+        vf_max_sagittal, vf_max_coronal: virtual-force clamps (N).
+        coronal_offset: desired coronal COM offset from the stance foot (m, towards the swing
+            side positive) in the virtual force.
+        lean: forward pelvis pitch target (rad) per m/s of desired speed.
+        turn_rate: rad/s the heading target turns at, at most; and at most
+            ``turn_acceleration / v_d`` (m/s^2 of centripetal acceleration) when walking.
+        acceleration: m/s^2 the speed target (used by the placement and the virtual force)
+            follows the speed command at.
+        gravity_compensation: apply the gravity compensation.
+        feedforward: track the swing thigh's and knee's target velocities (finite differences
+            of the IK targets), not zero velocity.
+        max_target_rate: clamp on those target velocities (rad/s).
+        implicit_damping: evaluate every damping term at the next step's velocity (stable PD
+            generalised to the controller's damping matrix); explicit damping needs a time step
+            of about 0.5 ms.
+        stop_speed: COM speed (m/s) under which a step may end in standing (zero command).
+        heading_tolerance: heading error (rad) below which the character may stand.
+        capture_margin: the capture point may lie this far (m) outside the support polygon
+            before standing turns into stepping (3x that during ``settle_time`` after a stop).
+        stance_ankle_limit: ``(pitch_fwd, pitch_back, roll)`` moments (N m per N of body weight,
+            i.e. m) the stance ankle may apply, so the foot does not roll; ``None`` = no limit.
+        arm_abduction: arms hang this far (rad) from the body.
+        stance_yaw_limit: largest vertical (yaw) moment (N m) the stance hip may apply to the
+            pelvis; more spins the stance foot on the ground.
+        yaw_friction: the stance hip's yaw moment is also limited to ``yaw_friction x m g x r``
+            with ``r`` the spread of the stance foot's contact points (0 on a single point).
+        first_step_time: duration (s) of the first step out of standing: short, so the COM
+            falls only a little towards the swing side before the swing foot catches it, which
+            starts the lateral sway of walking.
+        push_step_time: duration (s) of the first step when a push (capture point outside the
+            feet) ends standing.
+        settle_time: seconds of standing before a speed or heading command starts a walk (a
+            push starts stepping at once).
+    """
+
+    step_time: float = 0.5
+    min_phase: float = 0.5
+    max_phase: float = 1.6
+    sagittal_scale: float = 1.0
+    coronal_scale: float = 1.0
+    speed_offset: float = 0.1
+    speed_integral: float = 0.02
+    max_speed_bias: float = 0.1
+    step_width: float = 0.03
+    min_width: float = 0.1
+    clamp: float = 0.4
+    swing_heights: tuple[float, float, float] = (0.04, 0.15, 0.02)
+    descent_speed: float = 1.0
+    swing_blend: str = "smooth"
+    hip_kp: float = 600.0
+    hip_kd: float = 60.0
+    knee_kp: float = 300.0
+    knee_kd: float = 35.0
+    ankle_kp: float = 50.0
+    ankle_kd: float = 15.0
+    swing_ankle_kp: float = 200.0
+    swing_ankle_kd: float = 20.0
+    pelvis_kp: float = 1000.0
+    pelvis_kd: float = 200.0
+    pelvis_yaw_kp: float = 300.0
+    pelvis_yaw_kd: float = 60.0
+    stance_knee: float = 0.15
+    upper_gain_scale: float = 1.0
+    vf_sagittal: float = 30.0
+    vf_coronal_pos: float = 0.0
+    vf_coronal_vel: float = 0.0
+    vf_max_sagittal: float = 60.0
+    vf_max_coronal: float = 100.0
+    coronal_offset: float = 0.0
+    lean: float = 0.0
+    turn_rate: float = 0.5
+    turn_acceleration: float = 0.3
+    acceleration: float = 0.5
+    gravity_compensation: bool = True
+    implicit_damping: bool = True
+    feedforward: bool = True
+    max_target_rate: float = 10.0
+    stop_speed: float = 0.15
+    heading_tolerance: float = 0.1
+    capture_margin: float = 0.03
+    stance_ankle_limit: tuple[float, float, float] | None = (0.08, 0.03, 0.025)
+    arm_abduction: float = 0.15
+    settle_time: float = 0.3
+    stance_yaw_limit: float = 40.0
+    yaw_friction: float = 0.5
+    first_step_time: float = 0.3
+    push_step_time: float = 0.3
+
+    def check(self) -> IPMParams:
+        """Raise :class:`IPMError` on non-finite or out-of-range values; returns self."""
+        if self.swing_blend not in ("quadratic", "smooth"):
+            raise IPMError(f"swing_blend must be 'quadratic' or 'smooth', got "
+                           f"{self.swing_blend!r}")
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, str):
+                continue
+            vals = v if isinstance(v, tuple) else (() if v is None else (v,))
+            for x in vals:
+                if not isinstance(x, bool) and not (isinstance(x, (int, float))
+                                                    and math.isfinite(x)):
+                    raise IPMError(f"IPM option {f.name} must be finite numbers, got {v!r}")
+        if self.step_time <= 0:
+            raise IPMError(f"step_time must be positive seconds, got {self.step_time}")
+        if not 0 <= self.min_phase < self.max_phase:
+            raise IPMError("need 0 <= min_phase < max_phase")
+        if self.clamp <= 0:
+            raise IPMError("clamp must be a positive fraction of the leg length")
+        return self
+
+
+def ipm_step_offset(v, h: float, g: float = GRAVITY):
+    """Inverted-pendulum step offset ``d = v sqrt(h/g + v^2/(4 g^2))`` (m) for a COM speed ``v``
+    (m/s, scalar or array) at height ``h`` (m) over the stance foot: stepping ``d`` ahead of the
+    COM brings a pendulum of that energy to rest over the foot."""
+    v = np.asarray(v, dtype=float)
+    if not (math.isfinite(h) and h > 0):
+        raise IPMError(f"COM height must be positive metres, got {h}")
+    d = v * np.sqrt(h / g + v * v / (4.0 * g * g))
+    return float(d) if d.ndim == 0 else d
+
+
+def schedule(value, what: str, scale: float = 1.0) -> Callable[[float], float | None]:
+    """A command as a function of time: ``None`` (always ``None``), a number (constant, times
+    ``scale``) or a callable ``t -> value`` (times ``scale``); a non-finite number raises
+    :class:`IPMError` naming ``what``."""
+    if value is None:
+        return lambda t: None
+    if callable(value):
+        return lambda t: (None if value(t) is None else float(value(t)) * scale)
+    v = float(value)
+    if not math.isfinite(v):
+        raise IPMError(f"{what} must be a finite number, got {value!r}")
+    return lambda t: v * scale

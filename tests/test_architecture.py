@@ -1,0 +1,232 @@
+"""The tree shows the architecture (docs/architecture.md).
+
+- Layers: ``bvh`` <- ``controllers`` <- ``envs`` <- ``mjchar``; each package imports only from
+  the layers below it, and inside ``controllers`` the subpackages keep their own order
+  (``core`` <- ``balance`` <- ``walking``; ``core`` <- ``sampling``).
+- No import circle between files (every import counts: module level, inside functions, and
+  under ``TYPE_CHECKING``).
+- No module over 800 lines.
+- The controller registry is the one list of controllers: a throwaway registration shows up in
+  ``mjchar run``, in ``make_controller`` and in a one-cell bench matrix with no other edit, and
+  every registered controller passes the same smoke test.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bvh.assets import TRAJECTORIES
+from controllers.core import registry
+from controllers.core.action import Action
+from controllers.core.registry import ControllerSpec, RegistryError
+from mjchar import bench as B
+from mjchar.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYERS = ("bvh", "controllers", "envs", "mjchar")
+#: inside controllers: what each subpackage may import from its siblings
+CONTROLLER_DEPS = {"core": set(), "balance": {"core"}, "walking": {"core", "balance"},
+                   "sampling": {"core"}}
+MAX_LINES = 800
+
+
+def _modules() -> dict[str, Path]:
+    """``{dotted module name: file}`` for every module of the four packages."""
+    out = {}
+    for top in LAYERS:
+        for f in sorted((ROOT / top).rglob("*.py")):
+            parts = list(f.relative_to(ROOT).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            out[".".join(parts)] = f
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """The project modules ``name`` imports (resolved to modules: ``from pkg import mod`` is an
+    import of ``pkg.mod`` when that is a module, else of ``pkg``)."""
+    is_pkg = path.name == "__init__.py"
+    package = name.split(".") if is_pkg else name.split(".")[:-1]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[:len(package) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module
+            for a in node.names:
+                sub = f"{target}.{a.name}"
+                found.add(sub if sub in MODULES else target)
+    return {m for m in found if m.split(".")[0] in LAYERS and m != name}
+
+
+GRAPH = {name: {m if m in MODULES else m.rsplit(".", 1)[0] for m in _imports(name, path)}
+         for name, path in MODULES.items()}
+
+
+def test_every_import_resolves_to_a_project_module():
+    unknown = {(a, b) for a, deps in GRAPH.items() for b in deps if b not in MODULES}
+    assert not unknown
+
+
+def test_layers_import_only_from_below():
+    upward = []
+    for a, deps in GRAPH.items():
+        for b in deps:
+            if LAYERS.index(b.split(".")[0]) > LAYERS.index(a.split(".")[0]):
+                upward.append(f"{a} imports {b}")
+    assert not upward, "\n".join(upward)
+
+
+def test_controller_subpackages_keep_their_order():
+    wrong = []
+    for a, deps in GRAPH.items():
+        pa = a.split(".")
+        if pa[0] != "controllers" or len(pa) < 3:
+            continue
+        for b in deps:
+            pb = b.split(".")
+            if pb[0] == "controllers" and len(pb) > 1 and pb[1] != pa[1]:
+                if pb[1] not in CONTROLLER_DEPS[pa[1]]:
+                    wrong.append(f"{a} imports {b}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_no_import_circles_between_files():
+    # Tarjan's strongly connected components over the file graph
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    circles: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in GRAPH[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                circles.append(sorted(comp))
+
+    for v in GRAPH:
+        if v not in index:
+            visit(v)
+    assert not circles, circles
+
+
+def test_the_graph_sees_real_edges():
+    # the checks above are only as good as the graph: spot-check edges that must be there
+    assert "controllers.core.character" in GRAPH["controllers.core.base"]
+    assert "controllers.core.registry" in GRAPH["controllers.balance.hand_of_god"]
+    assert "controllers" in GRAPH["mjchar.bench.matrix"]  # `from controllers import registry`
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_module_over_800_lines(name):
+    n = len(MODULES[name].read_text().splitlines())
+    assert n <= MAX_LINES, f"{MODULES[name].relative_to(ROOT)} has {n} lines"
+
+
+# -- the registry ------------------------------------------------------------------------------
+class Limp:
+    """A controller that applies no torque at all: the character collapses."""
+
+    name = "limp"
+    actuation = "torque"
+
+    def reset(self, character) -> None:
+        character.set_actuation(self.actuation)
+        self.nv = character.nv
+
+    def act(self, character, t: float) -> Action:
+        return Action(torque=np.zeros(self.nv))
+
+
+@pytest.fixture
+def limp():
+    spec = registry.register(ControllerSpec(
+        name="limp", label="no torque (test)", kind="balance",
+        factory=lambda character, target=None, **options: Limp(),
+        scenarios=("stand", "push"), default_scenario="stand", bench=("stand",)))
+    yield spec
+    registry.unregister("limp")
+
+
+def test_a_registration_reaches_the_cli_make_controller_and_the_bench(limp, capsys):
+    assert "limp" in registry.names()
+    assert isinstance(registry.make_controller("limp", None), Limp)
+    # mjchar run: a choice, and it runs (the limp character falls)
+    assert main(["run", "limp", "--duration", "3", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["controller"] == "limp" and out["scenario"] == "stand" and out["fell"]
+    assert main(["run", "limp", "--scenario", "walk"]) == 2  # not a scenario it declares
+    # the bench: a row of the matrix, run as a one-cell matrix
+    assert B.matrix()["limp"] == ("stand",)
+    cfg = replace(B.quick_config(1), stand_duration=3.0)
+    controllers, cells, _ = B.run_matrix([("limp", "stand")], cfg, progress=False)
+    assert controllers["limp"]["available"]
+    assert cells[0]["status"] == "ok" and not cells[0]["runs"][0]["survived"]
+
+
+def test_after_unregistering_the_name_is_gone(limp):
+    registry.unregister("limp")
+    try:
+        assert "limp" not in registry.names()
+        with pytest.raises(RegistryError, match="unknown controller 'limp'"):
+            registry.make_controller("limp", None)
+        with pytest.raises(SystemExit):
+            main(["run", "limp"])
+    finally:
+        registry.register(limp)  # the fixture unregisters it
+
+
+def test_bad_registrations_are_refused(limp):
+    with pytest.raises(RegistryError, match="already registered"):
+        registry.register(limp)
+    with pytest.raises(RegistryError, match="kind"):
+        replace(limp, name="x", kind="dancer")
+    with pytest.raises(RegistryError, match="default scenario"):
+        replace(limp, name="x", default_scenario="walk")
+    with pytest.raises(RegistryError, match="expected"):
+        replace(limp, name="x", expected=("walk",))
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_every_registered_controller_runs_its_default_scenario(name, capsys):
+    """The same smoke test for every registration: half a second of its default scenario
+    through ``mjchar run``, no divergence, and no fall where the bench expects it to survive."""
+    spec = registry.get(name)
+    argv = ["run", name, "--duration", "0.5", "--json"]
+    if spec.kind == "replay" and not spec.trajectory_prefixes:
+        argv.insert(2, str(sorted(TRAJECTORIES.glob("samcon*.npz"))[0]))
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert not out["diverged"]
+    assert out["sim_time_s"] == pytest.approx(0.5, abs=0.02)
+    if spec.default_scenario in spec.expected:
+        assert not out["fell"]
