@@ -7,9 +7,10 @@
 Parts:
   walk          60 s on level ground at 5 seeds: falls, steady speed (last 10 s), root force
   feedback-off  cd = cv = 0 (sagittal and coronal) at 5 seeds: time of the fall
-  pushes        0.2 s pushes to the torso at 8 phases of the stride: 200 N front/back,
-                150 N left/right, 10 s of walking afterwards
-  search        largest push survived at all 8 phases, per direction (bisection, 10 N)
+  pushes        the push protocol at 200 N front/back, 150 N left/right: 0.2 s pushes to the
+                chest at 8 phases x 5 seeds, 5 s of walking afterwards (survival rate)
+  search        the push protocol over a 25 N grid to 800 N, 8 phases x 5 seeds: the largest
+                forces with survival rate 100 % and >= 90 % per direction
   slopes        20 m up and 20 m down a 5 degree slope
   timing        controller + physics step cost relative to a bare mj_step
 """
@@ -28,9 +29,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from controllers.core.character import Character  # noqa: E402
+from controllers.core.push_protocol import PushProtocol, survival_rates  # noqa: E402
 from controllers.core.terrain import (  # noqa: E402
-    phase_push_test,
-    push_search,
     slope_walk,
     walk,
 )
@@ -83,39 +83,26 @@ def bench_feedback_off(gait: str) -> dict:
 
 
 def bench_pushes(gait: str) -> dict:
-    res = phase_push_test(
-        character(), make_simbicon(gait=gait), forces=PUSH_FORCES, phases=8, progress=log
-    )
+    """The push protocol at the fixed forces of PUSH_FORCES: 8 phases x 5 seeds each."""
     out = {}
-    for name, per in res.items():
-        out[name] = {
-            f"{p:.3f}": {
-                "survived": bool(r.max_push_N),
-                "fell": r.fell,
-                "speed_after_mps": r.extra["steady_speed_mps"],
-                "push_time_s": r.extra["push_time_s"],
-            }
-            for p, r in per.items()
-        }
-        n_ok = sum(v["survived"] for v in out[name].values())
-        log(f"pushes {name} {PUSH_FORCES[name]:.0f} N: {n_ok}/{len(per)} phases survived")
+    for name, force in PUSH_FORCES.items():
+        protocol = PushProtocol(forces=(force,), phases=8, seeds=tuple(SEEDS),
+                                directions=(name,))
+        r = survival_rates("simbicon", protocol, options={"gait": gait}, processes=0)
+        out[name] = r.to_dict()
+        rate = r.curves[name]["rates"][0] if r.curves.get(name) else None
+        log(f"pushes {name} {force:.0f} N: "
+            + ("falls unpushed" if r.falls_unpushed else f"survival rate {rate:.0%} over "
+               f"{protocol.phases} phases x {len(SEEDS)} seeds"))
     return out
 
 
 def bench_search(gait: str) -> dict:
-    best = push_search(
-        character(),
-        make_simbicon(gait=gait),
-        phases=8,
-        max_force=800.0,
-        tolerance=10.0,
-        progress=log,
-    )
-    log(
-        "largest push survived at all 8 phases (0.2 s, chest): "
-        + ", ".join(f"{k} {v:.0f} N" for k, v in best.items())
-    )
-    return best
+    """The push protocol over a 25 N grid to 800 N, 8 phases x 5 seeds, every direction."""
+    protocol = PushProtocol.grid(800.0, 25.0, phases=8, seeds=tuple(SEEDS))
+    r = survival_rates("simbicon", protocol, options={"gait": gait}, processes=0, progress=log)
+    log(r.summary())
+    return r.to_dict()
 
 
 def bench_slopes(gait: str) -> dict:

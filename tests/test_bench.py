@@ -33,10 +33,10 @@ def tiny(**over) -> B.BenchConfig:
     """A configuration whose runs take a fraction of a second each."""
     cfg = replace(
         B.quick_config(1), stand_duration=0.4, random_push_duration=0.6,
-        push_duration=1.4, push_max_force=200.0, push_tolerance=100.0,
+        push_phases=1, push_seeds=1, push_standing_cap=100.0, push_walking_cap=50.0,
+        push_resolution=100.0, push_after=0.5, push_warmup=1.0, push_processes=1,
         push_directions=("forward",), track_duration=0.4, walk_duration=0.8, steady_window=0.4,
-        slope_duration=0.6, slope_distance=0.3, walk_push_phases=1, walk_push_max_force=50.0,
-        walk_push_tolerance=100.0, walk_push_warmup=1.0, walk_push_after=0.5,
+        slope_duration=0.6, slope_distance=0.3,
         perf=B.PerfConfig(raw_steps=100, raw_repeats=1, cost_steps=100, cost_repeats=1,
                           rollout_samples=2, rollout_steps=5, rollout_repeats=1,
                           rollout_threads=(1,), env_steps=5, env_repeats=1, bvh_budget_s=0.01,
@@ -77,8 +77,10 @@ def test_select_cells_follows_the_matrix_and_rejects_unknown_names():
 def test_config_checks():
     with pytest.raises(B.BenchError, match="seeds"):
         replace(B.quick_config(), seeds=()).check()
-    with pytest.raises(B.BenchError, match="push_duration"):
-        replace(B.quick_config(), push_duration=1.0).check()
+    with pytest.raises(B.BenchError, match="push_phases"):
+        replace(B.quick_config(), push_phases=0).check()
+    with pytest.raises(B.BenchError, match="push_resolution"):
+        replace(B.quick_config(), push_resolution=-5.0).check()
     with pytest.raises(B.BenchError, match="directions"):
         replace(B.quick_config(), push_directions=("up",)).check()
     with pytest.raises(B.BenchError):
@@ -86,6 +88,10 @@ def test_config_checks():
     q, f = B.quick_config(), B.full_config()
     assert q.quick and not f.quick and q.seeds == (0, 1) and f.seeds == (0, 1, 2)
     assert B.full_config(5).seeds == (0, 1, 2, 3, 4)
+    # the push protocol of the issue: quick 4 phases x 2 seeds, full 8 phases x 5 seeds
+    qp, fp = q.push_protocol("walking"), f.push_protocol("standing")
+    assert (qp.phases, len(qp.seeds), fp.phases, len(fp.seeds)) == (4, 2, 8, 5)
+    assert qp.after >= 5.0 and fp.after >= 5.0
 
 
 # -- reproducibility ------------------------------------------------------------------------------
@@ -136,7 +142,10 @@ def test_cells_measure_what_the_table_reports():
     assert sb["runs"][0]["result"]["sim_time_s"] == pytest.approx(0.4, abs=0.01)
     ps = cells[("spd", "push-search")]["summary"]
     assert set(ps["max_push_by_direction_N"]) == {"forward"}
-    assert ps["push_protocol"].startswith("standing")
+    assert "on the pelvis" in ps["push_protocol"] and "1 x 1 seeds" in ps["push_protocol"]
+    assert ps["falls_unpushed"] is False and ps["push_at_cap"] == {"forward": True}
+    push = cells[("spd", "push-search")]["runs"][0]["push"]
+    assert len(push["runs"]) == 1 and push["runs"][0]["force_N"] == 100.0  # every run recorded
     hog = cells[("hand_of_god", "track")]["runs"][0]
     assert hog["series"]["tracking_error_m"] is not None
     assert len(hog["series"]["tracking_error_m"]) == len(hog["series"]["t_s"])

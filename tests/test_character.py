@@ -198,6 +198,36 @@ def test_root_rows_of_an_action_are_an_external_wrench(mini):
     np.testing.assert_array_equal(mini.root_wrench, np.zeros(6))
 
 
+@pytest.mark.parametrize("mode", ["native", "torque"])
+def test_an_oversized_feedforward_torque_is_applied_at_the_limit(mode):
+    """5000 N m asked of a knee (limit: its actuator's forcerange): the simulation applies the
+    limit, feed-forward on top of native PD included; with the limits lifted it applies it
+    all."""
+    ch = Character()
+    knee = int(ch.joint_dofs(ch.role("left_knee"))[0])
+    a = int(np.flatnonzero(ch.actuator_dof == knee)[0])
+    limit = float(ch.torque_limits()[knee])
+    assert 0 < limit < 5000
+
+    def applied(lift: bool) -> tuple[float, float]:
+        ch.set_torque_limits(not lift)
+        ch.set_actuation(mode)
+        q = standing(ch)
+        ch.reset(q)
+        tau = np.zeros(ch.nv)
+        tau[knee] = 5000.0
+        target = q[ch.actuator_qpos] if mode == "native" else None
+        ch.step(Action(torque=tau, target=target))
+        d = ch.data
+        return float(d.qfrc_actuator[knee] + d.qfrc_applied[knee]), float(d.actuator_force[a])
+
+    total, force = applied(lift=False)
+    assert total == pytest.approx(limit, rel=1e-9) and force == pytest.approx(limit, rel=1e-9)
+    total, _ = applied(lift=True)
+    assert total > 4000.0
+    ch.set_torque_limits(True)
+
+
 # -- centre of mass, Jacobians, mass matrix ------------------------------------------------------
 def test_com_velocity_and_jacobian_match_finite_differences(humanoid):
     rng = np.random.default_rng(3)

@@ -122,3 +122,15 @@ def test_render_writes_an_mp4(tmp_path):
     assert info["video_frames"] == 16  # 30 fps over 0.5 s, first frame at t = 0
     assert out.is_file() and out.stat().st_size > 1000
     assert out.read_bytes()[4:8] == b"ftyp"  # an MP4 container
+
+
+def test_push_search_reports_rates_over_the_grid(capsys):
+    assert main(["run", "static_balance", "--scenario", "push-search", "--max-force", "100",
+                 "--tolerance", "50", "--phases", "1", "--seeds", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["protocol"]["forces"] == [50.0, 100.0] and out["protocol"]["phases"] == 1
+    assert not out["falls_unpushed"]
+    assert set(out["largest_100_N"]) == {"forward", "left", "backward", "right"}
+    assert all(v in (0.0, 50.0, 100.0) for v in out["largest_100_N"].values())
+    assert out["largest_100_N"]["forward"] == 100.0 and out["at_cap"]["forward"]
+    assert "grid 50-100 N in 50 N steps" in out["description"]

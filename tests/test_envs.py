@@ -389,14 +389,34 @@ def test_random_actions_never_produce_nan(env_id):
     env.close()
 
 
+#: PPO after 20k steps (seed 0) must beat the zero policy (plain PD tracking) by this much mean
+#: evaluation return over the same 5 episodes (reset seeds 0-4). Measured: 16.86 against 11.56.
+#: Stand-v0 is not tested: there 20k PPO steps score 34.97 against the zero policy's 102.88
+#: (docs/envs.md), a result no test should pretend is learning.
+PPO_MARGIN = 3.0
+
+
+def _evaluate(env_id: str, policy, episodes: int = 5) -> float:
+    """Mean return of ``policy(obs) -> action`` over ``episodes`` episodes (reset seeds 0..)."""
+    env = gym.make(env_id)
+    total = 0.0
+    for seed in range(episodes):
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(policy(obs))
+            total += float(reward)
+            done = terminated or truncated
+    env.close()
+    return total / episodes
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", IDS)
-def test_ppo_trains_20k_steps(env_id):
+def test_ppo_beats_the_zero_policy_after_20k_steps():
+    env_id = "mjchar/Imitation-v0"
     sb3 = pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                               "(pip install torch==2.13.0 first, then stable-baselines3)")
     import torch
-    from stable_baselines3.common.evaluation import evaluate_policy
-    from stable_baselines3.common.monitor import Monitor
 
     env = gym.make(env_id)
     threads = torch.get_num_threads()
@@ -406,14 +426,12 @@ def test_ppo_trains_20k_steps(env_id):
         model = sb3.PPO("MlpPolicy", env, seed=0, device="cpu", verbose=0)
         model.learn(total_timesteps=20_000)
         train_s = time.perf_counter() - t0
+        zero = np.zeros(env.action_space.shape, dtype=env.action_space.dtype)
+        zero_return = _evaluate(env_id, lambda obs: zero)
+        ppo_return = _evaluate(env_id, lambda obs: model.predict(obs, deterministic=True)[0])
     finally:
         torch.set_num_threads(threads)
-    assert model.num_timesteps >= 20_000
-    ep_rewards = [ep["r"] for ep in model.ep_info_buffer]
-    assert ep_rewards and np.all(np.isfinite(ep_rewards))
-    mean, std = evaluate_policy(model, Monitor(gym.make(env_id)), n_eval_episodes=5,
-                                deterministic=True)
-    assert math.isfinite(mean) and math.isfinite(std)
-    print(f"\n{env_id}: PPO 20k steps in {train_s:.0f} s, training episodes' mean return "
-          f"{np.mean(ep_rewards):.2f}, evaluation {mean:.2f} +- {std:.2f}")
-    env.close()
+        env.close()
+    print(f"\n{env_id}: PPO 20k steps in {train_s:.0f} s, evaluation return {ppo_return:.2f} "
+          f"vs zero policy {zero_return:.2f} (seeds 0-4)")
+    assert ppo_return >= zero_return + PPO_MARGIN

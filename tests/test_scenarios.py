@@ -86,32 +86,6 @@ def test_random_push_is_deterministic_per_seed(ch):
         assert p.body == ch.role("pelvis") and p.duration == 1.0
 
 
-def test_push_search_bisects_to_the_threshold(ch, monkeypatch):
-    """With a fake push that survives below a per-direction threshold, the search finds each
-    threshold within the tolerance."""
-    thresholds = {0.0: 137.0, 90.0: 81.0, 180.0: 55.5, 270.0: 2000.0}
-    calls = []
-
-    def fake_push(character, controller, *, force, direction, allow_steps=False, **kw):
-        calls.append((direction, force))
-        fell = force > thresholds[direction]
-        return Result(controller="x", scenario="push", fell=fell, fall_time_s=None,
-                      sim_time_s=4.0, distance_m=0.0, mean_speed_mps=0.0, tracking_error_m=None,
-                      root_error_m=None, root_force_mean_N=0.0, root_force_max_N=0.0,
-                      root_torque_mean_Nm=0.0, max_push_N=None, wall_s=0.01, steps_per_s=1.0,
-                      timestep_s=0.002, control_dt_s=0.002, n_steps=2000)
-
-    monkeypatch.setattr(S, "push", fake_push)
-    r = S.push_search(ch, None, max_force=1000.0, tolerance=5.0)
-    best = r.max_push_by_direction_N
-    assert best["right"] == 1000.0  # survives the upper bound
-    for name, deg in S.DIRECTIONS.items():
-        if name != "right":
-            assert thresholds[deg] - 5.0 <= best[name] <= thresholds[deg]
-    assert r.max_push_N == best["backward"] and r.scenario == "push-search"
-    assert r.n_steps == 2000 * len(calls)
-
-
 def test_result_to_dict_is_json_with_nulls_for_nan():
     r = Result(controller="c", scenario="s", fell=False, fall_time_s=None, sim_time_s=1.0,
                distance_m=np.float64(0.5), mean_speed_mps=math.nan, tracking_error_m=None,
@@ -178,16 +152,3 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
     assert default_timestep("ipm") is None
     with pytest.raises(RegistryError, match="simbicon, ipm"):
         make_controller("walker", ch)
-
-
-def test_largest_passing_bisects_to_the_tolerance():
-    calls = []
-
-    def survives(f):
-        calls.append(f)
-        return f <= 137.0
-
-    best = S.largest_passing(survives, 400.0, 5.0)
-    assert 132.0 <= best <= 137.0 and calls[0] == 400.0
-    assert S.largest_passing(lambda f: True, 400.0, 5.0) == 400.0
-    assert S.largest_passing(lambda f: False, 400.0, 5.0) < 5.0

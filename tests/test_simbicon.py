@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from controllers.core.character import Character
+from controllers.core.push_protocol import PushProtocol, survival_rates
 from controllers.core.terrain import (
     TerrainError,
     floor_height,
-    phase_push_test,
     place_on_floor,
     push_walk,
     slope_walk,
@@ -232,9 +232,10 @@ def test_feedback_off_falls_other_seeds(ch, seed):
 @pytest.mark.parametrize("direction", sorted(PUSHES))
 def test_pushes_at_8_phases(ch, direction):
     force = PUSHES[direction][1]
-    res = phase_push_test(ch, make_simbicon(gait="walk"), forces={direction: force}, phases=8)
-    failed = [p for p, r in res[direction].items() if not r.max_push_N]
-    assert not failed, f"{direction} {force} N failed at phases {failed}"
+    protocol = PushProtocol(forces=(force,), phases=8, seeds=(0,), directions=(direction,))
+    rates = survival_rates("simbicon", protocol, processes=2)
+    failed = [r["phase"] for r in rates.runs if not r["survived"]]
+    assert not rates.falls_unpushed and not failed, f"{direction} {force} N failed at {failed}"
 
 
 @pytest.mark.slow

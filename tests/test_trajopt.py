@@ -21,7 +21,7 @@ from bvh.reference import ReferenceMotion
 from controllers.core.character import Character
 from controllers.sampling.executors import LocalExecutor
 from controllers.sampling.rollout import RolloutRequest
-from controllers.sampling.tracking import tracking_rollout_model
+from controllers.sampling.tracking import FALL_COST, tracking_rollout_model
 from controllers.sampling.trajectory import replay
 from controllers.sampling.trajopt import (
     JumpObjective,
@@ -69,27 +69,24 @@ def test_windows_overlap_and_commit_everything(character, walk_ref, executor):
 
 
 def test_short_tracking_improves_on_the_start_and_replays(walk_ref, executor):
-    o = TrajoptOptions(duration=0.4, window=0.4, commit=0.2, generations=4, popsize=8, seed=2)
+    """From a start that is not optimal (plain PD on the raw reference, ``id_targets=False``),
+    6 generations of 8 lower the tracking cost of the first 0.4 s by at least 10 % (measured:
+    16.3 % at seed 1, 14.8 % at seed 0). From the inverse-dynamics start the same budget finds
+    nothing better (4-12 generations return the start itself): that start is not used here."""
+    o = TrajoptOptions(duration=0.4, window=0.4, commit=0.2, generations=6, popsize=8,
+                       sigma0=0.5, seed=1, id_targets=False)
     res = track_clip(walk_ref, options=o, executor=executor, source_motion="walk.bvh",
                      progress=False)
     tr = res.trajectory
     assert tr.n_controls == 20 and tr.metadata["method"] == "cmaes-track"
-    assert res.evaluations >= 4 * 8
-    # no worse than the zero-offset start (the optimiser evaluates it and keeps the best seen)
-    start = type(tr).for_model(Character().model, _base_targets(walk_ref, 0.4), tr.control_dt,
-                               tr.initial_qpos,
-                               tr.initial_qvel, warmstart_resets=tr.warmstart_resets)
-    assert trajectory_cost(tr, walk_ref) <= trajectory_cost(start, walk_ref) + 1e-9
+    assert res.evaluations >= 6 * 8
+    t = (np.arange(tr.n_controls) + 0.5) * tr.control_dt
+    start = type(tr).for_model(Character().model, walk_ref.qpos(t)[:, Character().actuator_qpos],
+                               tr.control_dt, tr.initial_qpos, tr.initial_qvel,
+                               warmstart_resets=tr.warmstart_resets)
+    assert trajectory_cost(tr, walk_ref) <= 0.9 * trajectory_cost(start, walk_ref)
     r = replay(tr)
-    assert not r.fell and r.root_force_mean_N == 0.0 and r.tracking_error_m < 0.08
-
-
-def _base_targets(ref, duration):
-    from controllers.sampling.tracking import inverse_dynamics_targets
-
-    ch = Character()
-    t = (np.arange(int(round(duration / 0.02))) + 0.5) * 0.02
-    return inverse_dynamics_targets(ch, ref, t)
+    assert not r.fell and r.root_force_mean_N == 0.0
 
 
 def test_plain_pd_trajectory_is_the_native_pd_tracker(walk_ref, character):
@@ -120,6 +117,10 @@ def test_jump_objective_rewards_flight_and_standing(character, executor):
 
 
 def test_short_jump_optimisation_improves_the_designed_start(executor):
+    """The designed start (JUMP_KEYS) falls, so its cost carries the fall penalty: it is not
+    optimal. Three generations of 8 must remove the penalty (cost below 1 % of the start's) and
+    give a replay that leaves the floor by 3 cm and does not fall (measured: 10.2 cm at seed 0;
+    5.2 and 5.3 cm at seeds 1 and 2)."""
     o = TrajoptOptions(generations=3, popsize=8, sigma0=0.15, seed=0)
     res = optimise_jump(options=o, executor=executor, duration=2.2, progress=False)
     tr = res.trajectory
@@ -137,10 +138,12 @@ def test_short_jump_optimisation_improves_the_designed_start(executor):
                                             [None], 10)), 0, tr.n_controls)[0]
         f1 = obj(ex.evaluate(RolloutRequest(rm, s0, tr.targets[None], 10)), 0,
                  tr.n_controls)[0]
-    assert f1 <= f0
+    assert f0 > 0.1 * FALL_COST  # the start falls
+    assert f1 < 0.01 * f0
     assert res.window_costs[0] == pytest.approx(f1)
     r = replay(tr)
-    assert r.tracking_error_m is None and r.extra["max_clearance_m"] >= 0.0
+    assert r.tracking_error_m is None and not r.fell
+    assert r.extra["max_clearance_m"] > 0.03
 
 
 def test_bad_options(walk_ref):

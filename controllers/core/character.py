@@ -122,6 +122,7 @@ class Character:
         self._native_forcelimited = m.actuator_forcelimited.copy()
         self._torque_limited = True
         self._mode = "native"
+        self._native_target = np.zeros(self.nu)  # native set-points before any feed-forward
         self._table = self.native_gains()
         self._pushes = PushSchedule(self.data)
         self._root_wrench = np.zeros(6)
@@ -334,6 +335,7 @@ class Character:
         ``qpos``: ``(nq,)``; ``qvel``: ``(nv,)`` (zeros when ``None``).
         """
         mujoco.mj_resetData(self.model, self.data)
+        self._native_target[:] = 0
         if qpos is not None:
             self.data.qpos[:] = self._vec(qpos, self.nq, "qpos")
         if qvel is not None:
@@ -364,6 +366,7 @@ class Character:
         """Restore a vector from :meth:`get_state` and recompute everything derived from it."""
         state = self._vec(state, mujoco.mj_stateSize(self.model, self._state_sig), "state")
         mujoco.mj_setState(self.model, self.data, state, self._state_sig)
+        self._native_target[:] = self.data.ctrl
         self._refresh()
 
     def _refresh(self, check: bool = True) -> None:
@@ -421,6 +424,7 @@ class Character:
             m.actuator_ctrlrange[:] = self._native_ctrlrange
             m.actuator_ctrllimited[:] = self._native_ctrllimited
         self.data.ctrl[:] = 0
+        self._native_target[:] = 0
         self._mode = mode
 
     def native_gains(self) -> tuple[np.ndarray, np.ndarray]:
@@ -646,9 +650,12 @@ class Character:
     def apply(self, action: Action | None) -> None:
         """Write an action into the controls.
 
-        ``action.torque`` ``(nv,)``: actuated rows become actuator controls in torque mode (clamped
-        to the torque limits) or are added as feed-forward forces in native mode; unactuated rows
-        (the root's 6) are applied as an external generalised force (the hand of god).
+        ``action.torque`` ``(nv,)``: actuated rows become actuator controls in torque mode, or a
+        feed-forward on top of the PD in native mode (folded into the position actuators'
+        set-points, ``u + tau / kp``, so that MuJoCo clamps the joint's total torque to its
+        ``forcerange``); either way the applied joint torque never exceeds the model's limit
+        (unless :meth:`set_torque_limits` lifted it). Unactuated rows (the root's 6) are applied
+        as an external generalised force (the hand of god).
         ``action.target`` ``(nu,)``: native PD set-points (only in native mode).
         A non-finite torque or target raises :class:`SimulationDiverged`.
         """
@@ -656,8 +663,7 @@ class Character:
         d.qfrc_applied[:] = 0
         self._root_wrench[:] = 0
         if action is None:
-            if self._mode == "torque":
-                d.ctrl[:] = 0
+            d.ctrl[:] = 0 if self._mode == "torque" else self._native_target
             return
         tau = action.torque
         if tau is not None:
@@ -675,17 +681,31 @@ class Character:
             if action.target is not None:
                 raise CharacterError("PD targets given while the actuators are in torque mode")
             d.ctrl[:] = 0 if tau is None else tau[self.actuator_dof]
-        else:
-            if action.target is not None:
-                if action.target.shape != (self.nu,):
-                    raise CharacterError(f"action target must have shape ({self.nu},), got "
-                                         f"{action.target.shape}")
-                if not np.isfinite(action.target).all():
-                    raise SimulationDiverged("the controller produced a non-finite target",
-                                             d.time)
-                d.ctrl[:] = action.target
-            if tau is not None:
-                d.qfrc_applied[self.actuator_dof] += tau[self.actuator_dof]
+            return
+        if action.target is not None:
+            if action.target.shape != (self.nu,):
+                raise CharacterError(f"action target must have shape ({self.nu},), got "
+                                     f"{action.target.shape}")
+            if not np.isfinite(action.target).all():
+                raise SimulationDiverged("the controller produced a non-finite target", d.time)
+            self._native_target[:] = action.target
+        d.ctrl[:] = self._native_target
+        if tau is not None and tau[self.actuator_dof].any():
+            self._add_feedforward(tau[self.actuator_dof])
+
+    def _add_feedforward(self, ff: np.ndarray) -> None:
+        """Native mode: add the ``(nu,)`` feed-forward torques ``ff`` (N m) through the actuators
+        (position actuators: ``ctrl += ff / kp``; motors: ``ctrl += ff``), so the actuator's
+        force range clamps PD and feed-forward together. Position actuators without stiffness
+        cannot carry it: there it is applied directly, clipped to the torque limit."""
+        gain = self.model.actuator_gainprm[:, 0]
+        direct = self.position_actuators & (gain <= 0)
+        carried = ~direct
+        self.data.ctrl[carried] += ff[carried] / gain[carried]
+        if direct.any():
+            lim = self.torque_limits()[self.actuator_dof[direct]] if self._torque_limited \
+                else np.inf
+            self.data.qfrc_applied[self.actuator_dof[direct]] += np.clip(ff[direct], -lim, lim)
 
     def step(self, action: Action | None = None, n: int = 1) -> None:
         """Apply ``action`` (held for all ``n`` physics steps) and advance ``n`` steps.

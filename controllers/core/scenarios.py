@@ -6,7 +6,8 @@ happens to it (pushes), runs a controller and returns a :class:`~controllers.cor
 - ``stand``: from the standing pose, no disturbance.
 - ``push``: one horizontal push (default 0.2 s on the pelvis, 1 s in) of a given force and
   direction (degrees in the character's heading frame: 0 forward, 90 left, 180 back, 270 right).
-- ``push-search``: per direction, the largest survivable push by bisection.
+- ``push-search``: survival rates over phases, seeds and a force grid, per direction: the push
+  protocol of :mod:`controllers.core.push_protocol` (built on :func:`push`).
 - ``random-push``: a 10 N horizontal push on the root whose direction changes every second
   (PKU MoCCA's standing test), random directions from the seed.
 - ``track``: start on the reference's first frame and follow it (tracking errors).
@@ -49,21 +50,6 @@ class ScenarioError(MjcharError):
 def standing_pose(character: Character) -> np.ndarray:
     """``(nq,)`` the model's rest pose (``qpos0``) with the feet on the floor."""
     return character.on_floor(character.model.qpos0)
-
-
-def largest_passing(trial: Callable[[float], bool], max_force: float, tolerance: float) -> float:
-    """The largest force in ``[0, max_force]`` that ``trial(force)`` survives, by bisection to
-    ``tolerance`` newtons (``max_force`` itself when it passes; assumes survival is monotone)."""
-    lo, hi = 0.0, float(max_force)
-    if trial(hi):
-        return hi
-    while hi - lo > tolerance:
-        mid = 0.5 * (lo + hi)
-        if trial(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
 
 
 def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:
@@ -148,9 +134,11 @@ def stand(character: Character, controller, *, duration: float = 10.0, **kw) -> 
 
 def push(character: Character, controller, *, force: float, direction: float = 0.0,
          push_duration: float = 0.2, push_time: float = 1.0, body: str | None = None,
-         duration: float = 4.0, allow_steps: bool = False, **kw) -> Result:
+         duration: float = 4.0, allow_steps: bool = False,
+         start: tuple[np.ndarray, np.ndarray | None] | None = None, **kw) -> Result:
     """One push of ``force`` N towards ``direction`` degrees (heading frame) on ``body``
-    (default: the pelvis) for ``push_duration`` s at ``push_time`` s; run ``duration`` s.
+    (default: the pelvis) for ``push_duration`` s at ``push_time`` s; run ``duration`` s from
+    ``start`` (``(qpos (nq,), qvel (nv,))``, default: the standing pose at rest).
 
     ``max_push_N`` is ``force`` when it was survived (no fall and, unless ``allow_steps``, no
     foot moved more than 5 cm), else 0.
@@ -166,8 +154,9 @@ def push(character: Character, controller, *, force: float, direction: float = 0
         f = force * heading_frame_direction(ch, direction)
         ch.push(body, f, push_duration, start=push_time)
 
-    r = simulate(character, controller, duration=duration, scenario="push",
-                 qpos=standing_pose(character), events=events, **kw)
+    qpos, qvel = (standing_pose(character), None) if start is None else start
+    r = simulate(character, controller, duration=duration, scenario="push", qpos=qpos,
+                 qvel=qvel, events=events, **kw)
     r.push_N, r.push_direction_deg = float(force), float(direction)
     r.max_push_N = float(force) if survived(r, allow_steps) else 0.0
     return r
@@ -176,42 +165,6 @@ def push(character: Character, controller, *, force: float, direction: float = 0
 def survived(result: Result, allow_steps: bool = False) -> bool:
     """No fall, and (unless ``allow_steps``) no foot moved by a step."""
     return not result.fell and (allow_steps or not result.stepped)
-
-
-def push_search(character: Character, controller, *, directions: dict | None = None,
-                max_force: float = 1000.0, tolerance: float = 5.0, allow_steps: bool = False,
-                progress: Callable[[str], None] | None = None, **push_kw) -> Result:
-    """Largest survivable push per direction (bisection between 0 and ``max_force`` N, to within
-    ``tolerance`` N). ``max_push_N`` is the smallest of the per-direction values (what the
-    controller survives from every direction); ``max_push_by_direction_N`` has each one."""
-    directions = DIRECTIONS if directions is None else directions
-    frame_callback = push_kw.pop("frame_callback", None)  # only the final run is filmed
-    best: dict[str, float] = {}
-    wall = 0.0
-    steps = 0
-    for name, deg in directions.items():
-        def trial(f: float, deg=deg) -> bool:
-            nonlocal wall, steps
-            r = push(character, controller, force=f, direction=deg, allow_steps=allow_steps,
-                     **push_kw)
-            wall += r.wall_s
-            steps += r.n_steps
-            return survived(r, allow_steps)
-
-        best[name] = largest_passing(trial, max_force, tolerance)
-        if progress is not None:
-            progress(f"push-search {name}: {best[name]:.0f} N")
-    # a final run at the weakest direction's largest survivable push, for the other metrics
-    weakest = min(best, key=best.get)
-    r = push(character, controller, force=best[weakest], direction=directions[weakest],
-             allow_steps=allow_steps, frame_callback=frame_callback, **push_kw)
-    r.scenario = "push-search"
-    r.max_push_N = best[weakest]
-    r.max_push_by_direction_N = best
-    r.wall_s += wall
-    r.n_steps += steps
-    r.steps_per_s = r.n_steps / r.wall_s if r.wall_s > 0 else 0.0
-    return r
 
 
 def random_push(character: Character, controller, *, seed: int = 0, force: float = 10.0,
@@ -337,7 +290,8 @@ def run_scenario(name: str, character: Character, controller, *, reference=None,
     if name == "push":
         return push(character, controller, **kw)
     if name == "push-search":
-        return push_search(character, controller, **kw)
+        raise ScenarioError("push-search is measured by the push protocol: "
+                            "controllers.core.push_protocol.survival_rates")
     if name == "random-push":
         return random_push(character, controller, **kw)
     if name == "track":

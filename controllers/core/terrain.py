@@ -9,9 +9,8 @@
   0.2 s at a chosen fraction of the stride (a stride = two steps, from one entry into FSM state
   0 to the next; its length is the previous stride's) and direction (degrees in the heading
   frame: 0 forward, 90 left, 180 back, 270 right), after a warm-up, and checks that the
-  walker is still walking ``after`` s later; :func:`phase_push_test` does that at ``n`` phases
-  spread over a stride, :func:`push_search` finds per direction the largest push survived at
-  every one of those phases (bisection).
+  walker is still walking ``after`` s later; :func:`stride_phases` spreads ``n`` phases over a
+  stride. Rates over phases, seeds and forces: :mod:`controllers.core.push_protocol`.
 - **Slope walks**: :func:`slope_walk` walks up or down a tilted floor and checks the distance
   covered along the slope.
 
@@ -37,7 +36,7 @@ from bvh.errors import MjcharError
 
 from .character import Character
 from .metrics import FALL_HEIGHT_FRACTION, Result
-from .scenarios import DIRECTIONS, largest_passing, simulate, standing_pose
+from .scenarios import simulate, standing_pose
 
 
 class TerrainError(MjcharError):
@@ -433,71 +432,3 @@ def stride_phases(n: int = 8) -> list[float]:
     if n < 1:
         raise TerrainError(f"need at least one phase, got {n}")
     return [k / n for k in range(n)]
-
-
-def phase_push_test(
-    character: Character,
-    controller,
-    *,
-    forces: dict[str, float],
-    phases: int | list[float] = 8,
-    stop_at_first_failure: bool = False,
-    progress: Callable[[str], None] | None = None,
-    **kw,
-) -> dict:
-    """Push from each direction in ``forces`` (name in
-    :data:`~controllers.core.scenarios.DIRECTIONS`
-    -> N) at each phase; returns ``{direction: {phase: Result}}``."""
-    ph = stride_phases(phases) if isinstance(phases, int) else list(phases)
-    out: dict[str, dict[float, Result]] = {}
-    for name, f in forces.items():
-        if name not in DIRECTIONS:
-            raise TerrainError(f"unknown direction {name!r}; choose from {', '.join(DIRECTIONS)}")
-        out[name] = {}
-        for p in ph:
-            r = push_walk(character, controller, force=f, direction=DIRECTIONS[name], phase=p, **kw)
-            out[name][p] = r
-            if progress is not None:
-                progress(
-                    f"{name} {f:.0f} N at phase {p:.3f}: "
-                    + ("survived" if r.max_push_N else f"FAILED ({r.fall_reason or 'stopped'})")
-                )
-            if stop_at_first_failure and not r.max_push_N:
-                break
-    return out
-
-
-def push_search(
-    character: Character,
-    controller,
-    *,
-    directions: list[str] | None = None,
-    phases: int | list[float] = 8,
-    max_force: float = 800.0,
-    tolerance: float = 10.0,
-    progress: Callable[[str], None] | None = None,
-    **kw,
-) -> dict[str, float]:
-    """Per direction, the largest push (N, within ``tolerance``) survived at every phase.
-
-    Bisection on the force between 0 and ``max_force``; a trial stops at its first failing
-    phase. Returns ``{direction: N}``.
-    """
-    directions = list(DIRECTIONS) if directions is None else directions
-    ph = stride_phases(phases) if isinstance(phases, int) else list(phases)
-    best: dict[str, float] = {}
-    for name in directions:
-
-        def ok(f: float, name=name) -> bool:
-            res = phase_push_test(
-                character, controller, forces={name: f}, phases=ph, stop_at_first_failure=True, **kw
-            )[name]
-            good = all(r.max_push_N for r in res.values()) and len(res) == len(ph)
-            if progress is not None:
-                progress(f"  {name} {f:.0f} N: {'ok' if good else 'fails'}")
-            return good
-
-        best[name] = largest_passing(ok, max_force, tolerance)
-        if progress is not None:
-            progress(f"push search {name}: {best[name]:.0f} N at all {len(ph)} phases")
-    return best

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from bvh.errors import MjcharError
+from controllers.core.push_protocol import PushProtocol
 from controllers.core.registry import BENCH_SCENARIOS
 
 #: the project root (holds ``docs/`` and, beside it, ``../shared``)
@@ -77,17 +78,17 @@ class BenchConfig:
     stand_duration: float = 10.0
     random_push_duration: float = 30.0
     random_push_force: float = 10.0
-    push_duration: float = 4.0
-    push_max_force: float = 1000.0
-    push_tolerance: float = 5.0
+    push_phases: int = 8
+    push_seeds: int = 5
     push_directions: tuple[str, ...] = DIRECTION_NAMES
+    push_standing_cap: float = 600.0
+    push_walking_cap: float = 800.0
+    push_resolution: float = 25.0
+    push_after: float = 5.0
+    push_warmup: float = 4.0
+    push_processes: int = 0
     walk_duration: float = 30.0
     steady_window: float = 10.0
-    walk_push_phases: int = 4
-    walk_push_max_force: float = 600.0
-    walk_push_tolerance: float = 25.0
-    walk_push_warmup: float = 4.0
-    walk_push_after: float = 8.0
     slope_degrees: float = 5.0
     slope_distance: float = 10.0
     slope_duration: float = 20.0
@@ -102,38 +103,49 @@ class BenchConfig:
         if not self.seeds or any(not isinstance(s, int | np.integer) or s < 0
                                  for s in self.seeds):
             raise BenchError(f"seeds must be non-negative integers, got {self.seeds!r}")
-        for name in ("stand_duration", "random_push_duration", "push_duration", "walk_duration",
-                     "slope_duration", "push_max_force", "push_tolerance", "walk_push_max_force",
-                     "walk_push_tolerance", "sample_rate", "fps", "random_push_force",
-                     "ipm_speed", "walk_push_after"):
+        for name in ("stand_duration", "random_push_duration", "walk_duration",
+                     "slope_duration", "push_standing_cap", "push_walking_cap",
+                     "push_resolution", "push_after", "push_warmup", "sample_rate", "fps",
+                     "random_push_force", "ipm_speed"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise BenchError(f"{name} must be a positive number, got {v!r}")
-        if self.push_duration <= 1.2:
-            raise BenchError("push_duration must exceed 1.2 s (the push is at 1 s for 0.2 s)")
         if not (0 < abs(self.slope_degrees) < 45):
             raise BenchError(f"slope_degrees must be in (0, 45), got {self.slope_degrees}")
         bad = [d for d in self.push_directions if d not in DIRECTION_NAMES]
         if bad or not self.push_directions:
             raise BenchError(f"push directions must be among {', '.join(DIRECTION_NAMES)}, "
                              f"got {self.push_directions!r}")
-        if self.walk_push_phases < 1:
-            raise BenchError("walk_push_phases must be at least 1")
+        for name in ("push_phases", "push_seeds"):
+            if getattr(self, name) < 1:
+                raise BenchError(f"{name} must be at least 1")
+        if self.push_processes < 0:
+            raise BenchError("push_processes must be >= 0 (0: one per core)")
         return self
+
+    def push_protocol(self, mode: str = "standing") -> PushProtocol:
+        """The push protocol of the push-search cells (``mode``: the controller's push mode,
+        ``"standing"`` or ``"walking"``: the grid's cap differs)."""
+        cap = self.push_walking_cap if mode == "walking" else self.push_standing_cap
+        return PushProtocol.grid(cap, min(self.push_resolution, cap), phases=self.push_phases,
+                                 seeds=tuple(range(self.push_seeds)),
+                                 directions=tuple(self.push_directions), after=self.push_after,
+                                 warmup=self.push_warmup)
 
     def to_dict(self) -> dict:
         return json_ready(asdict(self))
 
 
 def full_config(seeds: int | None = None) -> BenchConfig:
-    """The full benchmark (tens of minutes on two cores); ``seeds`` = how many (default 3)."""
+    """The full benchmark: the push protocol at 8 phases x 5 seeds on a 25 N grid (an hour or
+    more on two cores); ``seeds`` = how many for the seeded scenarios (default 3)."""
     c = BenchConfig()
     return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
 
 
 def quick_config(seeds: int | None = None) -> BenchConfig:
-    """Short durations, coarse push searches, quick performance runs, 2 seeds by default: a
-    few minutes on two cores (``mjchar bench --quick``)."""
+    """Short durations, the push protocol at 4 phases x 2 seeds on a 50 N grid, quick
+    performance runs, 2 seeds by default: minutes on two cores (``mjchar bench --quick``)."""
     perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=600, cost_repeats=3,
                       rollout_samples=64, rollout_steps=50, rollout_repeats=2,
                       env_steps=300, env_repeats=2, bvh_budget_s=0.15,
@@ -141,10 +153,10 @@ def quick_config(seeds: int | None = None) -> BenchConfig:
                       envelope_grid=(2000, 1000, 500, 240, 120, 60, 30),
                       envelope_finer=(8000, 4000))
     c = BenchConfig(quick=True, seeds=(0, 1), stand_duration=10.0, random_push_duration=10.0,
-                    push_duration=3.0, push_max_force=500.0, push_tolerance=25.0,
-                    walk_duration=10.0, steady_window=4.0, walk_push_phases=1,
-                    walk_push_max_force=400.0, walk_push_tolerance=100.0, walk_push_warmup=3.0,
-                    walk_push_after=3.0, slope_distance=3.0, slope_duration=8.0, perf=perf)
+                    push_phases=4, push_seeds=2, push_standing_cap=500.0,
+                    push_walking_cap=600.0, push_resolution=50.0,
+                    walk_duration=10.0, steady_window=4.0, slope_distance=3.0,
+                    slope_duration=8.0, perf=perf)
     return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
 
 

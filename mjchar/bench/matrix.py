@@ -11,10 +11,11 @@ Scenarios (:data:`~mjchar.bench.config.SCENARIOS`):
 
 - ``stand``: the standing pose, no disturbance.
 - ``random-push``: 10 N on the pelvis, new random direction every second, once per seed.
-- ``push-search``: per direction (forward, left, backward, right) the largest 0.2 s push
-  survived, by bisection. Standing controllers: pushes on the pelvis 1 s in, no fall (and no
-  step unless the controller is a stepping one). Walking controllers: pushes on the chest at
-  ``walk_push_phases`` phases of the stride, still walking afterwards.
+- ``push-search``: the push protocol (:mod:`controllers.core.push_protocol`): per direction
+  (forward, left, backward, right) the survival rate of 0.2 s pushes over ``push_phases``
+  phases of the stride (walkers, on the chest) or moments (standing controllers, on the pelvis)
+  x ``push_seeds`` seeds, on a force grid; the figures are the largest forces with rate 100 %
+  and >= 90 %. One more run, filmed, at the weakest direction's 100 % figure.
 - ``walk``: walkers from their own start state (seeded perturbation) on level ground.
 - ``track``: follow ``walk60`` (``../shared/data/bvh``) or the bundled walk; replays play a
   saved SAMCON / CMA-ES trajectory against its stored reference.
@@ -38,8 +39,9 @@ from bvh.assets import TRAJECTORIES
 from bvh.errors import MjcharError
 from controllers import registry
 from controllers.core import scenarios as S
+from controllers.core.push_protocol import PushTask, simulate_push, survival_rates
 from controllers.core.registry import ControllerSpec
-from controllers.core.terrain import push_search, push_walk, slope_walk, walk
+from controllers.core.terrain import slope_walk, walk
 from controllers.sampling.trajectory import find_trajectory
 
 from .config import SCENARIOS, SHARED_BVH, BenchConfig, BenchError, relative_path
@@ -245,10 +247,7 @@ def build_controller(ctx: BenchContext, name: str, scenario: str, reference=None
         return ch, registry.make_controller(name, ch, target)
     if spec.kind == "replay":  # replays go through trajectory.replay
         raise BenchError(f"{name} is a replay: it is not built by build_controller")
-    options = {}
-    if "speed" in spec.options:  # walkers with a speed command walk at ipm_speed
-        options["speed"] = ctx.config.ipm_speed if scenario in ("walk", "slopes") else 0.0
-    return ch, registry.make_controller(name, ch, **options)
+    return ch, registry.make_controller(name, ch, **_options(spec, scenario, ctx.config))
 
 
 def _result_run(variant: str, seed, r, probe: _Probe, frames: int | None = None) -> dict:
@@ -308,18 +307,7 @@ def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
                                                     duration=cfg.random_push_duration,
                                                     frame_callback=cb)))
     elif scenario == "push-search":
-        directions = {d: S.DIRECTIONS[d] for d in cfg.push_directions}
-        if spec.push == "walking":
-            runs.append(_walking_push_search(ctx, cell_video, name, directions, progress))
-        else:
-            ch, c = build_controller(ctx, name, scenario)
-            runs.append(_run_one(ctx, cell_video, "weakest direction", None, None,
-                                 lambda cb: S.push_search(
-                                     ch, c, directions=directions, max_force=cfg.push_max_force,
-                                     tolerance=cfg.push_tolerance, allow_steps=spec.steps,
-                                     duration=cfg.push_duration, progress=progress,
-                                     frame_callback=cb)))
-        runs[-1]["push_protocol"] = push_protocol(name, cfg)
+        runs.append(_push_search(ctx, cell_video, name, progress))
     elif scenario == "walk":
         for s in _walk_seeds(ctx, name, scenario):
             ch, c = build_controller(ctx, name, scenario)
@@ -364,41 +352,39 @@ def _seed_label(seed) -> str:
     return "no seed (deterministic start)" if seed is None else f"seed {seed}"
 
 
-def push_protocol(name: str, cfg: BenchConfig) -> str:
-    """One line: how push-search measured ``name``'s largest push."""
-    spec = _spec(name)
-    if spec.push == "walking":
-        return (f"walking: 0.2 s on the chest at {cfg.walk_push_phases} phase(s) of the stride "
-                f"after {cfg.walk_push_warmup:g} s, still walking {cfg.walk_push_after:g} s "
-                f"later; bisection to {cfg.walk_push_tolerance:g} N, max "
-                f"{cfg.walk_push_max_force:g} N")
-    return (f"standing: 0.2 s on the pelvis 1 s in, no fall in {cfg.push_duration:g} s"
-            + ("" if spec.steps else " and no step") + f"; bisection to {cfg.push_tolerance:g} "
-            f"N, max {cfg.push_max_force:g} N")
+def _options(spec, scenario: str, config: BenchConfig) -> dict:
+    """Factory options of a bench run: walkers that take a speed walk at ``ipm_speed`` in the
+    walking scenarios and stand (speed 0) otherwise."""
+    if "speed" in spec.options:
+        return {"speed": config.ipm_speed if scenario in ("walk", "slopes") else 0.0}
+    return {}
 
 
-def _walking_push_search(ctx: BenchContext, cell_video: list, name: str, directions: dict,
-                         progress) -> dict:
-    """Largest push survived while walking at every phase (terrain.push_search), then one
-    filmed run at the weakest direction's value."""
+def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> dict:
+    """The push protocol's survival rates for ``name`` (``run["push"]``, every run recorded),
+    plus one filmed run at the weakest direction's largest force with rate 100 % (phase 0,
+    the first seed)."""
     cfg = ctx.config
-    ch, c = build_controller(ctx, name, "push-search")
-    kw = {"warmup": cfg.walk_push_warmup, "after": cfg.walk_push_after, "seed": cfg.seeds[0]}
-    best = push_search(ch, c, directions=list(directions), phases=cfg.walk_push_phases,
-                       max_force=cfg.walk_push_max_force, tolerance=cfg.walk_push_tolerance,
-                       progress=progress, **kw)
-    weakest = min(best, key=best.get)
+    spec = _spec(name)
+    protocol = cfg.push_protocol(spec.push)
+    options = _options(spec, "push-search", cfg)
+    rates = survival_rates(name, protocol, options=options, processes=cfg.push_processes,
+                           progress=progress)
+    weakest = min(protocol.directions, key=lambda d: rates.largest_100_N.get(d, 0.0))
+    force = 0.0 if rates.falls_unpushed else rates.largest_100_N[weakest]
+    task = PushTask(name, weakest, force, 0.0, protocol.seeds[0], protocol, None,
+                    tuple(sorted(options.items())))
 
-    def final(cb):
-        ch2, c2 = build_controller(ctx, name, "push-search")
-        r = push_walk(ch2, c2, force=best[weakest], direction=directions[weakest], phase=0.0,
-                      frame_callback=cb, **kw)
+    def film(cb):
+        r, _ = simulate_push(task, frame_callback=cb)
         r.scenario = "push-search"
-        r.max_push_N = best[weakest]
-        r.max_push_by_direction_N = best
+        r.max_push_by_direction_N = None if rates.falls_unpushed else dict(rates.largest_100_N)
         return r
 
-    return _run_one(ctx, cell_video, "weakest direction", cfg.seeds[0], None, final)
+    run = _run_one(ctx, cell_video, f"{weakest} {force:g} N, phase 0 (filmed)",
+                   protocol.seeds[0], None, film)
+    run["push"] = rates.to_dict()
+    return run
 
 
 def _replay_run(ctx: BenchContext, cell_video: list, name: str) -> dict:
@@ -425,16 +411,19 @@ def summarise_cell(runs: list[dict]) -> dict:
     steady = [r["extra"].get("steady_speed_mps") for r in res]
     speed = mean(steady) if all(s is not None for s in steady) and res else \
         mean(r["mean_speed_mps"] for r in res)
-    push = next((r["max_push_by_direction_N"] for r in res
-                 if r.get("max_push_by_direction_N")), None)
+    push = next((r["push"] for r in runs if "push" in r), None)
     return {"runs": len(runs), "survived": sum(bool(r["survived"]) for r in runs),
             "fell": [r["variant"] for r in runs if not r["survived"]],
             "distance_m": mean(r["distance_m"] for r in res), "speed_mps": speed,
             "tracking_error_m": mean(r["tracking_error_m"] for r in res),
             "root_force_mean_N": mean(r["root_force_mean_N"] for r in res),
-            "max_push_by_direction_N": push,
-            "push_protocol": next((r["push_protocol"] for r in runs if "push_protocol" in r),
-                                  None)}
+            "max_push_by_direction_N": None if push is None or push["falls_unpushed"]
+            else push["largest_100_N"],
+            "push_90_by_direction_N": None if push is None or push["falls_unpushed"]
+            else push["largest_90_N"],
+            "push_at_cap": None if push is None else push["at_cap"],
+            "falls_unpushed": None if push is None else push["falls_unpushed"],
+            "push_protocol": None if push is None else push["description"]}
 
 
 def progress_bar(total: int, enabled: bool, desc: str):

@@ -1,6 +1,6 @@
 """PNG plots of a ``mjchar bench`` document (matplotlib, Agg backend; the ``bench`` extra).
 
-- ``push_search.png``: largest survivable push per controller and direction (N).
+- ``push_search.png``: the push protocol's survival-rate curves against force, per direction.
 - ``com_trajectories.png``: the walkers' centre of mass, top view (m) and height over time.
 - ``tracking_error.png``: mean joint position error (m) over time for the trackers.
 - ``stability_envelope.png``: which time steps each PD variant holds the pose at, per gain.
@@ -48,46 +48,53 @@ def _save(fig, path: Path) -> Path:
 
 
 def plot_push_search(doc: dict, path: str | os.PathLike) -> Path | None:
-    """Grouped bars: controllers x directions, largest survived push (N)."""
+    """Survival-rate curves of the push protocol: one panel per direction, survival rate (over
+    phases x seeds) against force (N), one line per controller; each panel marks the 100 %
+    figure. Controllers that fall unpushed are listed in the title instead."""
     plt = require_matplotlib()
     cells = [c for c in doc["cells"] if c["scenario"] == "push-search" and c["status"] == "ok"
-             and c["summary"]["max_push_by_direction_N"]]
+             and c["runs"] and "push" in c["runs"][0]]
     if not cells:
         return None
-    import numpy as np
-
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(cells) + 2.5), 4.2))
-    dirs = [d for d in DIRECTION_NAMES
-            if any(d in c["summary"]["max_push_by_direction_N"] for c in cells)]
-    width = 0.8 / len(dirs)
-    x = np.arange(len(cells))
-    top = 0.0
-    for k, d in enumerate(dirs):
-        vals = [c["summary"]["max_push_by_direction_N"].get(d, np.nan) for c in cells]
-        bars = ax.bar(x + (k - (len(dirs) - 1) / 2) * width, vals, width, label=d,
-                      color=_DIRECTION_COLOURS[d])
-        ax.bar_label(bars, fmt="%.0f", fontsize=7, padding=1)
-        top = max(top, np.nanmax(vals) if len(vals) else 0.0)
-    labels = []
-    for c in cells:
-        proto = c["summary"]["push_protocol"] or ""
-        how = ("walking, chest" if proto.startswith("walking")
-               else "standing, steps allowed" if "no step" not in proto else "standing")
-        labels.append(f"{c['controller']}\n({how})")
-    ax.set_xticks(x, labels, fontsize=8)
-    ax.set_ylabel("largest survived push (N)")
-    ax.set_ylim(0, top * 1.15 + 1)
-    cfg = doc.get("config") or {}
-    res = []
-    if any(not (c["summary"]["push_protocol"] or "").startswith("walking") for c in cells):
-        res.append(f"standing: to {cfg.get('push_tolerance', '?'):g} N")
-    if any((c["summary"]["push_protocol"] or "").startswith("walking") for c in cells):
-        res.append(f"walking: to {cfg.get('walk_push_tolerance', '?'):g} N")
-    ax.set_title("Largest survivable 0.2 s horizontal push per direction\n(bisection "
-                 + ", ".join(res) + ")", fontsize=11)
-    ax.legend(title="direction", fontsize=8, title_fontsize=8, loc="upper left",
-              bbox_to_anchor=(1.0, 1.0))
-    ax.grid(axis="y", alpha=0.3)
+    measured = [c for c in cells if not c["runs"][0]["push"]["falls_unpushed"]]
+    unpushed = [c["controller"] for c in cells if c["runs"][0]["push"]["falls_unpushed"]]
+    dirs = [d for d in DIRECTION_NAMES if any(d in c["runs"][0]["push"]["curves"]
+                                              for c in measured)] or list(DIRECTION_NAMES)
+    fig, axes = plt.subplots(1, len(dirs), figsize=(3.3 * len(dirs) + 1.5, 3.6), sharey=True,
+                             squeeze=False)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, d in zip(axes[0], dirs, strict=True):
+        for k, c in enumerate(measured):
+            push = c["runs"][0]["push"]
+            curve = push["curves"].get(d)
+            if not curve or not curve["forces_N"]:
+                continue
+            colour = colours[k % len(colours)]
+            ax.plot(curve["forces_N"], [100 * r for r in curve["rates"]], "o-", ms=3,
+                    color=colour, label=c["controller"])
+            best = push["largest_100_N"][d]
+            if best > 0:
+                ax.axvline(best, color=colour, alpha=0.35, lw=1, ls="--")
+        ax.set_title(d, fontsize=10)
+        ax.set_xlabel("push force (N)")
+        ax.set_ylim(-5, 105)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("survival rate (%)")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    for ax in axes[0][1:]:
+        h, lab = ax.get_legend_handles_labels()
+        for hh, ll in zip(h, lab, strict=True):
+            if ll not in labels:
+                handles.append(hh)
+                labels.append(ll)
+    if handles:
+        fig.legend(handles, labels, fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    title = ("Push protocol: survival rate of 0.2 s pushes over phases x seeds, per direction "
+             "(dashed: the largest force with 100 %)")
+    if unpushed:
+        title += f"\nfall unpushed (no curve): {', '.join(unpushed)}"
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
     return _save(fig, Path(path))
 
 

@@ -23,7 +23,9 @@ def table_rows(doc: dict) -> list[dict]:
                "reason": info["reason"], "survived": None, "runs": None, "fell": [],
                "errors": [f"{s}: {c['reason']}" for s, c in cells.items()
                           if c["status"] == "error"],
-               "max_push_by_direction_N": None, "push_protocol": None, "distance_m": None,
+               "max_push_by_direction_N": None, "push_90_by_direction_N": None,
+               "push_at_cap": None, "falls_unpushed": None, "push_protocol": None,
+               "distance_m": None,
                "speed_mps": None, "motion_source": None, "tracking_error_m": None,
                "root_force_mean_N": None, "step_cost_ratio": None}
         surv = [c for s, c in cells.items() if s in SURVIVAL_SCENARIOS and c["status"] == "ok"]
@@ -35,8 +37,9 @@ def table_rows(doc: dict) -> list[dict]:
             row["root_force_mean_N"] = float(np.mean(forces)) if forces else None
         ps = cells.get("push-search")
         if ps is not None and ps["status"] == "ok":
-            row["max_push_by_direction_N"] = ps["summary"]["max_push_by_direction_N"]
-            row["push_protocol"] = ps["summary"]["push_protocol"]
+            for key in ("max_push_by_direction_N", "push_90_by_direction_N", "push_at_cap",
+                        "falls_unpushed", "push_protocol"):
+                row[key] = ps["summary"][key]
         for src in ("walk", "track"):
             c = cells.get(src)
             if c is not None and c["status"] == "ok" and c["runs"]:
@@ -87,20 +90,26 @@ def _num(x, fmt: str = ".2f") -> str:
 
 
 def _push_text(row: dict) -> str:
+    """``F/L/B/R`` largest forces with survival rate 100 % (``>=`` at the grid's cap), ``w``
+    pushed while walking, ``s`` stepping allowed; ``falls unpushed`` when it does."""
+    if row["falls_unpushed"]:
+        return "falls unpushed"
     p = row["max_push_by_direction_N"]
     if not p:
         return "-"
-    text = "/".join(f"{p[d]:.0f}" if d in p else "-" for d in DIRECTION_NAMES)
+    cap = row["push_at_cap"] or {}
+    text = "/".join((">=" if cap.get(d) else "") + f"{p[d]:.0f}" if d in p else "-"
+                    for d in DIRECTION_NAMES)
     proto = row["push_protocol"] or ""
-    if proto.startswith("walking"):
+    if "walking" in proto:
         text += " w"
     elif "no step" not in proto:
         text += " s"
     return text
 
 
-TABLE_HEADER = ("controller", "survival", "push F/L/B/R (N)", "distance (m)", "speed (m/s)",
-                "track err (m)", "root force (N)", "cost / mj_step")
+TABLE_HEADER = ("controller", "survival", "push 100% F/L/B/R (N)", "distance (m)",
+                "speed (m/s)", "track err (m)", "root force (N)", "cost / mj_step")
 
 
 def _cells(row: dict) -> list[str]:
@@ -119,14 +128,24 @@ def _cells(row: dict) -> list[str]:
 
 TABLE_NOTES = (
     "survival: runs without a fall over stand, random-push, walk, track and slopes runs.",
-    "push: largest 0.2 s push survived per direction (forward/left/backward/right); standing "
-    "on the pelvis without a step unless marked s (stepping allowed), w: while walking, on the "
-    "chest at every tested phase.",
+    "push 100%: per direction (forward/left/backward/right), the largest force of the grid up "
+    "to which every force was survived in every run (all phases x seeds; protocols below); "
+    ">=: the grid's cap; w: pushed while walking; s: stepping allowed; falls unpushed: the "
+    "controller falls in the same window without a push, so it has no push figure.",
     "distance, speed: the walk scenario (steady speed over the last seconds), t: the track "
     "scenario instead. track err: mean joint position error against the reference.",
     "root force: mean external force on the root (hand of god) over the survival runs.",
     "cost / mj_step: controller + physics CPU time per physics step over a bare mj_step.",
 )
+
+
+def protocol_notes(rows: list[dict]) -> list[str]:
+    """The push protocols of the table's rows, one line each (identical ones merged)."""
+    seen: dict[str, list[str]] = {}
+    for r in rows:
+        if r.get("push_protocol"):
+            seen.setdefault(r["push_protocol"], []).append(r["controller"])
+    return [f"push protocol ({', '.join(names)}): {proto}." for proto, names in seen.items()]
 
 
 def format_table(rows: list[dict]) -> str:
@@ -148,6 +167,7 @@ def format_table(rows: list[dict]) -> str:
             lines.append(f"{r['controller']}: ERROR in {e}")
     lines.append("")
     lines.extend(TABLE_NOTES)
+    lines.extend(protocol_notes(rows))
     return "\n".join(lines)
 
 

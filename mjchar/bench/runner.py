@@ -26,7 +26,14 @@ from .config import (
 )
 from .matrix import default_track_motion, find_trajectories, run_matrix, select_cells
 from .performance import load_average, run_performance
-from .report import TABLE_NOTES, check_expectations, markdown_table, table_rows, write_stills
+from .report import (
+    TABLE_NOTES,
+    check_expectations,
+    markdown_table,
+    protocol_notes,
+    table_rows,
+    write_stills,
+)
 
 
 def versions() -> dict:
@@ -139,8 +146,9 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
             from .plots import make_plots
 
             doc["plots"] = [p.name for p in make_plots(doc, out)]
+        notes = TABLE_NOTES + tuple(protocol_notes(doc["table"]))
         (out / "table.md").write_text(markdown_table(doc["table"]) + "\n\n"
-                                      + "\n".join(f"- {n}" for n in TABLE_NOTES) + "\n")
+                                      + "\n".join(f"- {n}" for n in notes) + "\n")
         timings["outputs_s"] = time.perf_counter() - t0
     timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
                         for c in doc["cells"]}

@@ -70,10 +70,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                    metavar="S", help="push length in seconds (default 0.2)")
     p.add_argument("--push-time", type=non_negative("push time"), default=1.0, metavar="S",
                    help="when the push starts in seconds (default 1)")
-    p.add_argument("--max-force", type=positive("max force"), default=1000.0, metavar="N",
-                   help="push-search upper bound in newtons (default 1000)")
-    p.add_argument("--tolerance", type=positive("tolerance"), default=5.0, metavar="N",
-                   help="push-search resolution in newtons (default 5)")
+    p.add_argument("--max-force", type=positive("max force"), default=500.0, metavar="N",
+                   help="push-search: the force grid's cap in newtons (default 500)")
+    p.add_argument("--tolerance", type=positive("tolerance"), default=25.0, metavar="N",
+                   help="push-search: the force grid's step in newtons (default 25)")
+    p.add_argument("--phases", type=integer("phases", minimum=1), default=4, metavar="K",
+                   help="push-search: phases of the stride (walkers) or moments (standing) "
+                        "pushed at (default 4)")
+    p.add_argument("--seeds", type=integer("seeds", minimum=1), default=2, metavar="S",
+                   help="push-search: seeds 0..S-1 of the start perturbation (default 2)")
     p.add_argument("--allow-steps", action="store_true",
                    help="a push counts as survived even if a foot moved (stepping controllers)")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
@@ -122,7 +127,6 @@ def run(args: argparse.Namespace) -> int:
     """Build the character, reference and controller, run the scenario, print the result."""
     import json
     import os
-    import sys
 
     if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
         os.environ.setdefault("MUJOCO_GL", "egl")
@@ -146,6 +150,8 @@ def run(args: argparse.Namespace) -> int:
                           f"{_scenario_list(spec)}")
     if scenario == "push" and args.push is None:
         raise MjcharError("the push scenario needs --push NEWTONS")
+    if scenario == "push-search":
+        return _push_search(args, spec)
     if args.render and not args.render.lower().endswith(".mp4"):
         raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
 
@@ -172,8 +178,6 @@ def run(args: argparse.Namespace) -> int:
     kw: dict = {"control_dt": args.control_dt}
     if args.duration is not None:
         kw["duration"] = args.duration
-    progress = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
-
     video = None
     if args.render:
         from ..render import VideoRecorder
@@ -185,11 +189,6 @@ def run(args: argparse.Namespace) -> int:
             result = S.push(character, controller, force=args.push, direction=args.direction,
                             push_duration=args.push_duration, push_time=args.push_time,
                             allow_steps=args.allow_steps, **kw)
-        elif scenario == "push-search":
-            result = S.push_search(character, controller, max_force=args.max_force,
-                                   tolerance=args.tolerance, allow_steps=args.allow_steps,
-                                   push_duration=args.push_duration, push_time=args.push_time,
-                                   progress=progress, **kw)
         elif scenario == "random-push":
             result = S.random_push(character, controller, seed=args.seed,
                                    force=10.0 if args.push is None else args.push, **kw)
@@ -212,6 +211,35 @@ def run(args: argparse.Namespace) -> int:
         print(result.summary())
         if video is not None:
             print(f"  video: {args.render} ({video.frames} frames)")
+    return 0
+
+
+def _push_search(args: argparse.Namespace, spec) -> int:
+    """``--scenario push-search``: survival rates over phases, seeds and a force grid
+    (:mod:`controllers.core.push_protocol`), every core busy."""
+    import json
+    import sys
+
+    from controllers.core.push_protocol import PushProtocol, survival_rates
+
+    if args.render:
+        from bvh.errors import MjcharError
+
+        raise MjcharError("push-search runs hundreds of simulations: --render films one run "
+                          "(use --scenario push)")
+    protocol = PushProtocol.grid(args.max_force, min(args.tolerance, args.max_force),
+                                 phases=args.phases, seeds=tuple(range(args.seeds)),
+                                 push_duration=args.push_duration)
+    progress = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    options = _controller_options(spec, args, "push-search")
+    rates = survival_rates(spec.name, protocol, model=args.model, options=options, processes=0,
+                           progress=progress)
+    if args.json:
+        out = rates.to_dict()
+        out["model"] = str(args.model) if args.model else "bundled humanoid"
+        print(json.dumps(out))
+    else:
+        print(rates.summary())
     return 0
 
 
