@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "bench", help="benchmark every controller in every scenario; table, JSON, plots",
         description="Run the controllers (rows) in the scenarios that make sense for them, print "
-                    "a table (survival, largest push per direction, distance, speed, tracking "
+                    "a table (survival, push survival per direction, distance, speed, tracking "
                     "error, root force, step cost over mj_step) and write results.json, "
                     "table.md and PNG plots into --out. Exit status 1 when a controller "
                     "expected to stand or walk fell (see docs/bench.md). --quick finishes in a "
