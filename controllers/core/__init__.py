@@ -14,7 +14,8 @@
   ``native_pd``).
 - :mod:`~controllers.core.scenarios` (stand, push, push-search, random-push, track, walk),
   :mod:`~controllers.core.terrain` (level and sloped walks, pushes at stride phases),
-  :mod:`~controllers.core.metrics` (:class:`Result`, fall detection, recording).
+  :mod:`~controllers.core.metrics` (:class:`Result`, fall detection, recording),
+  :mod:`~controllers.core.push_protocol` (push survival rates over phases, seeds and forces).
 """
 
 from . import pd as pd  # registers pd, spd, native_pd
