@@ -83,7 +83,7 @@ class BenchConfig:
     push_directions: tuple[str, ...] = DIRECTION_NAMES
     push_standing_cap: float = 600.0
     push_walking_cap: float = 800.0
-    push_resolution: float = 25.0
+    push_resolution: float = 50.0
     push_after: float = 5.0
     push_warmup: float = 4.0
     push_processes: int = 0
@@ -137,8 +137,9 @@ class BenchConfig:
 
 
 def full_config(seeds: int | None = None) -> BenchConfig:
-    """The full benchmark: the push protocol at 8 phases x 5 seeds on a 25 N grid (an hour or
-    more on two cores); ``seeds`` = how many for the seeded scenarios (default 3)."""
+    """The full benchmark: the push protocol at 8 phases x 5 seeds on a 50 N grid (45 minutes
+    for the push cells alone on two cores); ``seeds`` = how many for the seeded scenarios
+    (default 3)."""
     c = BenchConfig()
     return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
 
