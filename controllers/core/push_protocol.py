@@ -53,7 +53,7 @@ from .character import Character
 from .metrics import Result
 from .registry import get, make_controller
 from .scenarios import DIRECTIONS, push, standing_pose, survived
-from .terrain import push_walk
+from .terrain import push_walk, stride_phases
 
 
 class PushProtocolError(MjcharError):
@@ -132,8 +132,8 @@ class PushProtocol:
         return float(self.forces[0])
 
     def phase_values(self) -> list[float]:
-        """The K phases ``0, 1/K, ..., (K-1)/K``."""
-        return [k / self.phases for k in range(self.phases)]
+        """The K phases ``0, 1/K, ..., (K-1)/K`` (``terrain.stride_phases``)."""
+        return stride_phases(self.phases)
 
     def describe(self, mode: str = "standing", steps: bool = False) -> str:
         """The protocol in one sentence (what the bench table and the docs print)."""

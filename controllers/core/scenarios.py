@@ -37,9 +37,6 @@ from .registry import SCENARIOS, make_controller
 
 #: the four horizontal push directions (degrees in the heading frame)
 DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
-#: default duration per scenario (s); ``None`` = the reference clip's duration
-DEFAULT_DURATION = {"stand": 10.0, "push": 4.0, "push-search": 4.0, "random-push": 30.0,
-                    "track": None, "walk": None}
 
 
 class ScenarioError(MjcharError):

@@ -232,11 +232,6 @@ def default_track_motion() -> Path:
     return motion_path("walk")
 
 
-def _timestep(name: str) -> float | None:
-    """Physics time step the controller runs at (``None``: the model's)."""
-    return S.defaultregistry.default_timestep(name)
-
-
 def build_controller(ctx: BenchContext, name: str, scenario: str, reference=None):
     """A fresh ``(character, controller)`` for one run (as ``mjchar run`` builds them: PD
     trackers follow the reference in track/walk and hold the standing pose otherwise)."""

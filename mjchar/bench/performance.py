@@ -18,10 +18,6 @@ from .config import SHARED_BVH, BenchConfig, BenchError, PerfConfig
 from .matrix import BenchContext, availability, build_controller, progress_bar
 
 
-def _spec_kind(name: str) -> str:
-    return registry.get(name).kind
-
-
 def _start_state(ctx: BenchContext, name: str, ch, controller):
     """Start pose/velocity for the step-cost measurement (the controller's own start state when
     it has one, e.g. SIMBICON's, else the standing pose)."""
@@ -101,7 +97,7 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
             out[name] = {"available": False, "reason": why}
             continue
         try:
-            if _spec_kind(name) == "replay":
+            if registry.get(name).kind == "replay":
                 from controllers.sampling.trajectory import ReplayController
 
                 tr = ctx.trajectory(name)
@@ -110,7 +106,7 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
                                    qvel=tr.initial_qvel, control_dt=tr.control_dt,
                                    steps=cfg.cost_steps, repeats=cfg.cost_repeats)
             else:
-                scenario = "walk" if _spec_kind(name) == "walker" else "stand"
+                scenario = "walk" if registry.get(name).kind == "walker" else "stand"
                 ch, probe_ctrl = build_controller(ctx, name, scenario)
                 q, v = _start_state(ctx, name, ch, probe_ctrl)
                 # fresh: the raw loop copies its model
