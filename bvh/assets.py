@@ -11,40 +11,68 @@ A test checks that the checked-in model equals a fresh conversion byte for byte.
 
 from __future__ import annotations
 
+import importlib
+import importlib.resources
 import os
 import sys
 from pathlib import Path
 
 from .errors import MjcharError
 
-#: the project root (holds ``assets/``)
-ROOT = Path(__file__).resolve().parents[1]
-ASSETS = ROOT / "assets"
-HUMANOID_XML = ASSETS / "mjcf" / "humanoid.xml"
-MOTIONS = ASSETS / "motions"
-#: saved SAMCON / CMA-ES trajectories of the bundled humanoid (``mjchar run samcon_replay``)
-TRAJECTORIES = ASSETS / "trajectories"
-
-#: options the bundled humanoid is converted with
-HUMANOID_OPTIONS = {"total_mass": 70.0, "joint_model": "hinge", "model_name": "humanoid"}
-
 
 class AssetError(MjcharError):
     """A bundled asset is missing (regenerate with ``python -m bvh.assets``)."""
 
 
+def _assets_folder() -> Path:
+    """The folder of the ``assets`` data package, found with ``importlib.resources`` (the
+    checkout's ``assets/`` in an editable install, ``site-packages/assets`` from the wheel)."""
+    try:
+        package = importlib.import_module("assets")
+    except ImportError as e:
+        raise AssetError(f"mjchar's bundled assets are not installed ({e}); reinstall mjchar") \
+            from None
+    if not getattr(package, "MJCHAR_ASSETS", False):
+        where = ", ".join(str(p) for p in getattr(package, "__path__", [])) or "?"
+        raise AssetError(f"the 'assets' package found at {where} is not mjchar's (a folder of "
+                         "that name on the Python path shadows it); run from another folder")
+    folder = importlib.resources.files(package)
+    if not isinstance(folder, Path):
+        raise AssetError(f"mjchar's assets are inside an archive ({folder}); install mjchar "
+                         "unpacked (pip install does)")
+    return folder
+
+
+#: the paths below are found on first use (PEP 562), so ``import bvh`` never fails on assets:
+#: ``ASSETS`` the data folder, ``HUMANOID_XML`` the default humanoid, ``MOTIONS`` the bundled
+#: motions, ``TRAJECTORIES`` the saved SAMCON / CMA-ES trajectories (``mjchar run samcon_replay``)
+_PATHS = {"ASSETS": (), "HUMANOID_XML": ("mjcf", "humanoid.xml"), "MOTIONS": ("motions",),
+          "TRAJECTORIES": ("trajectories",)}
+
+
+def __getattr__(name: str) -> Path:
+    if name in _PATHS:
+        return _assets_folder().joinpath(*_PATHS[name])
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+#: options the bundled humanoid is converted with
+HUMANOID_OPTIONS = {"total_mass": 70.0, "joint_model": "hinge", "model_name": "humanoid"}
+
+
 def humanoid_path() -> Path:
     """Path of the bundled humanoid model ``assets/mjcf/humanoid.xml``."""
-    if not HUMANOID_XML.is_file():
-        raise AssetError(f"{HUMANOID_XML} is missing; regenerate it with `python -m bvh.assets`")
-    return HUMANOID_XML
+    path = __getattr__("HUMANOID_XML")
+    if not path.is_file():
+        raise AssetError(f"{path} is missing; regenerate it with `python -m bvh.assets`")
+    return path
 
 
 def motion_path(name: str) -> Path:
     """Path of a bundled motion, ``assets/motions/<name>.bvh`` (e.g. ``"idle"``, ``"walk"``)."""
-    path = MOTIONS / f"{name}.bvh"
+    motions = __getattr__("MOTIONS")
+    path = motions / f"{name}.bvh"
     if not path.is_file():
-        have = sorted(p.stem for p in MOTIONS.glob("*.bvh")) if MOTIONS.is_dir() else []
+        have = sorted(p.stem for p in motions.glob("*.bvh")) if motions.is_dir() else []
         raise AssetError(f"no bundled motion {name!r} at {path}; available: "
                          f"{', '.join(have) or 'none'} (regenerate with `python -m bvh.assets`)")
     return path
@@ -68,7 +96,7 @@ def regenerate(out_root: str | os.PathLike | None = None, motions: bool = True) 
     Returns:
         The paths written.
     """
-    root = Path(out_root) if out_root is not None else ASSETS
+    root = Path(out_root) if out_root is not None else _assets_folder()
     written = []
     converted = build_humanoid()
     xml_path = root / "mjcf" / "humanoid.xml"

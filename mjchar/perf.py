@@ -353,8 +353,7 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                 made[eid] = gym.make(eid)
             except Exception as e:
                 raise PerfUnavailable(f"gymnasium.make({eid!r}) failed ({type(e).__name__}: "
-                                      f"{str(e).splitlines()[0] if str(e) else ''}); Humanoid-v5 "
-                                      f"needs gymnasium[mujoco]") from None
+                                      f"{str(e).splitlines()[0] if str(e) else ''})") from None
         rounds: dict[str, list[tuple[float, int]]] = {eid: [] for eid in env_ids}
         for r in range(repeats):
             for eid, env in made.items():

@@ -70,3 +70,58 @@ def test_regenerate_into_a_folder(tmp_path):
     written = assets.regenerate(tmp_path, motions=False)
     assert written == [tmp_path / "mjcf" / "humanoid.xml"]
     assert written[0].read_bytes() == assets.humanoid_path().read_bytes()
+
+
+def test_assets_found_through_the_package():
+    """The bundled files are package data of ``assets`` (what the wheel ships), found with
+    importlib.resources, not from the checkout's layout."""
+    import importlib.resources
+
+    import assets
+    import bvh.assets as ba
+
+    assert assets.MJCHAR_ASSETS
+    folder = importlib.resources.files(assets)
+    assert ba.ASSETS == folder
+    assert ba.humanoid_path() == folder / "mjcf" / "humanoid.xml"
+    assert ba.motion_path("walk").is_file() and ba.motion_path("idle").is_file()
+    assert sorted(p.name for p in ba.TRAJECTORIES.glob("*.npz")) == [
+        "cmaes_walk60_1.5s.npz", "samcon_walk60.npz"]
+
+
+def test_missing_motion_lists_the_bundled_ones():
+    import bvh.assets as ba
+
+    with pytest.raises(ba.AssetError, match="available: idle, walk"):
+        ba.motion_path("moonwalk")
+
+
+def test_a_foreign_assets_package_is_named(tmp_path, monkeypatch):
+    """Another ``assets`` package shadowing mjchar's is one clear error naming where it is."""
+    import sys
+
+    import bvh.assets as ba
+
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "__init__.py").write_text("")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "assets", raising=False)
+    with pytest.raises(ba.AssetError, match=f"{tmp_path}.*not mjchar's"):
+        ba.humanoid_path()
+    monkeypatch.delitem(sys.modules, "assets")
+
+
+def test_broken_mujoco_warns():
+    from controllers.core.model import check_mujoco_version
+
+    with pytest.warns(RuntimeWarning, match="mujoco-core>=4.0.1"):
+        assert not check_mujoco_version("4.0.0")
+    assert check_mujoco_version("4.0.1")
+
+
+def test_installed_mujoco_is_fixed():
+    """The environment the suite runs in has a MuJoCo without the 4.0.0 sparse-solver bug."""
+    import mujoco
+
+    major, minor, patch = (int(x) for x in mujoco.__version__.split(".")[:3])
+    assert (major, minor, patch) >= (4, 0, 1), mujoco.__version__

@@ -5,11 +5,28 @@ from __future__ import annotations
 
 import copy
 import os
+import warnings
 
 import mujoco
 import numpy as np
 
 from .errors import CharacterError
+
+#: MuJoCo releases with the sparse Cholesky bug of the Newton solver (upstream #3767: a wrong
+#: Hessian factor when the constraint Jacobian is sparse, which every model with 60 or more dofs
+#: uses), fixed in 4.0.1; mjchar requires ``mujoco-core>=4.0.1``
+BROKEN_MUJOCO = ("4.0.0",)
+
+
+def check_mujoco_version(version: str = mujoco.__version__) -> bool:
+    """Warn (once per call site) when the installed MuJoCo is one of :data:`BROKEN_MUJOCO`;
+    ``True`` when it is fine."""
+    if version in BROKEN_MUJOCO:
+        warnings.warn(f"MuJoCo {version} has a sparse-solver bug that makes large models (60+ "
+                      "dofs) simulate wrongly; install mjchar's requirement: "
+                      'pip install "mujoco-core>=4.0.1"', RuntimeWarning, stacklevel=3)
+        return False
+    return True
 
 
 def model_info(model: mujoco.MjModel):
@@ -24,6 +41,7 @@ def load_model(model) -> mujoco.MjModel:
     """An ``MjModel`` the caller owns: ``None`` -> the bundled humanoid, a path -> loaded from
     the MJCF file, an ``MjModel`` -> a deep copy. Raises :class:`CharacterError` naming the file
     when it is missing or MuJoCo cannot load it."""
+    check_mujoco_version()
     if model is None:
         from bvh.assets import humanoid_path
 

@@ -12,7 +12,7 @@ report.
 - :mod:`~mjchar.bench.runner`: :func:`run_bench`, which runs it all and writes the outputs.
 
 The CLI is :mod:`mjchar.commands.bench`. The JSON document is described in ``docs/bench.md``
-and ``docs/bench_schema.json``.
+and ``mjchar/bench/schema.json``.
 """
 
 from .config import (

@@ -16,7 +16,8 @@ from controllers.core.registry import BENCH_SCENARIOS
 
 #: the project root (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
-SCHEMA_PATH = ROOT / "docs" / "bench_schema.json"
+#: the results document's JSON Schema, package data of ``mjchar.bench``
+SCHEMA_PATH = Path(__file__).with_name("schema.json")
 SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
 SCHEMA_NAME = "mjchar-bench"
 SCHEMA_VERSION = 1

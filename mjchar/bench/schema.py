@@ -1,5 +1,5 @@
-"""The results document's JSON Schema (``docs/bench_schema.json``) and validation against it
-(with the ``jsonschema`` library, Draft 2020-12)."""
+"""The results document's JSON Schema (``mjchar/bench/schema.json``, shipped with the package)
+and validation against it (with the ``jsonschema`` library, Draft 2020-12)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from .config import SCHEMA_PATH, BenchError
 
 
 def load_schema(path: str | os.PathLike | None = None) -> dict:
-    """The documented schema (``docs/bench_schema.json``)."""
+    """The documented schema (``mjchar/bench/schema.json``)."""
     p = Path(SCHEMA_PATH if path is None else path)
     try:
         return json.loads(p.read_text())
