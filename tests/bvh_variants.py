@@ -486,3 +486,29 @@ def big_motion(n_frames: int = 10_000, seed: int = 7) -> bvh.Motion:
     """A long CMU-style motion (31 joints, 96 channels) for benchmarks."""
     return synthetic_motion(cmu_like_skeleton(), n_frames=n_frames, fps=120.0, unit=0.0254,
                             seed=seed)
+
+
+#: the GAMES-105 clips' joint names -> CMU (cgspeed BVH conversion) names
+CMU_NAMES = {
+    "RootJoint": "Hips", "pelvis_lowerback": "LowerBack", "lowerback_torso": "Spine1",
+    "torso_head": "Neck", "lHip": "LeftUpLeg", "lKnee": "LeftLeg", "lAnkle": "LeftFoot",
+    "lToeJoint": "LeftToeBase", "rHip": "RightUpLeg", "rKnee": "RightLeg", "rAnkle": "RightFoot",
+    "rToeJoint": "RightToeBase", "lTorso_Clavicle": "LeftShoulder", "lShoulder": "LeftArm",
+    "lElbow": "LeftForeArm", "lWrist": "LeftHand", "rTorso_Clavicle": "RightShoulder",
+    "rShoulder": "RightArm", "rElbow": "RightForeArm", "rWrist": "RightHand",
+}
+
+
+def cmu_style(motion: bvh.Motion) -> bvh.Motion:
+    """A GAMES-105 clip re-expressed as a CMU-style export: CMU joint names, ``Zrotation
+    Yrotation Xrotation`` on every joint (root ``X/Y/Zposition`` first), inches, Y-up.
+    Forward kinematics is the original's, scaled to inches."""
+    inches = transform_motion(motion, scale=1.0 / 0.0254)
+    sk = inches.skeleton.copy()
+    sk.names = [CMU_NAMES.get(n, n) for n in sk.names]
+    sk.end_site_names = [f"{CMU_NAMES.get(motion.skeleton.names[p], '')}_end"
+                         for p in sk.end_site_parents]
+    renamed = bvh.Motion(sk, inches.frame_time, inches.local_positions, inches.rotations)
+    zyx = rot_channels("ZYX")
+    return with_channels(renamed, {n: (XYZ_POS + zyx if j == 0 else zyx)
+                                   for j, n in enumerate(sk.names)})

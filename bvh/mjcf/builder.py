@@ -44,7 +44,7 @@ from ..units import AXIS_VECTORS, unit_scale
 from . import tables as T
 from .dynamics import _actuators, _joints, _masses
 from .geometry import _floor_offset, _geometry
-from .info import ConversionError, JointInfo, ModelInfo
+from .info import ConversionError, JointInfo, ModelInfo, source_record
 from .layout import (
     _basis_matrix,
     _check_legs,
@@ -216,6 +216,7 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             "sites": sites,
             "foot_geoms": foot_geoms,
             "fused": [names[j] for j in sorted(sel["fused"])],
+            "source": source_record(skeleton, motion),
         },
     )
     xml = _write_xml(model_name or default_name, bodies, actuators, info, offset,

@@ -19,6 +19,18 @@ class ConversionError(MjcharError):
     """A skeleton cannot be converted with the given options (or a model has no mjchar metadata)."""
 
 
+def source_record(skeleton, motion=None) -> dict:
+    """The metadata entry ``source`` (read back by :meth:`ModelInfo.source`): the skeleton's
+    BVH hierarchy text, offsets to 9 decimals, and the clip's frame time (``None`` without a
+    clip)."""
+    from ..io import dumps
+    from ..motion import Motion
+
+    frame_time = None if motion is None else float(motion.frame_time)
+    text = dumps(Motion.rest(skeleton, 1, frame_time or 1.0), precision=9)
+    return {"hierarchy": text[:text.index("MOTION")], "frame_time": frame_time}
+
+
 @dataclass(frozen=True)
 class JointInfo:
     """How one kept BVH joint appears in the model.
@@ -155,6 +167,24 @@ class ModelInfo:
         }
         d.update(self.extra)
         return d
+
+    # -- the source skeleton ---------------------------------------------------------------------
+    def source(self):
+        """``(skeleton, frame_time)``: the BVH skeleton the model was converted from (every joint
+        with its name, offset and channel order, in file units and axes; end sites included)
+        and the frame time of the clip it came with (``None`` when converted from a bare
+        skeleton). Raises :class:`ConversionError` for a model converted before the source was
+        stored (re-convert it)."""
+        rec = self.extra.get("source")
+        if not isinstance(rec, dict) or "hierarchy" not in rec:
+            raise ConversionError("the model's metadata does not hold the skeleton it was "
+                                  "converted from (converted by an older mjchar); convert the "
+                                  "BVH again")
+        from ..io import loads
+
+        motion = loads(rec["hierarchy"] + "MOTION\nFrames: 0\nFrame Time: 1\n")
+        ft = rec.get("frame_time")
+        return motion.skeleton, (None if ft is None else float(ft))
 
     # -- conveniences --------------------------------------------------------------------------
     def role(self, role: str):

@@ -69,8 +69,8 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
         events: called once at the start (after the reset) to schedule pushes on the character.
         control_dt: seconds between control steps (default: every physics step); rounded to a
             whole number of physics steps.
-        frame_callback: called as ``frame_callback(character)`` after every control step
-            (video capture).
+        frame_callback: called as ``frame_callback(character)`` once after the reset (the
+            start state) and after every control step (video capture, BVH export).
     Returns:
         the :class:`Result` (a fall or a divergence ends the run when ``stop_on_fall``).
     """
@@ -85,6 +85,8 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
     n_sub = 1 if control_dt is None else max(1, int(round(control_dt / dt)))
     n_control = int(math.ceil(duration / (dt * n_sub) - 1e-9))
     rec = Recorder(character, reference)
+    if frame_callback is not None:
+        frame_callback(character)
     fell, fall_time, reason, diverged = False, None, None, False
     steps = 0
     wall0 = time.perf_counter()
@@ -123,7 +125,12 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
 
 
 # -- the scenarios -------------------------------------------------------------------------------
-def stand(character: Character, controller, *, duration: float = 10.0, **kw) -> Result:
+#: run lengths in s when no duration is given (track and walk with a clip: the clip's length)
+DEFAULT_DURATIONS = {"stand": 10.0, "push": 4.0, "random-push": 30.0, "walk": 10.0}
+
+
+def stand(character: Character, controller, *, duration: float = DEFAULT_DURATIONS["stand"],
+          **kw) -> Result:
     """Stand from the standing pose for ``duration`` s."""
     return simulate(character, controller, duration=duration, scenario="stand",
                     qpos=standing_pose(character), **kw)
@@ -131,7 +138,7 @@ def stand(character: Character, controller, *, duration: float = 10.0, **kw) -> 
 
 def push(character: Character, controller, *, force: float, direction: float = 0.0,
          push_duration: float = 0.2, push_time: float = 1.0, body: str | None = None,
-         duration: float = 4.0, allow_steps: bool = False,
+         duration: float = DEFAULT_DURATIONS["push"], allow_steps: bool = False,
          start: tuple[np.ndarray, np.ndarray | None] | None = None, **kw) -> Result:
     """One push of ``force`` N towards ``direction`` degrees (heading frame) on ``body``
     (default: the pelvis) for ``push_duration`` s at ``push_time`` s; run ``duration`` s from
@@ -165,7 +172,8 @@ def survived(result: Result, allow_steps: bool = False) -> bool:
 
 
 def random_push(character: Character, controller, *, seed: int = 0, force: float = 10.0,
-                period: float = 1.0, duration: float = 30.0, body: str | None = None,
+                period: float = 1.0, duration: float = DEFAULT_DURATIONS["random-push"],
+                body: str | None = None,
                 **kw) -> Result:
     """A ``force`` N horizontal push on ``body`` (default: the root/pelvis) whose direction
     (uniform on the circle, from ``numpy.random.default_rng(seed)``) changes every ``period``
@@ -202,7 +210,8 @@ def walk(character: Character, controller, reference=None, *, duration: float | 
     """Locomotion: from the reference's first frame (or the standing pose without one), report
     the distance covered and the mean speed (and tracking errors when there is a reference)."""
     if reference is None:
-        return simulate(character, controller, duration=10.0 if duration is None else duration,
+        duration = DEFAULT_DURATIONS["walk"] if duration is None else duration
+        return simulate(character, controller, duration=duration,
                         scenario="walk", qpos=standing_pose(character), **kw)
     return track(character, controller, reference, duration=duration, scenario="walk", **kw)
 
