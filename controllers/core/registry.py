@@ -65,6 +65,8 @@ class ControllerSpec:
         expected: bench scenarios it must survive (a fall makes ``mjchar bench`` exit 1).
         trajectory_prefixes: replays: saved-trajectory file names (``PREFIX*.npz``) it plays by
             default, looked for in the bundled trajectories.
+        limits: ``(option, low, high)`` ranges of numeric options the controller supports
+            (measured, e.g. IPM's walking speeds); ``mjchar run`` refuses values outside them.
     """
 
     name: str
@@ -80,6 +82,14 @@ class ControllerSpec:
     bench: tuple[str, ...] = ()
     expected: tuple[str, ...] = ()
     trajectory_prefixes: tuple[str, ...] = ()
+    limits: tuple[tuple[str, float, float], ...] = ()
+
+    def limit(self, option: str) -> tuple[float, float] | None:
+        """``(low, high)`` of ``option`` from :attr:`limits`, ``None`` when unlimited."""
+        for name, lo, hi in self.limits:
+            if name == option:
+                return lo, hi
+        return None
 
     def __post_init__(self) -> None:
         def bad(what: str) -> RegistryError:
@@ -102,6 +112,9 @@ class ControllerSpec:
             raise bad(f"expected scenarios {self.expected} must be bench scenarios")
         if self.push not in PUSH_MODES:
             raise bad(f"push must be one of {', '.join(PUSH_MODES)}, got {self.push!r}")
+        for lim in self.limits:
+            if len(lim) != 3 or lim[0] not in self.options or not lim[1] <= lim[2]:
+                raise bad(f"limits must be (option, low, high) of its own options, got {lim}")
         if self.timestep is not None and not self.timestep > 0:
             raise bad(f"the time step must be positive, got {self.timestep}")
 

@@ -7,6 +7,11 @@ import argparse
 import math
 
 
+def number(what: str):
+    """A parser of finite numbers."""
+    return _number(what, lambda v: True, "a finite number")
+
+
 def positive(what: str):
     """A parser of finite numbers > 0 (``what`` names the option in errors)."""
     return _number(what, lambda v: v > 0, "positive")
@@ -46,9 +51,10 @@ def _number(what: str, ok, expected: str):
     return parse
 
 
-def add_floor_argument(p: argparse.ArgumentParser) -> None:
-    """``--floor clip|frame``: how the reference clip is placed on the floor."""
-    p.add_argument("--floor", choices=("clip", "frame"), default="clip",
+def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "clip") -> None:
+    """``--floor clip|frame``: how the reference clip is placed on the floor (``default=None``
+    lets a command tell whether it was typed)."""
+    p.add_argument("--floor", choices=("clip", "frame"), default=default,
                    help="place the clip on the floor by its lowest foot point over the whole "
                         "clip (default), or every frame by its own lowest foot point (walks: "
                         "mocap stance feet float centimetres above the floor otherwise)")

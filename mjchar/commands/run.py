@@ -6,7 +6,8 @@ import argparse
 import math
 import textwrap
 
-from .argtypes import add_floor_argument, integer, non_negative, positive
+from .argtypes import add_floor_argument, integer, non_negative, number, positive
+from .run_options import check_applicable, check_export_path, check_ranges, fill_defaults
 
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
                    "right": 270.0}
@@ -45,11 +46,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("trajectory", nargs="?", metavar="FILE",
                    help="replays only: a trajectory saved by mjchar samcon / mjchar trajopt "
                         "(default for samcon_replay / cmaes_replay: the bundled one)")
-    p.add_argument("--speed", type=float, default=1.0, metavar="M/S",
-                   help="ipm: desired forward speed (default 1.0; 0 stops and stands)")
-    p.add_argument("--heading", type=float, metavar="DEG",
+    p.add_argument("--speed", type=number("speed"), metavar="M/S",
+                   help="walk scenario, controllers taking a speed (ipm): desired forward speed "
+                        "(default 1.0; 0 stops and stands; each controller's range is checked)")
+    p.add_argument("--heading", type=number("heading"), metavar="DEG",
                    help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
-    p.add_argument("--gait", default="walk", metavar="NAME",
+    p.add_argument("--gait", metavar="NAME",
                    help="simbicon: gait parameter set (default walk)")
     p.add_argument("--scenario", choices=registry.SCENARIOS, metavar="S",
                    help="one of: " + ", ".join(registry.SCENARIOS)
@@ -58,45 +60,53 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="reference motion for track/walk and hand_of_god (default: bundled walk)")
     p.add_argument("--model", metavar="FILE.xml",
                    help="converted model (default: the bundled humanoid)")
-    add_floor_argument(p)
+    add_floor_argument(p, default=None)
     p.add_argument("--duration", type=positive("duration"), metavar="T",
                    help="simulated seconds (default: per scenario; the clip for track/walk)")
     p.add_argument("--push", type=non_negative("push"), metavar="N",
                    help="push force in newtons (push: required; random-push: default 10)")
-    p.add_argument("--direction", type=_direction, default=0.0, metavar="DEG",
+    p.add_argument("--direction", type=_direction, metavar="DEG",
                    help="push direction in degrees from the facing direction (0 forward, "
                         "90 left, 180 backward, 270 right) or a name; default forward")
-    p.add_argument("--push-duration", type=positive("push duration"), default=0.2,
-                   metavar="S", help="push length in seconds (default 0.2)")
-    p.add_argument("--push-time", type=non_negative("push time"), default=1.0, metavar="S",
+    p.add_argument("--push-duration", type=positive("push duration"), metavar="S",
+                   help="push length in seconds (default 0.2)")
+    p.add_argument("--push-time", type=non_negative("push time"), metavar="S",
                    help="when the push starts in seconds (default 1)")
-    p.add_argument("--max-force", type=positive("max force"), default=500.0, metavar="N",
+    p.add_argument("--max-force", type=positive("max force"), metavar="N",
                    help="push-search: the force grid's cap in newtons (default 500)")
-    p.add_argument("--tolerance", type=positive("tolerance"), default=25.0, metavar="N",
+    p.add_argument("--tolerance", type=positive("tolerance"), metavar="N",
                    help="push-search: the force grid's step in newtons (default 25)")
-    p.add_argument("--phases", type=integer("phases", minimum=1), default=4, metavar="K",
+    p.add_argument("--phases", type=integer("phases", minimum=1), metavar="K",
                    help="push-search: phases of the stride (walkers) or moments (standing) "
                         "pushed at (default 4)")
-    p.add_argument("--seeds", type=integer("seeds", minimum=1), default=2, metavar="S",
+    p.add_argument("--seeds", type=integer("seeds", minimum=1), metavar="S",
                    help="push-search: seeds 0..S-1 of the start perturbation (default 2)")
-    p.add_argument("--allow-steps", action="store_true",
+    p.add_argument("--allow-steps", action="store_true", default=None,
                    help="a push counts as survived even if a foot moved (stepping controllers)")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
-    p.add_argument("--tracker", choices=registry.names("pd"), default="spd",
+    p.add_argument("--tracker", choices=registry.names("pd"),
                    help="PD variant hand_of_god wraps (default spd)")
     p.add_argument("--timestep", type=positive("timestep"), metavar="S",
                    help="physics time step in seconds (default: 1/2000 for pd, the model's "
                         "otherwise)")
     p.add_argument("--control-dt", type=positive("control dt"), metavar="S",
                    help="seconds between control steps (default: every physics step)")
-    p.add_argument("--seed", type=integer("seed"), default=0, metavar="N",
+    p.add_argument("--seed", type=integer("seed"), metavar="N",
                    help="random seed (random-push directions; default 0)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
     p.add_argument("--render", metavar="OUT.mp4",
                    help="write a video following the character (needs the video extra)")
-    p.add_argument("--fps", type=positive("fps"), default=30.0, help="video frame rate")
+    p.add_argument("--fps", type=positive("fps"), help="video frame rate (default 30)")
+    p.add_argument("--export-bvh", metavar="OUT.bvh",
+                   help="write the simulated motion as BVH on the skeleton the model was "
+                        "converted from (its joint names, channel orders, units, up axis)")
+    p.add_argument("--export-fps", type=positive("export fps"), metavar="FPS",
+                   help="frame rate of --export-bvh (default: the source clip's; 60 for a "
+                        "model converted from a bare skeleton)")
+    p.epilog = ("An option the chosen controller and scenario do not use is an error (exit 2), "
+                "as is a value outside what the controller supports.")
     p.set_defaults(func=run)
 
 
@@ -136,26 +146,34 @@ def run(args: argparse.Namespace) -> int:
     from controllers import registry
     from controllers.core import scenarios as S
     from controllers.core.character import Character
+    from controllers.core.recording import MotionRecorder, chain_callbacks
 
     spec = registry.get(args.controller)
-    if spec.kind == "replay":
-        return _replay(args, spec)
-    if args.trajectory is not None:
-        raise MjcharError(f"unexpected argument {args.trajectory!r}: only the replays "
-                          f"({', '.join(registry.names('replay'))}) take a file")
-    walker = spec.kind == "walker"
     scenario = args.scenario or spec.default_scenario
     if scenario not in spec.scenarios:
         raise MjcharError(f"{spec.name} does not run the {scenario} scenario; it runs "
                           f"{_scenario_list(spec)}")
-    if scenario == "push" and args.push is None:
-        raise MjcharError("the push scenario needs --push NEWTONS")
-    if scenario == "push-search":
-        return _push_search(args, spec)
+    if args.trajectory is not None and spec.kind != "replay":
+        raise MjcharError(f"unexpected argument {args.trajectory!r}: only the replays "
+                          f"({', '.join(registry.names('replay'))}) take a file")
+    check_applicable(args, spec, scenario)
+    fill_defaults(args)
+    check_export_path(args.export_bvh)
     if args.render and not args.render.lower().endswith(".mp4"):
         raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+    if scenario == "push" and args.push is None:
+        raise MjcharError("the push scenario needs --push NEWTONS")
+    if spec.kind == "replay":
+        check_ranges(args, spec, scenario)
+        return _replay(args, spec)
+    walker = spec.kind == "walker"
 
     character = Character(args.model)
+    check_ranges(args, spec, scenario, mass=character.mass,
+                 height=character.info.extra.get("height"),
+                 default_duration=S.DEFAULT_DURATIONS.get(scenario))
+    if scenario == "push-search":
+        return _push_search(args, spec)
     timestep = args.timestep or spec.timestep
     if timestep:
         character.set_timestep(timestep)
@@ -168,8 +186,6 @@ def run(args: argparse.Namespace) -> int:
         path = args.motion or motion_path("walk")
         reference = ReferenceMotion(character.model, bvh.load(path), info=character.info,
                                     floor=args.floor)
-    elif args.motion:
-        raise MjcharError(f"--motion is used by the track and walk scenarios, not {scenario}")
     # trackers follow the reference in track/walk, and hold the standing pose otherwise
     target = reference if reference is not None else S.standing_pose(character)
     controller = registry.make_controller(spec.name, character, target,
@@ -183,7 +199,8 @@ def run(args: argparse.Namespace) -> int:
         from ..render import VideoRecorder
 
         video = VideoRecorder(character, args.render, fps=args.fps)
-        kw["frame_callback"] = video.capture
+    recorder = MotionRecorder() if args.export_bvh else None
+    kw["frame_callback"] = chain_callbacks(video.capture if video else None, recorder)
     try:
         if scenario == "push":
             result = S.push(character, controller, force=args.push, direction=args.direction,
@@ -198,6 +215,7 @@ def run(args: argparse.Namespace) -> int:
         if video is not None:
             video.close()
     result.seed = args.seed
+    exported = _export(args, recorder)
     if args.json:
         out = result.to_dict()
         out["model"] = str(args.model) if args.model else "bundled humanoid"
@@ -206,12 +224,29 @@ def run(args: argparse.Namespace) -> int:
         if video is not None:
             out["video"] = args.render
             out["video_frames"] = video.frames
+        out.update(exported)
         print(json.dumps(out))
     else:
         print(result.summary())
         if video is not None:
             print(f"  video: {args.render} ({video.frames} frames)")
+        _print_export(exported)
     return 0
+
+
+def _export(args: argparse.Namespace, recorder) -> dict:
+    """``--export-bvh``: write the recording; the JSON keys describing what was written."""
+    if recorder is None:
+        return {}
+    motion = recorder.save_bvh(args.export_bvh, fps=args.export_fps)
+    return {"export_bvh": args.export_bvh, "export_frames": motion.n_frames,
+            "export_fps": motion.fps}
+
+
+def _print_export(exported: dict) -> None:
+    if exported:
+        print(f"  BVH: {exported['export_bvh']} ({exported['export_frames']} frames at "
+              f"{exported['export_fps']:g} fps)")
 
 
 def _push_search(args: argparse.Namespace, spec) -> int:
@@ -222,11 +257,6 @@ def _push_search(args: argparse.Namespace, spec) -> int:
 
     from controllers.core.push_protocol import PushProtocol, survival_rates
 
-    if args.render:
-        from bvh.errors import MjcharError
-
-        raise MjcharError("push-search runs hundreds of simulations: --render films one run "
-                          "(use --scenario push)")
     protocol = PushProtocol.grid(args.max_force, min(args.tolerance, args.max_force),
                                  phases=args.phases, seeds=tuple(range(args.seeds)),
                                  push_duration=args.push_duration)
@@ -250,6 +280,7 @@ def _replay(args: argparse.Namespace, spec) -> int:
     import sys
 
     from bvh.errors import MjcharError
+    from controllers.core.recording import MotionRecorder, chain_callbacks
     from controllers.sampling.trajectory import find_trajectory, load_trajectory, replay
 
     path = args.trajectory or find_trajectory(spec.trajectory_prefixes)
@@ -262,26 +293,28 @@ def _replay(args: argparse.Namespace, spec) -> int:
                           f"{spec.name} FILE")
     trajectory = load_trajectory(path)
     video = None
-    kw = {}
     if args.render:
         from controllers.core.character import Character
 
         from ..render import VideoRecorder
 
-        if not args.render.lower().endswith(".mp4"):
-            raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
         # the recorder only reads the simulated state through the callback's character
         video = VideoRecorder(Character(args.model), args.render, fps=args.fps)
-        kw["frame_callback"] = video.capture
+    recorder = MotionRecorder() if args.export_bvh else None
     try:
-        result = replay(trajectory, model=args.model, duration=args.duration, **kw)
+        result = replay(trajectory, model=args.model, duration=args.duration,
+                        frame_callback=chain_callbacks(video.capture if video else None,
+                                                       recorder))
     finally:
         if video is not None:
             video.close()
+    exported = _export(args, recorder)
     if args.json:
         out = result.to_dict()
         out["trajectory"] = str(path)
+        out.update(exported)
         print(json.dumps(out))
     else:
         print(result.summary(), file=sys.stdout)
+        _print_export(exported)
     return 0

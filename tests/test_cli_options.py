@@ -1,0 +1,130 @@
+"""``mjchar run`` refuses what does not apply: every option a controller x scenario does not use
+is a one-line error with exit status 2 (the whole matrix), and so is every value outside what the
+controller supports. Nothing is silently ignored."""
+
+from __future__ import annotations
+
+import pytest
+
+from bvh.assets import TRAJECTORIES, motion_path
+from controllers import registry
+from mjchar.cli import main
+from mjchar.commands.run_options import OPTIONS, check_applicable
+
+#: a valid value for each option (flags take none)
+VALUES = {
+    "speed": "0.5", "heading": "10", "gait": "walk", "tracker": "spd", "squat": "0.1",
+    "motion": str(motion_path("walk")), "floor": "clip", "duration": "1", "push": "50",
+    "direction": "left", "push_duration": "0.2", "push_time": "0.5", "allow_steps": None,
+    "max_force": "100", "tolerance": "50", "phases": "2", "seeds": "1", "seed": "1",
+    "timestep": "0.001", "control_dt": "0.002", "render": "x.mp4", "export_bvh": "x.bvh",
+}
+
+
+def _base(spec, scenario: str) -> list[str]:
+    args = ["run", spec.name]
+    if spec.name == "replay":
+        args.append(str(TRAJECTORIES / "samcon_walk60.npz"))
+    return args + ["--scenario", scenario]
+
+
+def _typed(opt) -> list[str]:
+    value = VALUES[opt.dest]
+    return [opt.flag] if value is None else [opt.flag, value]
+
+
+def _matrix(applies: bool):
+    cases = []
+    for spec in registry.specs():
+        for scenario in spec.scenarios:
+            for opt in OPTIONS:
+                if opt.applies(spec, scenario) == applies:
+                    cases.append(pytest.param(spec, scenario, opt,
+                                              id=f"{spec.name}-{scenario}-{opt.dest}"))
+    return cases
+
+
+def _one_line_error(capsys, argv) -> str:
+    code = main(argv)
+    assert code == 2, f"exit {code} for {' '.join(argv)}"
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_every_option_is_in_the_table():
+    """The table covers every option of `mjchar run` but the always-valid ones."""
+    from mjchar.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    dests = {a.dest for a in sub.choices["run"]._actions}
+    covered = {o.dest for o in OPTIONS} | {"fps", "export_fps"}
+    always = {"help", "controller", "trajectory", "scenario", "model", "json"}
+    assert dests - always == covered
+    assert set(VALUES) == {o.dest for o in OPTIONS}
+
+
+@pytest.mark.parametrize("spec,scenario,opt", _matrix(applies=False))
+def test_an_option_that_does_not_apply_is_refused(spec, scenario, opt, capsys):
+    err = _one_line_error(capsys, _base(spec, scenario) + _typed(opt))
+    assert f"{opt.flag} does not apply to {spec.name} in the {scenario} scenario" in err
+
+
+@pytest.mark.parametrize("spec,scenario,opt", _matrix(applies=True))
+def test_an_option_that_applies_passes_the_check(spec, scenario, opt):
+    """The same table lets through what is used (the runs themselves are tested elsewhere)."""
+    import argparse
+
+    args = argparse.Namespace(**{o.dest: None for o in OPTIONS})
+    setattr(args, opt.dest, VALUES[opt.dest] or True)
+    check_applicable(args, spec, scenario)
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["run", "spd", "--fps", "10"], "--fps needs --render"),
+    (["run", "spd", "--export-fps", "10"], "--export-fps needs --export-bvh"),
+])
+def test_refinements_need_their_option(argv, needle, capsys):
+    assert needle in _one_line_error(capsys, argv)
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["run", "ipm", "--speed", "1e9"], "ipm walks at 0 to 1 m/s"),
+    (["run", "ipm", "--speed", "-0.5"], "ipm walks at 0 to 1 m/s"),
+    (["run", "ipm", "--heading", "1e4"], "--heading 10000 is out of range"),
+    (["run", "static_balance", "--scenario", "push", "--push", "1e6"], "body weights"),
+    (["run", "static_balance", "--scenario", "push-search", "--max-force", "1e6"],
+     "body weights"),
+    (["run", "static_balance", "--scenario", "push-search", "--max-force", "100",
+      "--tolerance", "200"], "must not exceed --max-force"),
+    (["run", "static_balance", "--scenario", "push", "--push", "50", "--push-time", "9"],
+     "must start within the 4 s run"),
+    (["run", "static_balance", "--scenario", "push", "--push", "50", "--push-time", "3",
+      "--duration", "2"], "must start within the 2 s run"),
+    (["run", "static_balance", "--squat", "5"], "standing height"),
+    (["run", "static_balance", "--duration", "1e7"], "at most 3600"),
+    (["run", "static_balance", "--timestep", "0.5"], "at most 0.01 s"),
+    (["run", "static_balance", "--timestep", "0.002", "--control-dt", "0.001"],
+     "shorter than the physics step"),
+    (["run", "static_balance", "--export-bvh", "out.txt"], "give a .bvh path"),
+    (["run", "static_balance", "--export-bvh", "/no/such/folder/x.bvh"], "does not exist"),
+    (["run", "static_balance", "--render", "x.mp4", "--fps", "5000"], "at most 1000"),
+    (["run", "replay", str(TRAJECTORIES / "samcon_walk60.npz"), "--scenario", "push",
+      "--push", "100"], "replay does not run the push scenario"),
+    (["run", "spd", str(TRAJECTORIES / "samcon_walk60.npz")], "only the replays"),
+])
+def test_values_outside_what_the_controller_supports(argv, needle, capsys):
+    assert needle in _one_line_error(capsys, argv)
+
+
+def test_nan_speed_is_an_argument_error(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["run", "ipm", "--speed", "nan"])
+    assert e.value.code == 2
+    assert "finite" in capsys.readouterr().err
+
+
+def test_speed_limits_come_from_the_registry():
+    spec = registry.get("ipm")
+    assert spec.limit("speed") == (0.0, 1.0)
+    assert registry.get("static_balance").limit("speed") is None
