@@ -1,0 +1,131 @@
+"""``mjchar gait SOURCE``: gait statistics of a walker's run or a BVH clip, side by side with
+reference clips, and the joint-angle curves over the normalised gait cycle (bvh.gait)."""
+
+from __future__ import annotations
+
+import argparse
+
+from .argtypes import integer, non_negative, number, positive
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from controllers import registry
+
+    walkers = registry.names("walker")
+    p = sub.add_parser(
+        "gait", help="gait statistics of a walker or a clip against reference clips",
+        description="Measure speed, cadence, step length and width, stance and double support, "
+                    "trunk lean, knee and hip flexion, foot clearance, stance slip and COM "
+                    "excursion of a simulated walk or a BVH clip (see docs/gait.md), print "
+                    "them beside reference clips, and optionally plot the joint-angle curves "
+                    "over the normalised gait cycle.")
+    p.add_argument("source", metavar="SOURCE",
+                   help=f"a walker ({', '.join(walkers)}) to run, or a BVH clip to analyse")
+    p.add_argument("--reference", action="append", default=[], metavar="CLIP.bvh",
+                   help="a clip to compare with (repeatable)")
+    p.add_argument("--model", metavar="FILE.xml",
+                   help="walkers: the converted model (default: the bundled humanoid)")
+    p.add_argument("--duration", type=positive("duration"), metavar="T",
+                   help="walkers: simulated seconds (default 20)")
+    p.add_argument("--from", dest="start", type=non_negative("from"), metavar="S",
+                   help="start of the analysed window in s (default: 3 for runs, 0 for clips)")
+    p.add_argument("--speed", type=number("speed"), metavar="M/S",
+                   help="walkers taking a speed: the commanded speed")
+    p.add_argument("--gait", metavar="NAME", help="simbicon: gait parameter set")
+    p.add_argument("--seed", type=integer("seed"), metavar="N",
+                   help="walkers: seed of a small start perturbation (default: none)")
+    p.add_argument("--plot", metavar="OUT.png",
+                   help="write the cycle curves (knee, hip flexion, trunk lean) as a PNG "
+                        "(needs matplotlib: the bench extra)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def _walker_stats(args, spec):
+    from bvh.errors import MjcharError
+    from bvh.gait import analyse
+    from controllers import registry
+    from controllers.core import scenarios as S
+    from controllers.core.character import Character
+    from controllers.core.recording import MotionRecorder
+
+    options = {}
+    for name, value in (("speed", args.speed), ("gait", args.gait)):
+        if value is None:
+            continue
+        if name not in spec.options:
+            raise MjcharError(f"--{name} does not apply to {spec.name}")
+        limit = spec.limit(name) if name == "speed" else None
+        if limit is not None and not limit[0] <= value <= limit[1]:
+            raise MjcharError(f"--speed {value:g} is out of range: {spec.name} walks at "
+                              f"{limit[0]:g} to {limit[1]:g} m/s")
+        options[name] = value
+    if "speed" in spec.options and "speed" not in options:
+        options["speed"] = 1.0
+    character = Character(args.model)
+    if spec.timestep:
+        character.set_timestep(spec.timestep)
+    controller = registry.make_controller(spec.name, character, None, **options)
+    recorder = MotionRecorder()
+    duration = 20.0 if args.duration is None else args.duration
+    start = 3.0 if args.start is None else args.start
+    if start >= duration:
+        raise MjcharError(f"--from {start:g} must be before the end of the {duration:g} s run")
+    kw = {} if args.seed is None else {"seed": args.seed}
+    result = S.run_scenario("walk", character, controller, duration=duration,
+                            frame_callback=recorder, **kw)
+    label = spec.name + (f" {options['speed']:g} m/s" if "speed" in options else "")
+    stats = analyse(character.model, recorder.times, recorder.qpos, start=start,
+                    end=result.fall_time_s, info=character.info, label=label)
+    return stats, result
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+    import os
+
+    from bvh.errors import MjcharError
+    from bvh.gait import analyse_clip, table
+    from controllers import registry
+
+    result = None
+    if args.source.lower().endswith(".bvh"):
+        for flag, value in (("--model", args.model), ("--duration", args.duration),
+                            ("--speed", args.speed), ("--gait", args.gait),
+                            ("--seed", args.seed)):
+            if value is not None:
+                raise MjcharError(f"{flag} applies to walkers, not to a clip")
+        if not os.path.isfile(args.source):
+            raise MjcharError(f"{args.source}: no such file")
+        stats = analyse_clip(args.source, start=args.start or 0.0)
+    elif args.source in registry.names("walker"):
+        stats, result = _walker_stats(args, registry.get(args.source))
+    else:
+        raise MjcharError(f"SOURCE must be a walker ({', '.join(registry.names('walker'))}) or "
+                          f"a .bvh clip, got {args.source!r}")
+    if args.plot and not args.plot.lower().endswith(".png"):
+        raise MjcharError(f"--plot writes PNG: give a .png path, got {args.plot!r}")
+    refs = []
+    for path in args.reference:
+        if not os.path.isfile(path):
+            raise MjcharError(f"--reference {path}: no such file")
+        refs.append(analyse_clip(path))
+    everything = [stats, *refs]
+    if args.plot:
+        from ..gait_plot import plot_cycles
+
+        plot_cycles(everything, args.plot)
+    if args.json:
+        out = {"source": stats.to_dict(), "references": [r.to_dict() for r in refs]}
+        if result is not None:
+            out["run"] = result.to_dict()
+        if args.plot:
+            out["plot"] = args.plot
+        print(json.dumps(out))
+        return 0
+    if result is not None and result.fell:
+        print(f"note: {args.source} fell at {result.fall_time_s:.2f} s; analysed up to the fall")
+    print(table(everything))
+    if args.plot:
+        print(f"plot: {args.plot}")
+    return 0

@@ -1,0 +1,115 @@
+"""Gait analysis (bvh.gait, ``mjchar gait``): the statistics of the mocap walks agree with an
+independent calculation from the clip's own forward kinematics, simulated walks are measured by
+the same probe, and the command refuses what does not apply."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import shared_clip
+
+import bvh
+from bvh.gait import GaitError, analyse, analyse_clip, table
+from controllers import registry
+from controllers.core import scenarios as S
+from controllers.core.character import Character
+from controllers.core.recording import MotionRecorder
+from mjchar.cli import main
+
+
+def _independent(path):
+    """Speed, step length and cadence from the BVH's own FK (no model, no stance rule): foot
+    strikes are the local minima of each ankle's horizontal speed, at least 0.5 s apart."""
+    motion = bvh.load(path)
+    fk = bvh.forward_kinematics(motion).positions * bvh.units.guess_unit_scale(motion.skeleton)
+    t = motion.times
+    names = motion.skeleton.names
+    root = fk[:, 0][:, [0, 2]]                                  # Y-up clips: the XZ plane
+    travel = root[-1] - root[0]
+    speed = np.linalg.norm(travel) / (t[-1] - t[0])
+    f = travel / np.linalg.norm(travel)
+    strikes = []
+    for side in ("l", "r"):
+        a = fk[:, names.index(f"{side}Ankle")][:, [0, 2]]
+        v = np.linalg.norm(np.gradient(a, t, axis=0), axis=1)
+        k = 1
+        while k < len(v) - 1:
+            w = slice(max(0, k - 15), min(len(v), k + 16))     # +-0.25 s at 60 fps
+            if v[k] == v[w].min() and v[k] < 0.5 * speed:
+                strikes.append((t[k], side, a[k]))
+                k += 30
+            else:
+                k += 1
+    strikes.sort(key=lambda s: s[0])
+    steps = [float((b[2] - a[2]) @ f) for a, b in zip(strikes, strikes[1:], strict=False)
+             if a[1] != b[1]]
+    left = np.linalg.norm(np.gradient(fk[:, names.index("lAnkle")][:, [0, 2]], t, axis=0), axis=1)
+    left = left - left.mean()
+    ac = np.correlate(left, left, "full")[len(left) - 1:]
+    lags = np.arange(len(ac)) * motion.frame_time
+    ok = (lags > 0.6) & (lags < 2.0)
+    period = lags[ok][np.argmax(ac[ok])]
+    return speed, float(np.mean(steps)), 120.0 / period
+
+
+def test_walk60_matches_an_independent_calculation():
+    path = shared_clip("walk60.bvh")
+    stats = analyse_clip(path)
+    speed, step, cadence = _independent(path)
+    assert stats.speed_mps == pytest.approx(speed, abs=0.02)
+    assert stats.step_length_m == pytest.approx(step, abs=0.05)
+    assert stats.cadence_spm == pytest.approx(cadence, abs=8)
+    # the issue's own probe of this clip: 1.20 m/s, 0.73 m steps, ~100 steps/min, 4 deg lean
+    assert stats.speed_mps == pytest.approx(1.20, abs=0.03)
+    assert 0.65 < stats.step_length_m < 0.80 and 90 < stats.cadence_spm < 110
+    assert 2.0 < stats.trunk_lean_deg < 6.0 and stats.step_width_m < 0.12
+    assert 15 < stats.knee_flexion_deg < 35
+
+
+def test_simulated_walk_is_measured_by_the_same_probe():
+    ch = Character(None)
+    ch.set_timestep(registry.get("simbicon").timestep)
+    rec = MotionRecorder()
+    result = S.run_scenario("walk", ch, registry.make_controller("simbicon", ch, None),
+                            duration=6.0, frame_callback=rec)
+    stats = analyse(ch.model, rec.times, rec.qpos, start=2.0, info=ch.info, label="simbicon")
+    assert not result.fell and stats.steps >= 6
+    t, q = np.asarray(rec.times), np.asarray(rec.qpos)
+    i = int(np.searchsorted(t, 2.0 - 1e-9))
+    assert stats.speed_mps == pytest.approx(
+        np.linalg.norm(q[-1, :2] - q[i, :2]) / (t[-1] - t[i]), rel=1e-6)
+    assert 0.2 < stats.step_length_m < 1.0 and 60 < stats.cadence_spm < 200
+    assert set(stats.cycle_mean) >= {"left_knee_flexion", "left_hip_flexion", "trunk_lean"}
+    assert len(stats.cycle_mean["trunk_lean"]) == 101
+    assert "| step length m |" in table([stats])
+
+
+def test_too_short_a_window_is_an_error():
+    ch = Character(None)
+    q = np.tile(ch.model.qpos0, (5, 1))
+    with pytest.raises(GaitError, match="at least 0.5 s"):
+        analyse(ch.model, np.arange(5) * 0.01, q)
+
+
+def test_cli_clip_json_and_plot(tmp_path, capsys):
+    out = tmp_path / "cycle.png"
+    assert main(["gait", str(shared_clip("walk60.bvh")), "--plot", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["source"]["label"] == "walk60" and doc["references"] == []
+    assert out.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["gait", "simbicon", "--speed", "1.0"], "--speed does not apply to simbicon"),
+    (["gait", "ipm", "--speed", "9"], "out of range"),
+    (["gait", "hand_of_god"], "SOURCE must be a walker"),
+    (["gait", "/no/such.bvh"], "no such file"),
+    (["gait", "x.bvh", "--duration", "3"], "--duration applies to walkers"),
+    (["gait", "simbicon", "--duration", "2", "--from", "3"], "before the end"),
+])
+def test_cli_refuses_what_does_not_apply(argv, needle, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1
