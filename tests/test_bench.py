@@ -16,6 +16,7 @@ import pytest
 from controllers.core import registry
 from mjchar import bench as B
 from mjchar import cli, perf
+from mjchar.bench.config import SHARED_BVH
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -313,10 +314,23 @@ def test_validator_reports_schema_violations(tiny_doc):
 def test_plots_are_written(tiny_doc):
     out, doc = tiny_doc
     assert set(doc["plots"]) == {"push_search.png", "com_trajectories.png",
-                                 "stability_envelope.png", "step_cost.png"}
+                                 "stability_envelope.png", "step_cost.png", "gait_cycle.png"}
     for name in doc["plots"]:
         data = (out / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_gait_section(tiny_doc):
+    """Every walker's walk and the mocap walks, measured by one probe, in the document and in
+    table.md."""
+    out, doc = tiny_doc
+    labels = [w["label"] for w in doc["gait"]["walks"]] + list(doc["gait"]["skipped"])
+    assert "simbicon" in labels
+    if (SHARED_BVH / "walk60.bvh").is_file():
+        assert "walk60" in labels
+    for w in doc["gait"]["walks"]:
+        assert w["speed_mps"] >= 0 and len(w["cycle_mean"].get("trunk_lean", [0] * 101)) == 101
+    assert "Gait (walkers:" in (out / "table.md").read_text()
 
 
 def test_videos_give_stills_and_a_walk_strip(tmp_path):

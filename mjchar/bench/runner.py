@@ -127,6 +127,16 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         doc["performance"] = run_performance(names, config, trajectories=trajectories,
                                              progress=progress)
         timings["performance_s"] = time.perf_counter() - t0
+    doc["gait"] = None
+    from controllers import registry
+
+    if any(registry.get(n).kind == "walker" for n in doc["controllers"]):
+        from .gait import run_gait
+
+        t0 = time.perf_counter()
+        doc["gait"] = run_gait(config, list(doc["controllers"]),
+                               progress=print if progress else None)
+        timings["gait_s"] = time.perf_counter() - t0
     doc["table"] = table_rows(doc)
     doc["expectations"] = check_expectations(doc)
     doc["videos"] = vids
@@ -146,9 +156,17 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
             from .plots import make_plots
 
             doc["plots"] = [p.name for p in make_plots(doc, out)]
+            from .gait import plot_gait
+
+            if plot_gait(doc["gait"], out / "gait_cycle.png") is not None:
+                doc["plots"].append("gait_cycle.png")
+        from .gait import gait_markdown
+
         notes = TABLE_NOTES + tuple(protocol_notes(doc["table"]))
+        gait = gait_markdown(doc["gait"])
         (out / "table.md").write_text(markdown_table(doc["table"]) + "\n\n"
-                                      + "\n".join(f"- {n}" for n in notes) + "\n")
+                                      + "\n".join(f"- {n}" for n in notes) + "\n"
+                                      + (f"\n{gait}\n" if gait else ""))
         timings["outputs_s"] = time.perf_counter() - t0
     timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
                         for c in doc["cells"]}

@@ -1,0 +1,78 @@
+"""The gait section of ``mjchar bench``: every walker's walk and the mocap walks measured by one
+probe (:mod:`bvh.gait`), as a table and the gait-cycle plot (``gait_cycle.png``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .config import SHARED_BVH, BenchConfig
+
+#: the analysed window starts here (s), after the walkers' start-up
+GAIT_START_S = 3.0
+#: the mocap walks compared with, when ../shared/data is present
+MOCAP_WALKS = ("walk60.bvh", "walk_forward.bvh")
+
+
+def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None) -> dict:
+    """Gait statistics of each walker among ``controllers`` (``config.walk_duration`` s, IPM at
+    ``config.ipm_speed``, analysed from :data:`GAIT_START_S`, or a quarter of the run if that
+    is shorter; a run too short or fallen too early to analyse is listed in ``skipped``) and
+    of the mocap walks."""
+    from bvh.gait import GaitError, analyse, analyse_clip
+    from controllers import registry
+    from controllers.core import scenarios as S
+    from controllers.core.character import Character
+    from controllers.core.recording import MotionRecorder
+
+    from .matrix import _options
+
+    start = min(GAIT_START_S, 0.25 * config.walk_duration)
+    walks, falls, skipped = [], {}, {}
+    for name in controllers:
+        spec = registry.get(name)
+        if spec.kind != "walker":
+            continue
+        ch = Character(None)
+        if spec.timestep:
+            ch.set_timestep(spec.timestep)
+        ctrl = registry.make_controller(name, ch, None, **_options(spec, "walk", config))
+        rec = MotionRecorder()
+        result = S.run_scenario("walk", ch, ctrl, duration=config.walk_duration,
+                                frame_callback=rec)
+        falls[name] = result.fall_time_s
+        try:
+            walks.append(analyse(ch.model, rec.times, rec.qpos, start=start,
+                                 end=result.fall_time_s, info=ch.info, label=name))
+        except GaitError as e:
+            skipped[name] = str(e)
+            continue
+        if progress:
+            progress(f"  gait {name}: {walks[-1].steps} steps")
+    for clip in MOCAP_WALKS:
+        if (SHARED_BVH / clip).is_file():
+            walks.append(analyse_clip(SHARED_BVH / clip))
+    return {"start_s": start, "duration_s": config.walk_duration, "falls": falls,
+            "skipped": skipped, "walks": [w.to_dict() for w in walks]}
+
+
+def gait_markdown(section: dict | None) -> str:
+    """The gait table (markdown), empty without a section."""
+    if not section or not section.get("walks"):
+        return ""
+    from bvh.gait import GaitStats, table
+
+    stats = [GaitStats(**w) for w in section["walks"]]
+    return (f"Gait (walkers: {section['duration_s']:g} s runs from {section['start_s']:g} s on; "
+            "mocap clips whole; docs/gait.md):\n\n" + table(stats))
+
+
+def plot_gait(section: dict | None, path):
+    """``gait_cycle.png``: the cycle curves of every walk (None without a section)."""
+    if not section or not section.get("walks"):
+        return None
+    from bvh.gait import GaitStats
+
+    from ..gait_plot import plot_cycles
+
+    plot_cycles([GaitStats(**w) for w in section["walks"]], path)
+    return path
