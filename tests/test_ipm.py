@@ -241,3 +241,26 @@ def test_survives_200N_push_from_every_direction(character, direction):
     r = push(character, make_ipm(character, speed=0.0), force=200.0, direction=direction,
              allow_steps=True)
     assert survived(r, allow_steps=True), r.fall_reason
+
+
+def test_parameters_follow_the_body_by_similarity():
+    """Every IPM parameter is classified (dimensional ones scale, the rest are dimensionless);
+    the tuned body keeps them exactly; a body twice as long and heavy scales them."""
+    import dataclasses
+    import math
+
+    from controllers.walking import ipm_params as P
+
+    groups = (P._LENGTH + P._TIME + P._SPEED + P._RATE + P._RATE2 + P._TORQUE_GAIN
+              + P._DAMPING_GAIN + P._FORCE + P._TORQUE + P._DIMENSIONLESS)
+    assert sorted(groups) == sorted(f.name for f in dataclasses.fields(P.IPMParams))
+    base = P.IPMParams()
+    assert base.for_body(P.TUNED_LEG_LENGTH, P.TUNED_MASS) is base
+    big = base.for_body(2 * P.TUNED_LEG_LENGTH, 2 * P.TUNED_MASS)
+    assert big.step_time == pytest.approx(base.step_time * math.sqrt(2))
+    assert big.step_width == pytest.approx(2 * base.step_width)
+    assert big.hip_kp == pytest.approx(4 * base.hip_kp)
+    assert big.hip_kd == pytest.approx(4 * math.sqrt(2) * base.hip_kd)
+    assert big.vf_max_sagittal == pytest.approx(2 * base.vf_max_sagittal)
+    assert big.swing_heights == pytest.approx(tuple(2 * h for h in base.swing_heights))
+    assert big.clamp == base.clamp and big.min_phase == base.min_phase

@@ -137,7 +137,10 @@ class IPMController:
                            f"{', '.join(f.name for f in fields(IPMParams))}")
         if "swing_heights" in options:
             options["swing_heights"] = tuple(float(x) for x in options["swing_heights"])
-        self.params = replace(base, **options).check()
+        #: the parameters as given (for the tuned body, see ``ipm_params.TUNED_LEG_LENGTH``);
+        #: ``params`` is them carried to the driven body at :meth:`reset`
+        self.body_params = replace(base, **options).check()
+        self.params = self.body_params
         self.speed = schedule(speed, "speed")
         self.heading = schedule(heading, "heading", math.pi / 180.0)
         self.lateral_speed = schedule(lateral_speed, "lateral_speed")
@@ -155,6 +158,9 @@ class IPMController:
         self._legs = (Leg(ch, "left"), Leg(ch, "right"))
         self._pelvis = ch.root_body
         self.leg_length = self._legs[0].l1 + self._legs[0].l2 + float(-self._legs[0].site_offset[2])
+        self.params = self.body_params.for_body(self.leg_length, ch.mass)
+        self.trajectory = SwingTrajectory(self.params.swing_heights, self.params.descent_speed,
+                                          blend=self.params.swing_blend)
         # joints acting directly on the pelvis other than the hips (the spine)
         leg_jnts = {int(j) for lg in self._legs for j in lg.hip_jnt}
         pelvis_jnts = [j for j in range(m.njnt) if m.jnt_bodyid[j] != self._pelvis

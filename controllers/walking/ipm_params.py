@@ -6,13 +6,40 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from ..core.base import ControllerError
 
 GRAVITY = 9.81
+
+#: the body the default numbers were tuned on: leg length (m, hip to sole) and mass (kg). Every
+#: dimensional parameter is carried to the driven body by dynamic similarity (:meth:`IPMParams.
+#: for_body`): lengths x L/L_t, times x sqrt(L/L_t), speeds x sqrt(L/L_t), torque gains and
+#: torques x (m/m_t)(L/L_t), damping gains x (m/m_t)(L/L_t)^1.5, forces x m/m_t, rates x
+#: sqrt(L_t/L); dimensionless ones (phases, scales, angles) stay. So the defaults are in fact in
+#: body-relative units, written in SI for a body of this size.
+TUNED_LEG_LENGTH = 0.878
+TUNED_MASS = 70.0
+#: how each dimensional field scales (the rest are dimensionless)
+_LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
+           "coronal_offset", "stance_ankle_limit")
+_TIME = ("step_time", "first_step_time", "push_step_time", "settle_time", "speed_offset",
+         "speed_integral")
+_SPEED = ("stop_speed", "descent_speed")
+_RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
+_RATE2 = ("vf_coronal_pos",)
+_TORQUE_GAIN = ("hip_kp", "knee_kp", "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
+_DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
+                 "pelvis_yaw_kd")
+_FORCE = ("vf_max_sagittal", "vf_max_coronal")
+_TORQUE = ("stance_yaw_limit",)
+#: parameters without a dimension (phases, scales, angles, switches), left as they are
+_DIMENSIONLESS = ("min_phase", "max_phase", "sagittal_scale", "coronal_scale", "clamp",
+                  "swing_blend", "stance_knee", "upper_gain_scale", "acceleration",
+                  "turn_acceleration", "gravity_compensation", "implicit_damping", "feedforward",
+                  "heading_tolerance", "arm_abduction", "yaw_friction")
 
 
 class IPMError(ControllerError):
@@ -136,6 +163,29 @@ class IPMParams:
     yaw_friction: float = 0.5
     first_step_time: float = 0.3
     push_step_time: float = 0.3
+
+    def for_body(self, leg_length: float, mass: float) -> IPMParams:
+        """These parameters carried from the tuned body (:data:`TUNED_LEG_LENGTH`,
+        :data:`TUNED_MASS`) to a body of ``leg_length`` m and ``mass`` kg by dynamic similarity
+        (unchanged, the same object, when the body is the tuned one to 1e-6)."""
+        if not (leg_length > 0 and mass > 0):
+            raise IPMError(f"leg length and mass must be positive, got {leg_length}, {mass}")
+        r, q = leg_length / TUNED_LEG_LENGTH, mass / TUNED_MASS
+        if abs(r - 1) < 1e-6 and abs(q - 1) < 1e-6:
+            return self
+        t = math.sqrt(r)
+        factor = {**dict.fromkeys(_LENGTH, r), **dict.fromkeys(_TIME, t),
+                  **dict.fromkeys(_SPEED, t), **dict.fromkeys(_RATE, 1 / t),
+                  **dict.fromkeys(_RATE2, 1 / r), **dict.fromkeys(_TORQUE_GAIN, q * r),
+                  **dict.fromkeys(_DAMPING_GAIN, q * r * t), **dict.fromkeys(_FORCE, q),
+                  **dict.fromkeys(_TORQUE, q * r)}
+        changes = {}
+        for name, k in factor.items():
+            v = getattr(self, name)
+            if v is None:
+                continue
+            changes[name] = tuple(x * k for x in v) if isinstance(v, tuple) else v * k
+        return replace(self, **changes)
 
     def check(self) -> IPMParams:
         """Raise :class:`IPMError` on non-finite or out-of-range values; returns self."""
