@@ -14,8 +14,11 @@ knees and elbows, whose names are unambiguous); the rest of each limb follows fr
   and the head or clavicles.
 
 A skeleton whose knees have no recognisable names still gets legs from its shape (the two limb
-chains reaching nearest the floor, told apart by the lateral axis); those joints are reported in
-:attr:`Recognition.by_structure`. Everything else is ``"unknown"``.
+chains reaching nearest the floor, left and right from where the feet point), and one whose
+elbows have none gets arms from its shape (the chains branching sideways from the upper spine);
+those joints are reported in :attr:`Recognition.by_structure`. A user role map (``roles=``,
+read from a TOML roles file by :mod:`bvh.mjcf.roles`) anchors and overrides. Everything else is
+``"unknown"``.
 
 Sides: a name is left-sided when a token ``l``/``left`` starts or ends it (``lKnee``,
 ``LeftLeg``, ``Knee_L``, ``knee.l``), right-sided likewise with ``r``/``right``.
