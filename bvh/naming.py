@@ -14,8 +14,11 @@ knees and elbows, whose names are unambiguous); the rest of each limb follows fr
   and the head or clavicles.
 
 A skeleton whose knees have no recognisable names still gets legs from its shape (the two limb
-chains reaching nearest the floor, told apart by the lateral axis); those joints are reported in
-:attr:`Recognition.by_structure`. Everything else is ``"unknown"``.
+chains reaching nearest the floor, left and right from where the feet point), and one whose
+elbows have none gets arms from its shape (the chains branching sideways from the upper spine);
+those joints are reported in :attr:`Recognition.by_structure`. A user role map (``roles=``,
+read from a TOML roles file by :mod:`bvh.mjcf.roles`) anchors and overrides. Everything else is
+``"unknown"``.
 
 Sides: a name is left-sided when a token ``l``/``left`` starts or ends it (``lKnee``,
 ``LeftLeg``, ``Knee_L``, ``knee.l``), right-sided likewise with ``r``/``right``.
@@ -55,6 +58,8 @@ class Recognition:
         unrecognised: joints with role ``"unknown"``.
         left_axis: unit vector ``(3,)`` in file axes pointing to the character's left, estimated
             from left/right joint pairs (``None`` when no pair exists).
+        problem: why the legs could not be told apart (two leg chains found by shape whose sides
+            the geometry cannot decide), or ``None``.
     """
 
     joint_roles: dict[str, str]
@@ -62,6 +67,7 @@ class Recognition:
     by_structure: list[str] = field(default_factory=list)
     unrecognised: list[str] = field(default_factory=list)
     left_axis: np.ndarray | None = None
+    problem: str | None = None
 
     def base_role(self, joint: str) -> str:
         """The role without its side: ``"left_knee"`` -> ``"knee"``."""
@@ -122,7 +128,7 @@ def is_end(name: str) -> bool:
 
 def _is_knee(name: str) -> bool:
     core = _core(name)
-    if any(w in core for w in _NOT_KNEE_WORDS) or "up" in tokens(name):
+    if any(w in core for w in _NOT_KNEE_WORDS) or {"up", "upper"} & set(tokens(name)):
         return False
     return any(w in core for w in _KNEE_WORDS) and not is_end(name)
 
@@ -132,13 +138,17 @@ def _is_elbow(name: str) -> bool:
     return any(w in core for w in _ELBOW_WORDS) and not is_end(name)
 
 
-def recognise(skeleton: Skeleton, up: np.ndarray | None = None) -> Recognition:
+def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
+              roles: dict[str, object] | None = None) -> Recognition:
     """Assign a role to every joint of ``skeleton`` (names first, hierarchy shape as fallback).
 
     Args:
         skeleton: the skeleton (any units and axes).
         up: ``(3,)`` unit up vector in file axes, used by the shape fallback for legs and the
             head; guessed from the rest pose when ``None``.
+        roles: a user mapping role -> joint name (``"spine"``/``"neck"``: a list of names), as
+            read from a roles file (:mod:`bvh.role_map`); given knees and elbows anchor their
+            limbs, and every given role overrides what recognition finds.
 
     Returns:
         A :class:`Recognition`. Never raises: missing roles are simply absent from ``roles``.
@@ -178,14 +188,20 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None) -> Recognition:
         return max(cands, key=lambda c: _reach(sk, rest, descendants, c))
 
     # -- legs: knees by name, then the chain around them ----------------------------------------
+    user = {r: v for r, v in (roles or {}).items()}
     knees: dict[str, int] = {}
+    for s in ("left", "right"):
+        if isinstance(user.get(f"{s}_knee"), str) and user[f"{s}_knee"] in names:
+            knees[s] = names.index(user[f"{s}_knee"])
     for j in range(n):
         if j and _is_knee(names[j]):
             s = side_of(names[j])
             if s and s not in knees:
                 knees[s] = j
+    problem = None
     if len(knees) < 2:
-        knees = _legs_by_shape(sk, rest, up, height, children) or knees
+        shaped, problem = _legs_by_shape(sk, rest, up, height, children)
+        knees = shaped or knees
         by_structure_legs = True
     else:
         by_structure_legs = False
@@ -207,19 +223,34 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None) -> Recognition:
                 if by_structure_legs:
                     by_structure.append(j)
 
-    # -- arms: elbows by name ---------------------------------------------------------------------
+    # -- arms: elbows by name (or given), else by shape --------------------------------------------
+    elbows: dict[int, str] = {}
+    for s in ("left", "right"):
+        if isinstance(user.get(f"{s}_elbow"), str) and user[f"{s}_elbow"] in names:
+            elbows[names.index(user[f"{s}_elbow"])] = s
     for j in range(1, n):
-        if j in role or not _is_elbow(names[j]):
+        if j in role or j in elbows or not _is_elbow(names[j]):
             continue
         s = side_of(names[j])
-        if s is None or f"{s}_elbow" in role.values():
+        if s is None or s in elbows.values():
+            continue
+        elbows[j] = s
+    arms_by_shape = False
+    if not elbows and len(knees) == 2:
+        elbows = _arms_by_shape(sk, rest, up, role, children, descendants)
+        arms_by_shape = bool(elbows)
+    for j, s in elbows.items():
+        if j in role:
             continue
         role[j] = f"{s}_elbow"
+        if arms_by_shape:
+            by_structure.append(j)
         sh = int(sk.parents[j])
         if sh > 0 and sh not in role:
             role[sh] = f"{s}_shoulder"
             cl = int(sk.parents[sh])
-            if cl > 0 and cl not in role and side_of(names[cl]) == s:
+            same_side = side_of(names[cl]) == s or (arms_by_shape and len(children[cl]) == 1)
+            if cl > 0 and cl not in role and same_side:
                 role[cl] = f"{s}_clavicle"
         wr = main_child(j, prefer=lambda nm: any(w in _core(nm) for w in ("wrist", "hand")))
         if wr is not None and wr not in role:
@@ -270,6 +301,7 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None) -> Recognition:
         else:
             role[j] = "unknown"
 
+    _apply_user_roles(role, user, names)
     joint_roles = {names[j]: role[j] for j in range(n)}
     roles: dict[str, object] = {}
     for j in range(n):
@@ -284,7 +316,23 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None) -> Recognition:
         by_structure=[names[j] for j in sorted(set(by_structure))],
         unrecognised=[names[j] for j in range(n) if role[j] == "unknown"],
         left_axis=_left_axis(rest, role, up),
+        problem=problem,
     )
+
+
+def _apply_user_roles(role: dict[int, str], user: dict, names: list[str]) -> None:
+    """Given roles win: each given joint takes its role, which no other joint keeps."""
+    for r, v in user.items():
+        given = [v] if isinstance(v, str) else list(v)
+        idx = [names.index(x) for x in given if x in names]
+        if not idx:
+            continue
+        base = r if r in ("spine", "neck") else None
+        for j, rr in list(role.items()):
+            if rr == r and base is None and j not in idx:
+                role[j] = "unknown"
+        for j in idx:
+            role[j] = r
 
 
 def _find(role: dict[int, str], r: str) -> int | None:
@@ -328,39 +376,107 @@ def _reach(sk: Skeleton, rest: np.ndarray, descendants, j: int) -> float:
 
 
 def _legs_by_shape(sk: Skeleton, rest: np.ndarray, up: np.ndarray, height: float,
-                   children: list[list[int]]) -> dict[str, int]:
-    """Knees of the two chains that reach nearest the floor, by shape alone ({} if none).
+                   children: list[list[int]]) -> tuple[dict[str, int], str | None]:
+    """Knees of the two chains that reach nearest the floor, by shape alone.
 
-    A leg is a chain from a child of the root down to a leaf at most 25% of the standing height
-    above the lowest point. The knee is the chain joint nearest 28% of the height above the
-    floor. Left is the +X side of the file unless a left/right pair says otherwise (Y-up files
-    facing +Z and Z-up files facing -Y both have their left at +X).
+    A leg ends at a leaf at most 25% of the standing height above the lowest point; the two
+    legs are the lowest such leaf and the lowest one whose chain parts from it highest up (at
+    the pelvis, not inside a foot). The knee is the chain joint nearest 28% of the height above
+    the floor. Left and right come from the geometry: forward is where the feet point (leaf
+    ahead of knee), left = up x forward; without a foot direction the file's +X is left (Y-up
+    files facing +Z and Z-up files facing -Y both have their left at +X).
+
+    Returns ``(knees, problem)``: ``{}`` when there are not two legs; ``problem`` says why two
+    leg chains cannot be told apart (hips at the same lateral place), else ``None``.
     """
     if sk.n_joints < 4 or height <= 0:
-        return {}
+        return {}, None
     pts = rest if not sk.n_end_sites else np.concatenate([rest, sk.rest_end_sites()])
     floor = float((pts @ up).min())
     leaves = [j for j in range(sk.n_joints) if not children[j]]
-    low = [j for j in leaves if float(rest[j] @ up) - floor < 0.25 * height]
-    # one chain per child of the branching joint: group leaves by their first diverging ancestor
-    lat = np.array([1.0, 0.0, 0.0]) - up * up[0]
-    lat /= max(np.linalg.norm(lat), 1e-12)
-    by_side: dict[str, list[int]] = {"left": [], "right": []}
-    for leaf in low:
-        s = "left" if float((rest[leaf] - rest[0]) @ lat) > 0 else "right"
-        by_side[s].append(leaf)
-    knees: dict[str, int] = {}
-    for s, ls in by_side.items():
-        if not ls:
-            continue
-        leaf = min(ls, key=lambda j: float(rest[j] @ up))
-        chain = [j for j in sk.chain(leaf)[1:]]
-        if len(chain) < 3:
-            continue
-        target = floor + 0.28 * height
-        knee = min(chain[1:-1], key=lambda j: abs(float(rest[j] @ up) - target))
-        knees[s] = knee
-    return knees if len(knees) == 2 else {}
+    low = sorted((j for j in leaves if float(rest[j] @ up) - floor < 0.25 * height),
+                 key=lambda j: float(rest[j] @ up))
+    if len(low) < 2:
+        return {}, None
+    a = low[0]
+    ca = sk.chain(a)
+
+    def split(b: int) -> int:  # length of the common part of the chains
+        cb = sk.chain(b)
+        k = 0
+        while k < min(len(ca), len(cb)) and ca[k] == cb[k]:
+            k += 1
+        return k
+
+    b = min(low[1:], key=lambda j: (split(j), float(rest[j] @ up)))
+    k = split(b)
+    legs = [ca[k:], sk.chain(b)[k:]]
+    if any(len(c) < 3 for c in legs):
+        return {}, None
+    target = floor + 0.28 * height
+    knees = [min(c[1:-1], key=lambda j: abs(float(rest[j] @ up) - target)) for c in legs]
+    fwd = sum((rest[c[-1]] - rest[kn]) for c, kn in zip(legs, knees, strict=True))
+    fwd = fwd - (fwd @ up) * up
+    if np.linalg.norm(fwd) > 0.03 * height:
+        left = np.cross(up, fwd / np.linalg.norm(fwd))
+    else:
+        left = np.array([1.0, 0.0, 0.0]) - up * up[0]
+        left /= max(np.linalg.norm(left), 1e-12)
+    sep = float((rest[legs[0][0]] - rest[legs[1][0]]) @ left)
+    if abs(sep) < 0.02 * height:
+        sep = float((rest[knees[0]] - rest[knees[1]]) @ left)
+    if abs(sep) < 0.02 * height:
+        return {}, (f"two leg chains ({sk.names[legs[0][0]]}, {sk.names[legs[1][0]]}) but their "
+                    "hips and knees are not apart sideways, so left and right cannot be told "
+                    "apart")
+    return ({"left": knees[0], "right": knees[1]} if sep > 0
+            else {"left": knees[1], "right": knees[0]}), None
+
+
+def _arms_by_shape(sk: Skeleton, rest: np.ndarray, up: np.ndarray, role: dict[int, str],
+                   children: list[list[int]], descendants) -> dict[int, str]:
+    """Elbows of the two chains branching sideways from the upper spine, by shape alone.
+
+    The spine is the path from the pelvis (where the legs part) to the highest joint outside
+    the legs; an arm is a chain hanging from a spine joint, off that path, whose farthest point
+    lies at least 15% of the height to one side (left from the hips). The elbow is the chain's
+    second-to-last joint (last = wrist). Returns ``{elbow index: side}``."""
+    hips = {r: j for j, r in role.items() if r in ("left_hip", "right_hip")}
+    if len(hips) != 2:
+        return {}
+    lh, rh = hips["left_hip"], hips["right_hip"]
+    left = rest[lh] - rest[rh]
+    left = left - (left @ up) * up
+    if np.linalg.norm(left) < 1e-9:
+        return {}
+    left /= np.linalg.norm(left)
+    pelvis = _common_ancestor(sk, lh, rh)
+    legs = set(descendants(lh)) | set(descendants(rh)) | {lh, rh}
+    others = [j for j in descendants(pelvis) if j not in legs]
+    if not others:
+        return {}
+    top = max(others, key=lambda j: float(rest[j] @ up))
+    path = sk.chain(top)
+    path = path[path.index(pelvis):]
+    pts_all = rest if not sk.n_end_sites else np.concatenate([rest, sk.rest_end_sites()])
+    height = float((pts_all @ up).max() - (pts_all @ up).min())
+    best: dict[str, tuple[float, list[int]]] = {}
+    for p in path[1:]:
+        for c in children[p]:
+            if c in path or c in legs:
+                continue
+            chain = [c]
+            while children[chain[-1]]:
+                chain.append(max(children[chain[-1]],
+                                 key=lambda k: float(abs((rest[k] - rest[p]) @ left))))
+            lat = float((rest[chain[-1]] - rest[p]) @ left)
+            side = "left" if lat > 0 else "right"
+            if abs(lat) > 0.15 * height and len(chain) >= 3 and \
+                    abs(lat) > best.get(side, (0.0, []))[0]:
+                best[side] = (abs(lat), chain)
+    if len(best) != 2:
+        return {}
+    return {chain[-2]: side for side, (_, chain) in best.items()}
 
 
 def _left_axis(rest: np.ndarray, role: dict[int, str], up: np.ndarray) -> np.ndarray | None:

@@ -69,6 +69,7 @@ from .kinematics import end_site_positions, forward_kinematics
 from .motion import Motion
 from .projection import _hinge_angles, _project_ik
 from .qpos_algebra import _QposAlgebra
+from .rigs import apply_record
 from .rotations import (
     heading_angle,
     quat_conj,
@@ -145,6 +146,9 @@ class ReferenceMotion:
         self.info = info if info is not None else _model_info(model)
         self._data = mujoco.MjData(model)
         self._alg = _QposAlgebra(model)
+        rig = self.info.extra.get("rig")
+        if rig:  # the converter normalised the rig (folded root, bones, rest): same steps
+            motion = apply_record(motion, rig, self.info.source()[0])
         basis = np.asarray(self.info.basis, dtype=float).reshape(4)
         self.motion = transform_motion(motion, float(self.info.unit_scale), basis)
         self.frame_time = float(motion.frame_time)

@@ -68,10 +68,21 @@ def guess_unit_scale(skeleton: Skeleton) -> float:
     height = float(pts[:, ax].max() - pts[:, ax].min())
     if height <= 0:
         raise SkeletonError("cannot guess units: the skeleton has no height (all joints coincide)")
-    candidates = {"m": 1.0, "cm": 0.01, "in": 0.0254, "mm": 0.001, "dm": 0.1}
-    # pick the unit that makes the skeleton closest (in log scale) to 1.6 m tall
-    name = min(candidates, key=lambda u: abs(np.log(height * candidates[u] / 1.6)))
-    return candidates[name]
+    return unit_for_height(height)
+
+
+#: units a height can be guessed in (metres per unit), and the height they are judged against
+GUESSED_UNITS = {"m": 1.0, "cm": 0.01, "in": 0.0254, "mm": 0.001, "dm": 0.1}
+TYPICAL_HEIGHT_M = 1.6
+
+
+def unit_for_height(height: float) -> float:
+    """Metres per unit of the unit (m, cm, in, mm, dm) that makes a figure ``height`` file units
+    tall nearest :data:`TYPICAL_HEIGHT_M` in log scale. Figures of 1.2-2.1 m are told apart in
+    every unit: the nearest wrong unit is a factor of 2.54 (cm/in) away."""
+    name = min(GUESSED_UNITS,
+               key=lambda u: abs(np.log(height * GUESSED_UNITS[u] / TYPICAL_HEIGHT_M)))
+    return GUESSED_UNITS[name]
 
 
 def up_axis_rotation(from_up: str, to_up: str = "z") -> np.ndarray:
@@ -115,4 +126,4 @@ def to_metres(motion: Motion, unit: str | float | None = None, up: str | None = 
 
 
 __all__ = ["unit_scale", "guess_up_axis", "guess_unit_scale", "up_axis_rotation",
-           "transform_motion", "to_metres", "from_rotation", "to_rotation"]
+           "transform_motion", "to_metres", "unit_for_height", "from_rotation", "to_rotation"]

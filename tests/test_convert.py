@@ -328,12 +328,16 @@ def test_overrides_unit_and_up():
 
 
 def test_unrecognised_names_get_wide_limits_and_a_warning():
-    c = convert(anonymous_skeleton())
-    assert any("unrecognised" in w and "j6" in w for w in c.warnings)
+    sk = anonymous_skeleton()  # arms and legs found by shape; a gadget on the chest is not
+    sk = Skeleton(sk.names + ["gadget"], np.append(sk.parents, 2),
+                  np.vstack([sk.offsets, [0.0, 0.05, 0.1]]), sk.channels + [sk.channels[1]],
+                  sk.end_site_parents, sk.end_site_offsets)
+    c = convert(sk)
+    assert any("unrecognised" in w and "gadget" in w for w in c.warnings)
     m = c.compile()
-    j6 = [n for n in c.info.joints["j6"].mj_joints]
-    assert len(j6) == 3
-    assert all(m.joint(n).range[1] >= np.radians(160) for n in j6)
+    gadget = [n for n in c.info.joints["gadget"].mj_joints]
+    assert len(gadget) == 3
+    assert all(m.joint(n).range[1] >= np.radians(160) for n in gadget)
 
 
 def test_gains_override(tmp_path):

@@ -192,8 +192,12 @@ def test_legs_by_shape_when_names_say_nothing():
     assert rec.roles["left_hip"] == j["lHip"] and rec.roles["left_ankle"] == j["lAnkle"]
     assert rec.roles["head"] == j["torso_head"]
     assert j["lKnee"] in rec.by_structure
-    # arms have no shape rule: unknown
-    assert j["lElbow"] in rec.unrecognised
+    # arms by shape: the chains branching sideways from the upper spine
+    assert rec.roles["left_elbow"] == j["lElbow"] and rec.roles["right_elbow"] == j["rElbow"]
+    assert rec.roles["left_shoulder"] == j["lShoulder"]
+    assert rec.roles["left_clavicle"] == j["lTorso_Clavicle"]
+    assert rec.roles["right_wrist"] == j["rWrist"]
+    assert j["lElbow"] in rec.by_structure and rec.unrecognised == []
 
 
 @pytest.mark.parametrize("name", ["lKnee", "LeftLeg", "mixamorig:LeftLeg", "L_Knee",

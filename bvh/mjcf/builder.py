@@ -2,9 +2,12 @@
 
 Steps (each a function; where it lives is said below):
 
-1. :func:`_frame` - units and axes: metres per unit, the up axis, and the proper rotation
-   ``B`` taking file axes to MuJoCo's (x forward, y left, z up), found from the up axis and the
-   left/right joint pairs.
+0. :func:`.prepare.prepare` - the rig made a standing figure in world axes (a static chain
+   above the pelvis folded into the root, bones from translation channels, a rest pose taken
+   from the clip when the file's is not standing), the unit and up axis guessed from anatomy,
+   the joint roles (names, shape, the user's roles file) and the check of the essential ones.
+1. :func:`_basis_matrix` - the proper rotation ``B`` taking file axes to MuJoCo's (x forward,
+   y left, z up), found from the up axis and the left/right joint pairs.
 2. :func:`_select` - which joints get bodies: dropped subtrees (fingers, ``*_End`` markers by
    default) and fused joints (zero-length helpers of unknown role by default, ``hinge``/``ball``
    models only) have none; each maps to the kept body that carries its position.
@@ -20,8 +23,8 @@ Steps (each a function; where it lives is said below):
 7. :func:`_write_xml` - deterministic MJCF text with the JSON joint map in ``<custom>``.
 
 This module holds the public entry point :func:`convert`, its result :class:`ConvertedModel` and
-the checking of its inputs; steps 1-2 live in :mod:`.layout`, 3 in :mod:`.geometry`, 4-6 in
-:mod:`.dynamics`, 7 in :mod:`.writer`.
+the checking of its inputs; step 0 lives in :mod:`.prepare`, 1-2 in :mod:`.layout`, 3 in
+:mod:`.geometry`, 4-6 in :mod:`.dynamics`, 7 in :mod:`.writer`.
 """
 
 from __future__ import annotations
@@ -37,7 +40,6 @@ from scipy.spatial.transform import Rotation
 from ..errors import MjcharError
 from ..io import load
 from ..motion import Motion
-from ..naming import recognise
 from ..rotations import from_rotation
 from ..skeleton import Skeleton
 from ..units import AXIS_VECTORS, unit_scale
@@ -47,13 +49,13 @@ from .geometry import _floor_offset, _geometry
 from .info import ConversionError, JointInfo, ModelInfo, source_record
 from .layout import (
     _basis_matrix,
-    _check_legs,
-    _frame,
     _layout,
     _select,
     default_drop,  # noqa: F401  (public: bvh.mjcf imports it from here)
     default_fuse,  # noqa: F401  (public: bvh.mjcf imports it from here)
 )
+from .prepare import Prepared, prepare
+from .roles import load_roles
 from .writer import (
     AXIS_INDEX,  # noqa: F401  (kept importable from bvh.mjcf.builder)
     _write_xml,
@@ -73,8 +75,13 @@ class ConvertedModel:
         xml: the MJCF text (deterministic for given inputs).
         info: the :class:`ModelInfo` written into it.
         warnings: human-readable notes (unrecognised joints, fused joints in ``full`` mode...).
-        skeleton: the source skeleton (file units and axes).
-        motion: the source motion, or ``None`` when converting a bare skeleton.
+        skeleton: the skeleton the model was built from (file units and axes, after the
+            normalisation of :mod:`.prepare`: folded root, bones from translation channels,
+            standing rest pose).
+        motion: the source motion as given (before normalisation), or ``None`` when converting
+            a bare skeleton; :class:`bvh.reference.ReferenceMotion` applies the model's ``rig``
+            record to it.
+        prepared: the :class:`~.prepare.Prepared` rig (normalised motion, roles, guesses).
         summary: ``n_bodies``, ``n_dofs`` (incl. the 6 root dofs), ``n_actuators``,
             ``total_mass_kg``, ``height_m``, ``bodies`` (names).
     """
@@ -85,6 +92,7 @@ class ConvertedModel:
     skeleton: Skeleton
     motion: Motion | None = None
     summary: dict = field(default_factory=dict)
+    prepared: Prepared | None = None
 
     def compile(self):
         """The compiled ``mujoco.MjModel``; :class:`ConversionError` if MuJoCo rejects it."""
@@ -116,7 +124,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             unit: str | float | None = None, up_axis: str | None = None,
             drop: list[str] | None = None, fuse: list[str] | None = None,
             gains: dict | str | os.PathLike | None = None, timestep: float | None = None,
-            model_name: str | None = None) -> ConvertedModel:
+            model_name: str | None = None,
+            roles: dict | str | os.PathLike | None = None) -> ConvertedModel:
     """Convert a BVH skeleton into a simulated MuJoCo humanoid (see docs/model-contract.md).
 
     Args:
@@ -141,6 +150,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             subset; absolute values, not mass-scaled).
         timestep: seconds; default :data:`tables.TIMESTEP`.
         model_name: MJCF model name (default: the file stem or ``"humanoid"``).
+        roles: a role map (dict, or the path of a TOML roles file, :mod:`.roles`): role ->
+            BVH joint name, for rigs whose names and shape do not tell.
 
     Returns:
         A :class:`ConvertedModel`.
@@ -150,16 +161,16 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             (a single joint, no legs, dropping the root or a leg, unknown joint names).
         bvh.BVHError: the BVH file is malformed.
     """
-    motion, skeleton, default_name = _load_source(source)
+    source_motion, source_skeleton, default_name = _load_source(source)
     opts = _check_options(total_mass, joint_model, unit, up_axis, timestep)
-    warns: list[str] = []
-    if skeleton.n_joints < 2:
+    role_map = load_roles(roles)
+    if source_skeleton.n_joints < 2:
         raise ConversionError(
-            f"the skeleton has {skeleton.n_joints} joint(s); a humanoid needs a root with legs")
-
-    scale, up = _frame(skeleton, opts["unit"], opts["up_axis"])
-    rec = recognise(skeleton, AXIS_VECTORS[up])
-    _check_legs(skeleton, rec)
+            f"the skeleton has {source_skeleton.n_joints} joint(s); a humanoid needs a root "
+            "with legs")
+    prep = prepare(source_motion, source_skeleton, opts["unit"], opts["up_axis"], role_map)
+    motion, skeleton, scale, up, rec = prep.motion, prep.skeleton, prep.scale, prep.up, prep.rec
+    warns: list[str] = list(prep.warnings)
     if rec.left_axis is None:
         warns.append("no left/right joint pairs recognised: assuming the character's left is "
                      "the file's +X axis")
@@ -219,6 +230,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             "source": source_record(skeleton, motion),
         },
     )
+    if prep.record:
+        info.extra["rig"] = prep.record
     xml = _write_xml(model_name or default_name, bodies, actuators, info, offset,
                      opts["timestep"], skeleton)
     n_dofs = 6 + sum(1 if jt["type"] == "hinge" else 3 for b in bodies.values()
@@ -233,8 +246,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
         "dropped": info.dropped,
         "fused": info.extra["fused"],
     }
-    return ConvertedModel(xml=xml, info=info, warnings=warns, skeleton=skeleton, motion=motion,
-                          summary=summary)
+    return ConvertedModel(xml=xml, info=info, warnings=warns, skeleton=skeleton,
+                          motion=source_motion, summary=summary, prepared=prep)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -20,8 +20,9 @@ import warnings as _warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..kinematics import forward_kinematics
 from ..motion import Motion
-from ..rotations import from_rotation, to_rotation
+from ..rotations import from_rotation, quat_conj, quat_mul, quat_to_rotvec, to_rotation
 from ..skeleton import Skeleton
 from . import tables as T
 from .info import ConversionError
@@ -103,6 +104,55 @@ def _flexion_axis(b: _Body, bodies: dict[int, _Body]) -> tuple[str, float]:
     return ("y", 1.0) if b.base == "knee" else ("z", -1.0 if b.side == "left" else 1.0)
 
 
+#: degrees: a flexion axis found from the clip within this of a world axis is snapped to it
+SNAP_AXIS_DEG = 25.0
+#: degrees: a clip whose knee or elbow turns less than this says nothing about its axis
+MIN_FLEXION_DEG = 5.0
+
+
+def _flexion_from_clip(b: _Body, rotvec: np.ndarray) -> tuple[str, float, np.ndarray] | None:
+    """(nearest world axis, sign, exact unit axis) of a knee's or elbow's flexion hinge from
+    how it turns in the clip: ``rotvec`` ``(F, 3)`` are its local rotations (relative to its
+    parent body, MuJoCo axes) as rotation vectors. The axis is the principal direction of the
+    rotation vectors, signed so that the clip's mean angle about it is positive (a knee or an
+    elbow bends one way: that way is flexion). ``None`` when it hardly turns."""
+    ang = np.linalg.norm(rotvec, axis=1)
+    if len(rotvec) < 2 or np.degrees(ang.max()) < MIN_FLEXION_DEG:
+        return None
+    w, v = np.linalg.eigh(rotvec.T @ rotvec)
+    a = v[:, int(np.argmax(w))]
+    if float(np.mean(rotvec @ a)) < 0:
+        a = -a
+    i = int(np.argmax(np.abs(a)))
+    if abs(a[i]) >= np.cos(np.radians(SNAP_AXIS_DEG)):
+        e = np.zeros(3)
+        e[i] = np.sign(a[i])
+        a = e
+    return "xyz"[i], float(np.sign(a[i])), a
+
+
+def _flexion_from_rest(b: _Body, bodies: dict[int, _Body]) -> tuple[str, float, np.ndarray] | None:
+    """The flexion axis of a limb already bent at rest (more than 10 degrees): the normal of
+    the plane of its two bones, signed so that bending further is positive. ``None`` else."""
+    if b.parent < 0 or not b.children:
+        return None
+    up_bone = b.pos - bodies[b.parent].pos
+    low_bone = bodies[b.children[0]].pos - b.pos
+    n1, n2 = np.linalg.norm(up_bone), np.linalg.norm(low_bone)
+    if n1 < 1e-9 or n2 < 1e-9:
+        return None
+    a = np.cross(up_bone / n1, low_bone / n2)
+    if np.linalg.norm(a) < np.sin(np.radians(10.0)):
+        return None
+    a /= np.linalg.norm(a)
+    i = int(np.argmax(np.abs(a)))
+    if abs(a[i]) >= np.cos(np.radians(SNAP_AXIS_DEG)):
+        e = np.zeros(3)
+        e[i] = np.sign(a[i])
+        a = e
+    return "xyz"[i], float(np.sign(a[i])), a
+
+
 def _best_order(q_mj: np.ndarray) -> str:
     """Hinge order (of the six Tait-Bryan ones) whose middle angle stays smallest over ``q_mj``."""
     r = to_rotation(q_mj)
@@ -119,6 +169,7 @@ def _best_order(q_mj: np.ndarray) -> str:
 def _joints(sk: Skeleton, bodies: dict[int, _Body], joint_model: str, motion: Motion | None,
             B: np.ndarray) -> None:
     basis_r = Rotation.from_matrix(B)
+    fk = forward_kinematics(motion) if motion is not None and motion.n_frames > 1 else None
     for j, b in bodies.items():
         if b.parent < 0:
             b.joints = [{"name": "root", "type": "free"}]
@@ -129,10 +180,22 @@ def _joints(sk: Skeleton, bodies: dict[int, _Body], joint_model: str, motion: Mo
             continue
         role_rng = T.RANGE_DEG.get(b.base, T.RANGE_DEG["unknown"])
         if b.base in ("knee", "elbow") and joint_model in ("hinge", "ball") and b.side:
-            axis, sign = _flexion_axis(b, bodies)
+            found = None
+            if fk is not None:
+                local = quat_mul(quat_conj(fk.orientations[:, b.parent]), fk.orientations[:, j])
+                found = _flexion_from_clip(b, quat_to_rotvec(local) @ B.T)
+            found = found or _flexion_from_rest(b, bodies)
+            if found is not None:
+                axis, sign, vec = found
+            else:
+                axis, sign = _flexion_axis(b, bodies)
+                vec = None
             lo, hi = T.FLEXION_RANGE[b.base]
             rng = (lo, hi) if sign > 0 else (-hi, -lo)
             b.joints = [{"name": f"{b.name}_{axis}", "type": "hinge", "axis": axis, "range": rng}]
+            if vec is not None and np.count_nonzero(vec) > 1:  # not a world axis: exact vector
+                b.joints[0]["vector"] = vec  # flexion is a positive turn about it
+                b.joints[0]["range"] = (lo, hi)
             b.order = axis
             continue
         if joint_model == "ball":

@@ -1,7 +1,7 @@
 """The converter's body layout: frame, joint selection and the body records (steps 1-2).
 
-Step 1, :func:`_frame` and :func:`_basis_matrix`: units and axes (metres per file unit, the up
-axis, and the proper rotation ``B`` taking file axes to MuJoCo's x forward, y left, z up).
+Step 1, :func:`_basis_matrix`: the proper rotation ``B`` taking file axes to MuJoCo's x forward,
+y left, z up (units and the up axis come from :mod:`.prepare`).
 Step 2, :func:`_select`: which joints get bodies (dropped subtrees, fused joints; defaults
 :func:`default_drop` and :func:`default_fuse`), and :func:`_layout`: the kept joints as
 :class:`_Body` records (world rest positions in metres, MuJoCo axes), which the later steps fill
@@ -15,10 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import MjcharError
 from ..naming import Recognition
 from ..skeleton import Skeleton
-from ..units import AXIS_VECTORS, guess_unit_scale, guess_up_axis
+from ..units import AXIS_VECTORS
 from .info import ConversionError
 
 
@@ -74,19 +73,6 @@ class _Body:
 # ------------------------------------------------------------------------------------------------
 # 1. frame
 # ------------------------------------------------------------------------------------------------
-def _frame(sk: Skeleton, unit, up_axis) -> tuple[float, str]:
-    """(metres per file unit, up axis of the file): given or guessed from the rest pose."""
-    up = up_axis or guess_up_axis(sk)
-    if unit is None:
-        try:
-            scale = guess_unit_scale(sk)
-        except MjcharError as e:
-            raise ConversionError(f"cannot guess the unit: {e}; pass unit=") from None
-    else:
-        scale = float(unit)
-    return scale, up
-
-
 def _basis_matrix(rec: Recognition, up: str) -> np.ndarray:
     """Rows: the file's forward, left and up unit vectors (so ``B @ v`` is in MuJoCo axes)."""
     u = AXIS_VECTORS[up]
@@ -97,16 +83,6 @@ def _basis_matrix(rec: Recognition, up: str) -> np.ndarray:
         left = AXIS_VECTORS["x"] if up != "x" else AXIS_VECTORS["y"]
     fwd = np.cross(left, u)
     return np.stack([fwd, left, u])
-
-
-def _check_legs(sk: Skeleton, rec: Recognition) -> None:
-    missing = [f"{s}_{r}" for s in ("left", "right") for r in ("hip", "knee", "ankle")
-               if f"{s}_{r}" not in rec.roles]
-    if missing:
-        raise ConversionError(
-            "no legs: cannot find " + ", ".join(missing) + " (expected knee joints named like "
-            "lKnee/LeftLeg/LeftKnee, or two limb chains reaching the floor); joints are: "
-            + ", ".join(sk.names))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -189,11 +165,6 @@ def _select(sk: Skeleton, rec: Recognition, joint_model: str, drop, fuse, scale:
     if joint_model == "full" and fuse_set:
         warns.append("full model with fused joints: replay is exact only while their rotations "
                      "stay identity: " + ", ".join(sk.names[j] for j in sorted(fuse_set)))
-    moving = [sk.names[j] for j in range(1, n) if j not in removed
-              and any(c.endswith("position") for c in sk.channels[j])]
-    if moving:
-        warns.append("translation channels of non-root joints are ignored (bones are rigid): "
-                     + ", ".join(moving))
     lengths = sk.bone_lengths() * scale
     big = [sk.names[j] for j in sorted(fuse_set) if lengths[j] >= 0.002]
     if big:

@@ -81,6 +81,8 @@ def _write_xml(name: str, bodies: dict[int, _Body], actuators: list[dict], info:
             if jt["type"] == "hinge":
                 axis = [0, 0, 0]
                 axis[AXIS_INDEX[jt["axis"]]] = 1
+                if jt.get("vector") is not None:  # a flexion hinge off the world axes
+                    axis = jt["vector"]
                 attrs["axis"] = _v(axis)
             if jt.get("range") is not None:
                 attrs["range"] = _v(np.radians(jt["range"]))

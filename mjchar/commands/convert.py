@@ -28,6 +28,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--gains", metavar="FILE.json",
                    help="gains overrides: {joint name | role | base role | default: "
                         "{kp, kd, torque, armature, damping}}")
+    p.add_argument("--roles", metavar="FILE.toml",
+                   help="role map for joints the names and shape do not tell: TOML lines like "
+                        "left_knee = \"Bip01_L_Calf\" (top level or under [roles]; spine and "
+                        "neck take lists); see docs/converter.md")
     p.add_argument("--verify", action="store_true",
                    help="replay the file's motion in the model and report joint and "
                         "end-effector position errors (mm)")
@@ -50,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
 
     converted = convert(
         args.input, total_mass=args.mass, joint_model=args.joint_model, unit=args.unit,
-        up_axis=args.up, drop=_split(args.drop), fuse=_split(args.fuse), gains=args.gains)
+        up_axis=args.up, drop=_split(args.drop), fuse=_split(args.fuse), gains=args.gains,
+        roles=args.roles)
     output = args.output or os.path.splitext(args.input)[0] + ".xml"
     model = converted.compile()
     converted.save(output)

@@ -23,8 +23,19 @@ def run(args: argparse.Namespace) -> int:
     hi = fk.positions.reshape(-1, 3).max(axis=0)
     print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
           f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
-    print(f"  up axis (guessed): {bvh.units.guess_up_axis(sk)}, "
-          f"metres per unit (guessed): {bvh.units.guess_unit_scale(sk):g}")
+    from bvh.mjcf import ConversionError
+    from bvh.mjcf.prepare import prepare
+
+    try:  # the converter's guesses (anatomy, after folding a static root and re-resting)
+        prep = prepare(motion, sk)
+        up, scale = prep.up, prep.scale
+        notes = prep.warnings
+    except ConversionError as e:
+        up, scale = bvh.units.guess_up_axis(sk), bvh.units.guess_unit_scale(sk)
+        notes = [f"not convertible as is: {e}"]
+    print(f"  up axis (guessed): {up}, metres per unit (guessed): {scale:g}")
+    for n in notes:
+        print(f"  note: {n}")
     print(f"  bounding box: {np.round(lo, 3)} .. {np.round(hi, 3)}")
     print("  joints: " + ", ".join(sk.names))
     return 0
