@@ -56,13 +56,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                         + " (default: the controller's own, see above)")
     p.add_argument("--motion", metavar="FILE.bvh",
                    help="reference motion for track/walk and hand_of_god (default: bundled walk)")
+    p.add_argument("--loop", action="store_true",
+                   help="track/walk: loop a seamless cycle cut from the motion (its root "
+                        "advancing each cycle) for as long as --duration")
     p.add_argument("--model", metavar="FILE.xml",
                    help="converted model (default: the bundled humanoid)")
     add_floor_argument(p)
     p.add_argument("--duration", type=positive("duration"), metavar="T",
                    help="simulated seconds (default: per scenario; the clip for track/walk)")
     p.add_argument("--push", type=non_negative("push"), metavar="N",
-                   help="push force in newtons (push: required; random-push: default 10)")
+                   help="push force in newtons (push: required; random-push: default 10; "
+                        "track/walk: one push while moving, at --push-time)")
     p.add_argument("--direction", type=_direction, default=0.0, metavar="DEG",
                    help="push direction in degrees from the facing direction (0 forward, "
                         "90 left, 180 backward, 270 right) or a name; default forward")
@@ -166,8 +170,13 @@ def run(args: argparse.Namespace) -> int:
         from bvh.reference import ReferenceMotion
 
         path = args.motion or motion_path("walk")
-        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info,
-                                    floor=args.floor)
+        motion = bvh.load(path)
+        if args.loop:
+            from bvh.editing import make_cyclic
+
+            motion = make_cyclic(motion)
+        reference = ReferenceMotion(character.model, motion, info=character.info,
+                                    floor=args.floor, cyclic=True if args.loop else None)
     elif args.motion:
         raise MjcharError(f"--motion is used by the track and walk scenarios, not {scenario}")
     # trackers follow the reference in track/walk, and hold the standing pose otherwise
@@ -193,6 +202,9 @@ def run(args: argparse.Namespace) -> int:
             result = S.random_push(character, controller, seed=args.seed,
                                    force=10.0 if args.push is None else args.push, **kw)
         else:
+            if args.push is not None and scenario in ("track", "walk"):  # a push while moving
+                kw["push"] = S.PushEvent(args.push, args.direction, args.push_time,
+                                         args.push_duration)
             result = S.run_scenario(scenario, character, controller, reference=reference, **kw)
     finally:
         if video is not None:
