@@ -159,3 +159,59 @@ def test_make_cyclic_refuses_a_clip_too_short():
 
 def test_options_dataclass_defaults_are_valid():
     MpcOptions().check(0.002)
+
+
+def test_looped_clip_runs_as_long_as_asked(capsys):
+    """``mjchar run --loop``: a cycle of walk60 repeated with its root advanced (hand-of-god:
+    fast), well past the clip's own 3 s."""
+    import json
+
+    path = str(shared_clip("walk60.bvh"))
+    assert run_command(["run", "hand_of_god", "--motion", path, "--loop", "--duration", "5",
+                        "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["sim_time_s"] == pytest.approx(5.0, abs=0.01) and not out["fell"]
+    assert out["distance_m"] > 5.0 and out["tracking_error_m"] < 0.05
+
+
+# -- pushes while tracking and perturbed starts -------------------------------------------------
+def test_a_push_while_tracking_moves_the_character(walk_ref):
+    def run(force):
+        ch = Character()
+        c = make_controller("native_pd", ch, walk_ref)
+        return S.track(ch, c, walk_ref, duration=0.5, push=S.PushEvent(force, 90.0, 0.1, 0.2))
+
+    quiet, pushed = run(0.0), run(300.0)
+    assert pushed.push_N == 300.0 and pushed.push_direction_deg == 90.0
+    assert pushed.tracking_error_m > quiet.tracking_error_m + 0.005
+
+
+def test_a_push_past_the_end_of_the_run_is_refused(walk_ref):
+    ch = Character()
+    with pytest.raises(S.ScenarioError, match="ends after the run"):
+        S.track(ch, make_controller("native_pd", ch, walk_ref), walk_ref, duration=0.5,
+                push=S.PushEvent(100.0, 0.0, 0.4, 0.2))
+    with pytest.raises(S.ScenarioError, match="non-negative"):
+        S.PushEvent(-5.0)
+
+
+def test_mjchar_run_pushes_in_the_track_scenario(capsys):
+    import json
+
+    assert run_command(["run", "hand_of_god", "--duration", "0.6", "--push", "100",
+                        "--push-time", "0.2", "--direction", "left", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scenario"] == "track" and out["push_N"] == 100.0
+    assert out["push_direction_deg"] == 90.0
+
+
+def test_perturbed_start_is_seeded_and_on_the_floor(character, walk_ref):
+    q0, v0 = walk_ref.qpos(0.0), walk_ref.qvel(0.0)
+    a = S.perturbed_start(character, q0, v0, 3)
+    b = S.perturbed_start(character, q0, v0, 3)
+    c = S.perturbed_start(character, q0, v0, 4)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert not np.array_equal(a[0], c[0])
+    assert character.lowest_point(a[0]) == pytest.approx(0.0, abs=1e-6)
+    dv = a[1] - v0
+    assert np.all(dv[character.root_dofs[2:]] == 0) and np.abs(dv[:2]).max() > 0

@@ -153,7 +153,7 @@ class PushEvent:
         return self.time + self.duration
 
 
-def _with_push(push: PushEvent | None, kw: dict) -> dict:
+def with_push(push: PushEvent | None, kw: dict) -> dict:
     """``simulate`` keywords that also apply ``push``: scheduled by the frame callback at the
     first control step at or after its start, in the heading frame of that moment (a walk may
     have turned since the start)."""
@@ -257,18 +257,36 @@ def _pushed(r: Result, push: PushEvent | None) -> Result:
     return r
 
 
+def perturbed_start(character: Character, qpos: np.ndarray, qvel: np.ndarray, seed: int, *,
+                    joint_noise: float = 0.1, root_velocity_noise: float = 0.2
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """``(qpos (nq,), qvel (nv,))`` perturbed from ``numpy.random.default_rng(seed)``: every
+    actuated dof moved by a Gaussian angle of ``joint_noise`` rad standard deviation, the root's
+    horizontal velocity by one of ``root_velocity_noise`` m/s per axis, then the pose lifted or
+    lowered so its lowest point touches the floor."""
+    rng = np.random.default_rng(seed)
+    dv = np.zeros(character.nv)
+    dv[character.actuated] = rng.normal(0.0, joint_noise, int(character.actuated.sum()))
+    q = character.on_floor(character.integrate(np.asarray(qpos, float), dv, 1.0))
+    v = np.array(qvel, dtype=float)
+    v[character.root_dofs[:2]] += rng.normal(0.0, root_velocity_noise, 2)
+    return q, v
+
+
 def track(character: Character, controller, reference, *, duration: float | None = None,
-          scenario: str = "track", push: PushEvent | None = None, **kw) -> Result:
-    """Start on the reference's first frame (pose and velocity) and run for ``duration`` s
-    (default: the clip's duration); reports tracking and root errors against it. ``push``: one
-    push while tracking (:class:`PushEvent`)."""
+          scenario: str = "track", push: PushEvent | None = None,
+          start: tuple[np.ndarray, np.ndarray] | None = None, **kw) -> Result:
+    """Start on the reference's first frame (pose and velocity; or ``start``, e.g. a
+    :func:`perturbed_start`) and run for ``duration`` s (default: the clip's duration); reports
+    tracking and root errors against the reference. ``push``: one push while tracking
+    (:class:`PushEvent`)."""
     if reference is None:
         raise ScenarioError(f"the {scenario} scenario needs a reference motion")
     duration = reference.duration if duration is None else duration
     _check_push(push, duration)
-    r = simulate(character, controller, duration=duration, scenario=scenario,
-                 qpos=reference.qpos(0.0), qvel=reference.qvel(0.0), reference=reference,
-                 **_with_push(push, kw))
+    q, v = (reference.qpos(0.0), reference.qvel(0.0)) if start is None else start
+    r = simulate(character, controller, duration=duration, scenario=scenario, qpos=q, qvel=v,
+                 reference=reference, **with_push(push, kw))
     return _pushed(r, push)
 
 
@@ -281,7 +299,7 @@ def walk(character: Character, controller, reference=None, *, duration: float | 
         duration = 10.0 if duration is None else duration
         _check_push(push, duration)
         r = simulate(character, controller, duration=duration, scenario="walk",
-                     qpos=standing_pose(character), **_with_push(push, kw))
+                     qpos=standing_pose(character), **with_push(push, kw))
         return _pushed(r, push)
     return track(character, controller, reference, duration=duration, scenario="walk",
                  push=push, **kw)
