@@ -74,11 +74,15 @@ from .tracking import (
 from .trajectory import model_fingerprint
 from .trajopt import KnotSpline
 
-__all__ = ["UPDATES", "MpcController", "MpcError", "MpcOptions", "ReferenceGrid", "make_mpc",
-           "shift_matrix"]
+__all__ = ["MPC_WIDTHS", "UPDATES", "MpcController", "MpcError", "MpcOptions", "ReferenceGrid",
+           "make_mpc", "shift_matrix"]
 
 #: plan updates: predictive sampling, MPPI, cross-entropy
 UPDATES = ("sampling", "mppi", "cem")
+#: the MPC's default noise widths: the arms and head are not sampled (their PD tracks them;
+#: halving the dimension of the search tracked walk60 better, docs/mpc.md); the legs and
+#: spine use the shared ``ROLE_WIDTHS``
+MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "head": 0.0}
 
 
 class MpcError(MjcharError):
@@ -97,28 +101,31 @@ class MpcOptions:
         control_dt: seconds per PD-target control (a whole number of physics steps).
         update: ``"sampling"``, ``"mppi"`` or ``"cem"``.
         noise: standard deviation of the knot perturbations, in units of the role widths.
-        widths: role -> width (rad) overriding ``ROLE_WIDTHS``; width_scale: factor on them.
+        widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`);
+            width_scale: factor on them.
         temperature: MPPI's ``lambda`` as a fraction of ``median(c) - min(c)``.
         elites: CEM's elite fraction; cem_rate: how fast CEM's sigma follows the elites.
         smoothness: weight of the control-smoothness term.
+        antithetic: draw the perturbations in pairs ``+eps, -eps`` (variance reduction).
         weights: the tracking cost weights (:class:`CostWeights`).
         smoothing: seconds of Gaussian smoothing of the inverse-dynamics targets.
         seed: random seed; threads: rollout threads (``None``: every core).
     """
 
-    samples: int = 32
-    horizon: float = 0.3
-    knots: int = 4
+    samples: int = 48
+    horizon: float = 0.5
+    knots: int = 3
     replan: float = 0.04
     control_dt: float = 0.02
-    update: str = "sampling"
+    update: str = "mppi"
     noise: float = 0.5
-    widths: dict = field(default_factory=dict)
+    widths: dict = field(default_factory=lambda: dict(MPC_WIDTHS))
     width_scale: float = 1.0
     temperature: float = 0.1
     elites: float = 0.25
     cem_rate: float = 0.5
     smoothness: float = 1.0
+    antithetic: bool = False
     weights: CostWeights = field(default_factory=CostWeights)
     smoothing: float = 0.03
     seed: int = 0
@@ -148,6 +155,8 @@ class MpcOptions:
             raise MpcError(f"update must be one of {', '.join(UPDATES)}, got {self.update!r}")
         if self.elites > 1 or self.cem_rate > 1:
             raise MpcError("elites and cem_rate must be in (0, 1]")
+        if not isinstance(self.antithetic, bool | np.bool_):
+            raise MpcError(f"antithetic must be True or False, got {self.antithetic!r}")
         if not isinstance(self.weights, CostWeights):
             raise MpcError("weights must be a CostWeights")
         for k in ("horizon", "replan"):
@@ -365,7 +374,12 @@ class MpcController:
         else:
             X, sigma, applied = self.X, self.sigma, np.zeros(ch.nu)
         N = o.samples
-        eps = self.rng.standard_normal((N - 1,) + X.shape)
+        if o.antithetic:  # pairs +eps, -eps (and one more when N - 1 is odd)
+            half = self.rng.standard_normal(((N - 1) // 2,) + X.shape)
+            extra = self.rng.standard_normal(((N - 1) % 2,) + X.shape)
+            eps = np.concatenate([half, -half, extra])
+        else:
+            eps = self.rng.standard_normal((N - 1,) + X.shape)
         Xs = np.concatenate([X[None], X[None] + sigma * eps])  # (N, K, nu)
         off = self.spline.offsets(Xs)  # (N, T, nu), radians
         base = self.grid.base(n0, n0 + self.T)
