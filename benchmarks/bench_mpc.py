@@ -181,7 +181,7 @@ def perturbed(options: dict, seeds=range(5)) -> dict:
     return out
 
 
-def curve(options: dict, samples=(8, 16, 32, 64), horizons=(0.3, 0.5, 0.7)) -> dict:
+def curve(options: dict, samples=(16, 48, 96), horizons=(0.3, 0.5)) -> dict:
     out = {}
     ref = reference(Character(), "walk60")
     for n in samples:

@@ -81,6 +81,21 @@ def test_shift_matrix_moves_the_knots_and_holds_the_last():
     np.testing.assert_allclose(shift_matrix(4, 0.1, 0.05) @ X, [[0.5], [1.5], [2.5], [3]])
 
 
+def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
+    """Base targets computed in blocks (with a smoothing margin) match a one-shot computation."""
+    from controllers.sampling.mpc import ReferenceGrid
+    from controllers.sampling.tracking import inverse_dynamics_targets, tracking_rollout_model
+
+    rm = tracking_rollout_model(character.source, character)
+    grid = ReferenceGrid(character, walk_ref, rm, 0.02, 0.03, block=20)
+    base = grid.base(0, 60)
+    n = np.arange(-10, 70)
+    whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03)
+    np.testing.assert_allclose(base, whole[10:70], atol=1e-6)
+    assert grid.features.qpos.shape[0] == 60
+    np.testing.assert_allclose(grid.features.times, (np.arange(60) + 1) * 0.02)
+
+
 def test_tracks_the_bundled_walk_without_falling(walk_ref):
     ch = Character()
     r, _, c = _track(ch, walk_ref, 0.4)
@@ -215,3 +230,73 @@ def test_perturbed_start_is_seeded_and_on_the_floor(character, walk_ref):
     assert character.lowest_point(a[0]) == pytest.approx(0.0, abs=1e-6)
     dv = a[1] - v0
     assert np.all(dv[character.root_dofs[2:]] == 0) and np.abs(dv[:2]).max() > 0
+
+
+# -- slow: the figures of docs/mpc.md (default settings; minutes each) ---------------------------
+def _shared_ref(ch, name, cyclic=False):
+    motion = bvh.load(shared_clip(f"{name}.bvh"))
+    if cyclic:
+        motion = make_cyclic(motion)
+    return ReferenceMotion(ch.model, motion, info=ch.info, cyclic=True if cyclic else None)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("clip, bound", [("walk60", 0.05), ("walk_forward", 0.05),
+                                         ("walk_and_turn_right", 0.05), ("idle", 0.03)])
+def test_slow_tracks_the_shared_clips(clip, bound):
+    ch = Character()
+    ref = _shared_ref(ch, clip)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref)
+    c.close()
+    assert not r.fell and r.root_force_mean_N == 0.0
+    assert r.tracking_error_m < bound
+
+
+@pytest.mark.slow
+def test_slow_loops_walk60_for_a_minute():
+    ch = Character()
+    ref = _shared_ref(ch, "walk60", cyclic=True)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref, duration=60.0)
+    c.close()
+    assert not r.fell and r.tracking_error_m < 0.06
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("moment", [0, 1, 2, 3])
+def test_slow_recovers_from_pushes_while_walking(moment):
+    """100 N x 0.2 s on the pelvis at 4 moments of the gait cycle x 4 directions: no fall, and
+    the mean joint error back below 8 cm within 2 s of the push's end."""
+    for direction in (0.0, 90.0, 180.0, 270.0):
+        ch = Character()
+        ref = _shared_ref(ch, "walk60", cyclic=True)
+        push = S.PushEvent(100.0, direction, round(0.5 + moment * ref.duration / 4, 3), 0.2)
+        c = make_mpc(ch, ref, progress=False)
+        t, pos = [], []
+
+        def probe(ch, t=t, pos=pos):
+            if not t or ch.time >= t[-1] + 0.02 - 1e-9:
+                t.append(ch.time)
+                pos.append(ch.joint_positions())
+
+        r = S.track(ch, c, ref, duration=push.end + 2.5, push=push, frame_callback=probe)
+        c.close()
+        assert not r.fell, (moment, direction)
+        times = np.array(t)
+        err = np.linalg.norm(np.array(pos) - ref.body_positions(times)[:, ref.joint_body_ids],
+                             axis=-1).mean(axis=1)
+        back = times[(times >= push.end) & (err < 0.08)]
+        assert len(back) and back[0] - push.end <= 2.0, (moment, direction)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(5))
+def test_slow_survives_perturbed_starts(seed):
+    ch = Character()
+    ref = _shared_ref(ch, "walk60")
+    start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref, start=start)
+    c.close()
+    assert not r.fell

@@ -48,6 +48,7 @@ as the scenario runs.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field, fields
 
@@ -321,8 +322,8 @@ class MpcController:
             raise MpcError(f"internal: {self.spline.n_knots} knots instead of {o.knots}")
         self.cost = TrackingCost(ch, o.weights, site_names=self._rmodel.site_names)
         self.grid = ReferenceGrid(ch, ref, self._rmodel, o.control_dt, o.smoothing)
-        threads = o.threads
-        if self._executor is None or self._executor.threads != (threads or self._executor.threads):
+        threads = o.threads or os.cpu_count() or 1
+        if self._executor is None or self._executor.threads != threads:
             if self._executor is not None:
                 self._executor.close()
             self._executor = LocalExecutor(threads=threads)
