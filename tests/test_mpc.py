@@ -300,3 +300,15 @@ def test_slow_survives_perturbed_starts(seed):
     r = S.track(ch, c, ref, start=start)
     c.close()
     assert not r.fell
+
+
+def test_mjchar_run_pushes_a_replay_too(capsys):
+    import json
+
+    runs = []
+    for extra in ([], ["--push", "300", "--push-time", "0.3", "--direction", "right"]):
+        assert run_command(["run", "samcon_replay", "--duration", "1.0", "--json"] + extra) == 0
+        runs.append(json.loads(capsys.readouterr().out))
+    quiet, pushed = runs
+    assert quiet["push_N"] is None and pushed["push_N"] == 300.0
+    assert pushed["tracking_error_m"] > quiet["tracking_error_m"] + 0.005

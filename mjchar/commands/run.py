@@ -275,6 +275,10 @@ def _replay(args: argparse.Namespace, spec) -> int:
     trajectory = load_trajectory(path)
     video = None
     kw = {}
+    if args.push is not None:  # a push during the replay
+        from controllers.core.scenarios import PushEvent
+
+        kw["push"] = PushEvent(args.push, args.direction, args.push_time, args.push_duration)
     if args.render:
         from controllers.core.character import Character
 
