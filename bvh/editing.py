@@ -10,6 +10,8 @@ vectorised over frames; loops run over joints only (a few dozen), never over fra
 - :func:`align` turns and shifts a clip about the up axis; :func:`concatenate` appends one clip to
   another with matched facing and position and a blended transition.
 - :func:`match_joint_order` expresses a motion in another skeleton's joint order (same names).
+- :func:`make_cyclic` cuts the best-matching cycle out of a clip (a gait cycle of a walk) and
+  spreads the remaining mismatch over it, so the cycle repeats seamlessly.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from .interpolation import resample
 from .motion import Motion
 from .rotations import (
     AXES,
+    decompose_facing,
     heading_angle,
     quat_conj,
     quat_fix_continuity,
@@ -47,6 +50,7 @@ __all__ = [
     "retarget",
     "align",
     "concatenate",
+    "make_cyclic",
 ]
 
 
@@ -414,3 +418,70 @@ def concatenate(a: Motion, b: Motion, blend_frames: int = 10, up: str | None = N
     rot = np.concatenate([a.rotations, rot[1:]])
     pos = np.concatenate([a.local_positions, pos[1:]])
     return Motion(a.skeleton, a.frame_time, pos, quat_fix_continuity(rot, axis=0))
+
+
+def _cycle_mismatch(motion: Motion, up: str) -> np.ndarray:
+    """``(F, F)`` pose mismatch (radians summed over joints, plus 2 x root height in file units
+    scaled by the leg length) between every pair of frames: local rotations of the non-root
+    joints, root tilt (heading removed) and root height; plus the same for the next frames
+    (velocities)."""
+    i = _up_index(up)
+    rot = motion.rotations
+    _, tilt = decompose_facing(rot[:, 0], up)
+    q = np.concatenate([tilt[:, None], rot[:, 1:]], axis=1)  # (F, J, 4)
+    dots = np.abs(np.einsum("ajc,bjc->abj", q, q))
+    ang = 2.0 * np.arccos(np.clip(dots, 0.0, 1.0)).sum(axis=2)  # (F, F)
+    h = motion.local_positions[:, 0, i]
+    scale = max(float(np.ptp(motion.skeleton.rest_positions()[:, i])), 1e-9)
+    return ang + 2.0 * np.abs(h[:, None] - h[None, :]) / scale
+
+
+def make_cyclic(motion: Motion, min_period: float = 0.8, max_period: float | None = None,
+                up: str | None = None) -> Motion:
+    """A seamless cycle cut from ``motion``, for looping (``ReferenceMotion(cyclic=True)``).
+
+    1. Among frame pairs ``(a, b)`` with ``b - a`` between ``min_period`` and ``max_period``
+       seconds (default: the whole clip), pick the one whose poses (local joint rotations, root
+       tilt and height, heading and horizontal position removed) and next-frame poses (the
+       velocities) differ least.
+    2. Keep frames ``a .. b``. The remaining mismatch of the last frame against the first one,
+       ``d_j = r_a_j r_b_j^-1`` per joint (the root's tilt only, so the loop keeps its turn and
+       displacement) and the root height difference, is spread linearly over the cycle: frame
+       ``k`` of ``n`` gets ``slerp(1, d_j, k / n)``. The last frame then equals the first up to
+       the root's heading and horizontal position, which a loop carries over.
+
+    Args:
+        motion: a clip containing at least one cycle (e.g. two steps of a walk).
+        min_period, max_period: seconds a cycle may last.
+        up: ``"x"``, ``"y"`` or ``"z"`` (guessed if ``None``).
+
+    Returns:
+        the cycle, ``b - a + 1`` frames (the last is the first of the next cycle).
+    """
+    up = up or guess_up_axis(motion.skeleton)
+    i = _up_index(up)
+    dt = motion.frame_time
+    lo = int(np.ceil(min_period / dt))
+    hi = motion.n_frames - 2 if max_period is None else int(np.floor(max_period / dt))
+    if lo < 2 or lo > min(hi, motion.n_frames - 2):
+        raise EditingError(f"no cycle of {min_period}-{max_period or 'any'} s fits a clip of "
+                           f"{(motion.n_frames - 1) * dt:.2f} s")
+    m = _cycle_mismatch(motion, up)
+    cost = m[:-1, :-1] + m[1:, 1:]  # pose and next pose
+    a_idx, b_idx = np.indices(cost.shape)
+    span = b_idx - a_idx
+    cost = np.where((span >= lo) & (span <= hi), cost, np.inf)
+    a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    rot = motion.rotations[a:b + 1].copy()
+    pos = motion.local_positions[a:b + 1].copy()
+    n = b - a
+    w = (np.arange(n + 1) / n)[:, None]
+    head_a, tilt_a = decompose_facing(rot[0, 0], up)
+    head_b, tilt_b = decompose_facing(rot[-1, 0], up)
+    d = quat_mul(rot[0], quat_conj(rot[-1]))  # (J, 4)
+    d[0] = quat_mul(head_b, quat_mul(quat_mul(tilt_a, quat_conj(tilt_b)), quat_conj(head_b)))
+    d = quat_fix_continuity(np.where(d[:, :1] < 0, -d, d), axis=0)
+    off = quat_slerp(quat_identity(d.shape[:1]), d, w)  # (n+1, J, 4)
+    rot = quat_mul(off, rot)
+    pos[:, 0, i] += w[:, 0] * (pos[0, 0, i] - pos[-1, 0, i])
+    return Motion(motion.skeleton, dt, pos, quat_fix_continuity(rot, axis=0))

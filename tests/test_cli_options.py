@@ -9,7 +9,7 @@ import pytest
 from bvh.assets import TRAJECTORIES, motion_path
 from controllers import registry
 from mjchar.cli import main
-from mjchar.commands.run_options import OPTIONS, check_applicable
+from mjchar.commands.run_options import OPTIONS, PUSH_DETAILS, check_applicable
 
 #: a valid value for each option (flags take none)
 VALUES = {
@@ -18,6 +18,7 @@ VALUES = {
     "direction": "left", "push_duration": "0.2", "push_time": "0.5", "allow_steps": None,
     "max_force": "100", "tolerance": "50", "phases": "2", "seeds": "1", "seed": "1",
     "timestep": "0.001", "control_dt": "0.002", "render": "x.mp4", "export_bvh": "x.bvh",
+    "loop": None,
 }
 
 
@@ -77,10 +78,14 @@ def test_an_option_that_applies_passes_the_check(spec, scenario, opt):
 
     args = argparse.Namespace(**{o.dest: None for o in OPTIONS})
     setattr(args, opt.dest, VALUES[opt.dest] or True)
+    if opt.dest in PUSH_DETAILS and scenario in ("track", "walk"):
+        args.push = "50"                          # a push's details need the push there
     check_applicable(args, spec, scenario)
 
 
 @pytest.mark.parametrize("argv,needle", [
+    (["run", "hand_of_god", "--direction", "left"], "needs --push N"),
+    (["run", "simbicon", "--push-time", "2"], "needs --push N"),
     (["run", "spd", "--fps", "10"], "--fps needs --render"),
     (["run", "spd", "--export-fps", "10"], "--export-fps needs --export-bvh"),
 ])

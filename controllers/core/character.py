@@ -30,7 +30,7 @@ from . import poses
 from .action import Action
 from .errors import CharacterError, SimulationDiverged
 from .geometry import convex_hull_2d
-from .model import actuator_map, load_model, model_info
+from .model import actuator_map, load_model, model_info, model_source
 from .pushes import Push, PushSchedule
 
 _GEOM_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
@@ -86,11 +86,13 @@ class Character:
         actuator_dof: ``(nu,)`` the dof each actuator drives.
         actuated: ``(nv,)`` bool, dofs driven by an actuator.
         mass: total mass in kg.
+        source: the MJCF path the model was loaded from (``None`` when given an ``MjModel``).
     """
 
     def __init__(self, model=None, *, info=None, timestep: float | None = None,
                  max_velocity: float = 200.0):
         self.model = load_model(model)
+        self.source = model_source(model)
         self.data = mujoco.MjData(self.model)
         self.info = info if info is not None else model_info(self.model)
         m = self.model

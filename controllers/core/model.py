@@ -60,6 +60,18 @@ def load_model(model) -> mujoco.MjModel:
                          f"{type(model).__name__}")
 
 
+def model_source(model) -> str | None:
+    """The MJCF path :func:`load_model` loads ``model`` from (``None`` -> the bundled humanoid's),
+    or ``None`` for an ``MjModel`` (no file behind it)."""
+    if model is None:
+        from bvh.assets import humanoid_path
+
+        return os.fspath(humanoid_path())
+    if isinstance(model, (str, os.PathLike)):
+        return os.fspath(model)
+    return None
+
+
 _JNT_BALL = int(mujoco.mjtJoint.mjJNT_BALL)
 _JNT_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
 _JNT_SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)

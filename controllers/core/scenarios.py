@@ -14,6 +14,9 @@ happens to it (pushes), runs a controller and returns a :class:`~controllers.cor
 - ``walk``: like ``track`` but reported for locomotion (distance and speed); later controllers
   that walk without a reference start from the standing pose.
 
+``track`` and ``walk`` take an optional :class:`PushEvent` (a push while tracking or walking),
+the same push the ``push`` scenario applies to a standing character.
+
 Randomness comes only from ``numpy.random.default_rng(seed)``. A divergence is caught and
 reported as a fall (``diverged``), never raised.
 """
@@ -124,6 +127,62 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
         com_drop_m=agg["com_drop_m"])
 
 
+@dataclass(frozen=True)
+class PushEvent:
+    """One horizontal push of ``force`` N towards ``direction`` degrees (heading frame at the
+    push's start: 0 forward, 90 left, 180 back, 270 right) on ``body`` (default: the pelvis)
+    for ``duration`` s from ``time`` s. Call it on a character (a scenario's ``events``) to
+    schedule it."""
+
+    force: float
+    direction: float = 0.0
+    time: float = 1.0
+    duration: float = 0.2
+    body: str | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.force) and self.force >= 0):
+            raise ScenarioError(f"push force must be a non-negative number of newtons, got "
+                                f"{self.force}")
+        if not (math.isfinite(self.time) and self.time >= 0 and math.isfinite(self.duration)
+                and self.duration > 0 and math.isfinite(self.direction)):
+            raise ScenarioError("push time must be >= 0 s, its duration > 0 s and its "
+                                "direction finite degrees")
+
+    @property
+    def end(self) -> float:
+        """Simulated time (s) the push ends."""
+        return self.time + self.duration
+
+
+def with_push(push: PushEvent | None, kw: dict) -> dict:
+    """``simulate`` keywords that also apply ``push``: scheduled by the frame callback at the
+    first control step at or after its start, in the heading frame of that moment (a walk may
+    have turned since the start)."""
+    if push is None:
+        return kw
+    inner = kw.get("frame_callback")
+    done = [False]
+
+    def schedule(ch: Character) -> None:
+        if not done[0] and ch.time >= push.time - 1e-9:
+            f = push.force * heading_frame_direction(ch, push.direction)
+            ch.push(push.body or ch.role("pelvis"), f, push.end - ch.time, start=ch.time)
+            done[0] = True
+
+    def callback(ch: Character) -> None:
+        schedule(ch)
+        if inner is not None:
+            inner(ch)
+
+    def events(ch: Character) -> None:
+        if kw.get("events") is not None:
+            kw["events"](ch)
+        schedule(ch)
+
+    return {**kw, "events": events, "frame_callback": callback}
+
+
 # -- the scenarios -------------------------------------------------------------------------------
 #: run lengths in s when no duration is given (track and walk with a clip: the clip's length)
 DEFAULT_DURATIONS = {"stand": 10.0, "push": 4.0, "random-push": 30.0, "walk": 10.0}
@@ -194,26 +253,64 @@ def random_push(character: Character, controller, *, seed: int = 0, force: float
     return r
 
 
+def _check_push(push: PushEvent | None, duration: float) -> None:
+    if push is not None and push.end > duration + 1e-9:
+        raise ScenarioError(f"the push ({push.time} s + {push.duration} s) ends after the run "
+                            f"({duration} s)")
+
+
+def _pushed(r: Result, push: PushEvent | None) -> Result:
+    if push is not None:
+        r.push_N, r.push_direction_deg = float(push.force), float(push.direction)
+    return r
+
+
+def perturbed_start(character: Character, qpos: np.ndarray, qvel: np.ndarray, seed: int, *,
+                    joint_noise: float = 0.1, root_velocity_noise: float = 0.2
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """``(qpos (nq,), qvel (nv,))`` perturbed from ``numpy.random.default_rng(seed)``: every
+    actuated dof moved by a Gaussian angle of ``joint_noise`` rad standard deviation, the root's
+    horizontal velocity by one of ``root_velocity_noise`` m/s per axis, then the pose lifted or
+    lowered so its lowest point touches the floor."""
+    rng = np.random.default_rng(seed)
+    dv = np.zeros(character.nv)
+    dv[character.actuated] = rng.normal(0.0, joint_noise, int(character.actuated.sum()))
+    q = character.on_floor(character.integrate(np.asarray(qpos, float), dv, 1.0))
+    v = np.array(qvel, dtype=float)
+    v[character.root_dofs[:2]] += rng.normal(0.0, root_velocity_noise, 2)
+    return q, v
+
+
 def track(character: Character, controller, reference, *, duration: float | None = None,
-          scenario: str = "track", **kw) -> Result:
-    """Start on the reference's first frame (pose and velocity) and run for ``duration`` s
-    (default: the clip's duration); reports tracking and root errors against it."""
+          scenario: str = "track", push: PushEvent | None = None,
+          start: tuple[np.ndarray, np.ndarray] | None = None, **kw) -> Result:
+    """Start on the reference's first frame (pose and velocity; or ``start``, e.g. a
+    :func:`perturbed_start`) and run for ``duration`` s (default: the clip's duration); reports
+    tracking and root errors against the reference. ``push``: one push while tracking
+    (:class:`PushEvent`)."""
     if reference is None:
         raise ScenarioError(f"the {scenario} scenario needs a reference motion")
     duration = reference.duration if duration is None else duration
-    return simulate(character, controller, duration=duration, scenario=scenario,
-                    qpos=reference.qpos(0.0), qvel=reference.qvel(0.0), reference=reference, **kw)
+    _check_push(push, duration)
+    q, v = (reference.qpos(0.0), reference.qvel(0.0)) if start is None else start
+    r = simulate(character, controller, duration=duration, scenario=scenario, qpos=q, qvel=v,
+                 reference=reference, **with_push(push, kw))
+    return _pushed(r, push)
 
 
 def walk(character: Character, controller, reference=None, *, duration: float | None = None,
-         **kw) -> Result:
+         push: PushEvent | None = None, **kw) -> Result:
     """Locomotion: from the reference's first frame (or the standing pose without one), report
-    the distance covered and the mean speed (and tracking errors when there is a reference)."""
+    the distance covered and the mean speed (and tracking errors when there is a reference).
+    ``push``: one push while walking (:class:`PushEvent`)."""
     if reference is None:
         duration = DEFAULT_DURATIONS["walk"] if duration is None else duration
-        return simulate(character, controller, duration=duration,
-                        scenario="walk", qpos=standing_pose(character), **kw)
-    return track(character, controller, reference, duration=duration, scenario="walk", **kw)
+        _check_push(push, duration)
+        r = simulate(character, controller, duration=duration, scenario="walk",
+                     qpos=standing_pose(character), **with_push(push, kw))
+        return _pushed(r, push)
+    return track(character, controller, reference, duration=duration, scenario="walk",
+                 push=push, **kw)
 
 
 @dataclass

@@ -1,19 +1,22 @@
 """Sampling control: batched rollouts on ``mujoco.rollout`` and their executors (local threads,
 Ray), saved PD-target trajectories and their open-loop replay, SAMCON and CMA-ES trajectory
-optimisation. Registered as ``replay``, ``samcon_replay`` and ``cmaes_replay``."""
+optimisation, and the closed-loop sampling MPC tracker. Registered as ``replay``,
+``samcon_replay``, ``cmaes_replay`` and ``mpc``."""
 
-# Registration order: replay, samcon_replay, cmaes_replay:
+# Registration order: replay, samcon_replay, cmaes_replay, mpc:
 # isort: off
 from .trajectory import ReplayController, Trajectory, load_trajectory, make_replay, replay
 from .samcon import Samcon, SamconOptions, SamconResult
+from .trajopt import TrajectoryOptimizer, TrajoptOptions, optimise_jump, track_clip
+from .mpc import MpcController, MpcOptions, make_mpc
 # isort: on
 from .executors import Executor, LocalExecutor, make_executor
 from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner, rollout
 from .tracking import CostWeights, TrackingCost, inverse_dynamics_targets, sampling_widths
-from .trajopt import TrajectoryOptimizer, TrajoptOptions, optimise_jump, track_clip
 
-__all__ = ["CostWeights", "Executor", "LocalExecutor", "ReplayController", "RolloutModel",
-           "RolloutRequest", "RolloutResult", "RolloutRunner", "Samcon", "SamconOptions",
-           "SamconResult", "TrackingCost", "TrajectoryOptimizer", "Trajectory", "TrajoptOptions",
-           "inverse_dynamics_targets", "load_trajectory", "make_executor", "make_replay",
-           "optimise_jump", "replay", "rollout", "sampling_widths", "track_clip"]
+__all__ = ["CostWeights", "Executor", "LocalExecutor", "MpcController", "MpcOptions",
+           "ReplayController", "RolloutModel", "RolloutRequest", "RolloutResult",
+           "RolloutRunner", "Samcon", "SamconOptions", "SamconResult", "TrackingCost",
+           "TrajectoryOptimizer", "Trajectory", "TrajoptOptions", "inverse_dynamics_targets",
+           "load_trajectory", "make_executor", "make_mpc", "make_replay", "optimise_jump",
+           "replay", "rollout", "sampling_widths", "track_clip"]

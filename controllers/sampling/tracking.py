@@ -11,7 +11,8 @@
       E = wp Ep + wr Er + we Ee + wb Eb + wc Ec + wj Ej
 
   with :data:`FALL_COST` added to a sample that falls (see :mod:`controllers.sampling.samcon`
-  for every term).
+  for every term), or graded by how early it fell (:func:`fall_penalty`).
+- A constant pose as a reference (:class:`PoseReference`), for standing and pushes.
 """
 
 from __future__ import annotations
@@ -28,9 +29,10 @@ from bvh.errors import MjcharError
 from ..core.character import Character
 from .rollout import RolloutModel, RolloutResult
 
-__all__ = ["FALL_COST", "JOINT_SITE_PREFIX", "ROLE_WIDTHS", "CostWeights", "ReferenceFeatures",
-           "TrackingCost", "TrackingError", "actuator_roles", "inverse_dynamics_targets",
-           "reference_features", "sampling_widths", "tracking_rollout_model"]
+__all__ = ["FALL_COST", "JOINT_SITE_PREFIX", "ROLE_WIDTHS", "CostWeights", "PoseReference",
+           "ReferenceFeatures", "TrackingCost", "TrackingError", "actuator_roles",
+           "fall_penalty", "inverse_dynamics_targets", "reference_features", "sampling_widths",
+           "tracking_rollout_model"]
 
 
 class TrackingError(MjcharError):
@@ -125,6 +127,28 @@ def tracking_rollout_model(source, character: Character) -> RolloutModel:
 
 # ------------------------------------------------------------------------------------------------
 # inverse dynamics targets
+
+
+class PoseReference:
+    """A constant pose ``qpos (nq,)`` at rest as a reference motion: what
+    :func:`inverse_dynamics_targets` and :func:`reference_features` read (``qpos(t)``,
+    ``qvel(t)`` zero, both feet in contact, ``frame_time``), e.g. for standing."""
+
+    frame_time = 0.01
+    cyclic = False
+
+    def __init__(self, qpos: np.ndarray, nv: int):
+        self.q = np.asarray(qpos, dtype=float).copy()
+        self.nv = int(nv)
+
+    def qpos(self, t) -> np.ndarray:
+        return np.broadcast_to(self.q, np.shape(t) + self.q.shape).copy()
+
+    def qvel(self, t) -> np.ndarray:
+        return np.zeros(np.shape(t) + (self.nv,))
+
+    def foot_contacts(self, t) -> np.ndarray:
+        return np.ones(np.shape(t) + (2,), dtype=bool)
 
 
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
@@ -375,3 +399,13 @@ class TrackingCost:
         return result.non_foot_contact[:, sl].any(axis=1) | low.any(axis=1) | ~result.ok
 
 
+def fall_penalty(cost: TrackingCost, res: RolloutResult) -> np.ndarray:
+    """``(B,)`` :data:`FALL_COST` x (1 - fraction of the rollout survived), 0 for no fall: a
+    graded penalty, so that an optimiser still sees which falling candidate lasted longer.
+    A fall is what :meth:`TrackingCost.fallen` detects, at the control end it first shows."""
+    n = res.qpos.shape[1]
+    z = res.qpos[:, :, cost.root_height_index]
+    bad = res.non_foot_contact | ~(z >= cost.fall_height)
+    first = np.where(bad.any(axis=1), bad.argmax(axis=1), n)
+    first = np.where(res.ok, first, np.minimum(first, res.failed_step // res.steps_per_control))
+    return FALL_COST * (1.0 - first / n) * (first < n)

@@ -438,7 +438,7 @@ class ReplayController:
 
 def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
            duration: float | None = None, stop_on_fall: bool = True,
-           frame_callback=None, reference=None) -> Result:
+           frame_callback=None, reference=None, push=None) -> Result:
     """Play a saved trajectory open-loop from its initial state and report the usual metrics.
 
     Args:
@@ -450,6 +450,7 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         frame_callback: called after every control step (video capture).
         reference: a ReferenceMotion to measure tracking against (default: the stored
             reference rows; none for a task trajectory).
+        push: one push during the replay (a ``controllers.core.scenarios.PushEvent``).
 
     Returns:
         a :class:`~controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra`` holds
@@ -457,7 +458,7 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         end, m), ``min_root_height_m``, ``max_clearance_m`` (largest height of the character's
         lowest point above the floor, m: flight) and ``final_root_height_m``.
     """
-    from ..core.scenarios import simulate
+    from ..core.scenarios import simulate, with_push
 
     tr = trajectory if isinstance(trajectory, Trajectory) else load_trajectory(trajectory)
     character = Character(model)
@@ -476,10 +477,15 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         if frame_callback is not None:
             frame_callback(ch)
 
+    if push is not None and push.end > duration + 1e-9:
+        raise TrajectoryError(f"the push ({push.time} s + {push.duration} s) ends after the "
+                              f"replay ({duration:.2f} s)")
     result = simulate(character, controller, duration=duration, scenario="replay",
                       qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
                       control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
-                      frame_callback=watch)
+                      **with_push(push, {"frame_callback": watch}))
+    if push is not None:
+        result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
     extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
              "final_root_height_m": character.root_height,
              "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}

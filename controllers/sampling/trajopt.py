@@ -45,8 +45,10 @@ from .rollout import RolloutModel, RolloutRequest, RolloutResult
 from .tracking import (
     FALL_COST,
     CostWeights,
+    PoseReference,
     TrackingCost,
     actuator_roles,
+    fall_penalty,
     inverse_dynamics_targets,
     reference_features,
     sampling_widths,
@@ -140,17 +142,7 @@ class TrackingObjective:
             c[:, i] = self.cost(res.qpos[:, i], res.qvel[:, i], res.com[:, i], res.com_vel[:, i],
                                 res.sites[:, i], self.features, a + i)
         c = np.where(np.isfinite(c), c, 1e3)
-        return c.mean(axis=1) + _fall_penalty(self.cost, res)
-
-
-def _fall_penalty(cost: TrackingCost, res: RolloutResult) -> np.ndarray:
-    """``FALL_COST x (1 - fraction of the window survived)``, 0 for no fall."""
-    n = res.qpos.shape[1]
-    z = res.qpos[:, :, cost.root_height_index]
-    bad = res.non_foot_contact | ~(z >= cost.fall_height)
-    first = np.where(bad.any(axis=1), bad.argmax(axis=1), n)
-    first = np.where(res.ok, first, np.minimum(first, res.failed_step // res.steps_per_control))
-    return FALL_COST * (1.0 - first / n) * (first < n)
+        return c.mean(axis=1) + fall_penalty(self.cost, res)
 
 
 #: the jump's parameter groups: role kind and hinge axis (the same offset on both sides)
@@ -165,19 +157,8 @@ def standing_targets(character: Character) -> tuple[np.ndarray, np.ndarray]:
 
     q = standing_pose(character)
 
-    class _Still:  # a one-pose "reference" for inverse_dynamics_targets
-        frame_time = 0.01
-
-        def qpos(self, t):
-            return np.broadcast_to(q, np.shape(t) + q.shape).copy()
-
-        def qvel(self, t):
-            return np.zeros(np.shape(t) + (character.nv,))
-
-        def foot_contacts(self, t):
-            return np.ones(np.shape(t) + (2,), dtype=bool)
-
-    u = inverse_dynamics_targets(character, _Still(), np.zeros(1), smoothing=0.0)[0]
+    u = inverse_dynamics_targets(character, PoseReference(q, character.nv), np.zeros(1),
+                                 smoothing=0.0)[0]
     return q, u
 
 
@@ -252,7 +233,7 @@ class JumpObjective:
                                                axis=-1), nan=1.0)
         c += w["land"] * end + w["still"] * still.mean(axis=1) + w["upright"] * upright.mean(1)
         c += w["drift"] * drift
-        return c + _fall_penalty(self.cost, res)
+        return c + fall_penalty(self.cost, res)
 
 
 def _com(character: Character, qpos: np.ndarray) -> np.ndarray:

@@ -58,13 +58,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                         + " (default: the controller's own, see above)")
     p.add_argument("--motion", metavar="FILE.bvh",
                    help="reference motion for track/walk and hand_of_god (default: bundled walk)")
+    p.add_argument("--loop", action="store_true", default=None,
+                   help="track/walk: loop a seamless cycle cut from the motion (its root "
+                        "advancing each cycle) for as long as --duration")
     p.add_argument("--model", metavar="FILE.xml",
                    help="converted model (default: the bundled humanoid)")
     add_floor_argument(p, default=None)
     p.add_argument("--duration", type=positive("duration"), metavar="T",
                    help="simulated seconds (default: per scenario; the clip for track/walk)")
     p.add_argument("--push", type=non_negative("push"), metavar="N",
-                   help="push force in newtons (push: required; random-push: default 10)")
+                   help="push force in newtons (push: required; random-push: default 10; "
+                        "track/walk and replays: one push while moving, at --push-time)")
     p.add_argument("--direction", type=_direction, metavar="DEG",
                    help="push direction in degrees from the facing direction (0 forward, "
                         "90 left, 180 backward, 270 right) or a name; default forward")
@@ -184,8 +188,13 @@ def run(args: argparse.Namespace) -> int:
         from bvh.reference import ReferenceMotion
 
         path = args.motion or motion_path("walk")
-        reference = ReferenceMotion(character.model, bvh.load(path), info=character.info,
-                                    floor=args.floor)
+        motion = bvh.load(path)
+        if args.loop:
+            from bvh.editing import make_cyclic
+
+            motion = make_cyclic(motion)
+        reference = ReferenceMotion(character.model, motion, info=character.info,
+                                    floor=args.floor, cyclic=True if args.loop else None)
     # trackers follow the reference in track/walk, and hold the standing pose otherwise
     target = reference if reference is not None else S.standing_pose(character)
     controller = registry.make_controller(spec.name, character, target,
@@ -210,6 +219,9 @@ def run(args: argparse.Namespace) -> int:
             result = S.random_push(character, controller, seed=args.seed,
                                    force=10.0 if args.push is None else args.push, **kw)
         else:
+            if args.push is not None and scenario in ("track", "walk"):  # a push while moving
+                kw["push"] = S.PushEvent(args.push, args.direction, args.push_time,
+                                         args.push_duration)
             result = S.run_scenario(scenario, character, controller, reference=reference, **kw)
     finally:
         if video is not None:
@@ -293,6 +305,11 @@ def _replay(args: argparse.Namespace, spec) -> int:
                           f"{spec.name} FILE")
     trajectory = load_trajectory(path)
     video = None
+    kw = {}
+    if args.push is not None:  # a push during the replay
+        from controllers.core.scenarios import PushEvent
+
+        kw["push"] = PushEvent(args.push, args.direction, args.push_time, args.push_duration)
     if args.render:
         from controllers.core.character import Character
 
@@ -304,7 +321,7 @@ def _replay(args: argparse.Namespace, spec) -> int:
     try:
         result = replay(trajectory, model=args.model, duration=args.duration,
                         frame_callback=chain_callbacks(video.capture if video else None,
-                                                       recorder))
+                                                       recorder), **kw)
     finally:
         if video is not None:
             video.close()

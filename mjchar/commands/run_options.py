@@ -84,17 +84,23 @@ OPTIONS: tuple[Option, ...] = (
     Option("squat", "--squat", None, _option("height"), "{names}"),
     Option("motion", "--motion", None, _with_reference,
            "the track scenario, and the walk scenario of the trackers (not walkers, replays)"),
+    Option("loop", "--loop", False, _with_reference,
+           "runs with a reference clip (--motion): track, and walk for the trackers"),
     Option("floor", "--floor", "clip", _with_reference,
            "runs with a reference clip (--motion): track, and walk for the trackers"),
     Option("duration", "--duration", None, _scenarios("stand", "push", "random-push", "track",
                                                       "walk"),
            "every scenario but push-search (whose runs last the protocol's 5 s after the push)"),
-    Option("push", "--push", None, _scenarios("push", "random-push"),
-           "the push and random-push scenarios (push-search sweeps forces: --max-force)"),
-    Option("direction", "--direction", 0.0, _scenarios("push"), "the push scenario"),
-    Option("push_duration", "--push-duration", 0.2, _scenarios("push", "push-search"),
-           "the push and push-search scenarios"),
-    Option("push_time", "--push-time", 1.0, _scenarios("push"), "the push scenario"),
+    Option("push", "--push", None, _scenarios("push", "random-push", "track", "walk"),
+           "the push, random-push, track and walk scenarios (push-search sweeps forces: "
+           "--max-force)"),
+    Option("direction", "--direction", 0.0, _scenarios("push", "track", "walk"),
+           "the push, track and walk scenarios"),
+    Option("push_duration", "--push-duration", 0.2,
+           _scenarios("push", "push-search", "track", "walk"),
+           "the push, push-search, track and walk scenarios"),
+    Option("push_time", "--push-time", 1.0, _scenarios("push", "track", "walk"),
+           "the push, track and walk scenarios"),
     Option("allow_steps", "--allow-steps", False, _scenarios("push"), "the push scenario"),
     Option("max_force", "--max-force", 500.0, _scenarios("push-search"),
            "the push-search scenario"),
@@ -118,6 +124,8 @@ OPTIONS: tuple[Option, ...] = (
 
 #: options that only refine another one: (dest, needs, flag of needs)
 REFINES = (("fps", "render", "--render"), ("export_fps", "export_bvh", "--export-bvh"))
+#: in track and walk, the push's details need the push
+PUSH_DETAILS = ("direction", "push_time", "push_duration")
 REFINE_DEFAULTS = {"fps": 30.0, "export_fps": None}
 
 
@@ -143,6 +151,11 @@ def check_applicable(args: argparse.Namespace, spec, scenario: str) -> None:
     for dest, needs, flag in REFINES:
         if getattr(args, dest, None) is not None and getattr(args, needs, None) is None:
             raise MjcharError(f"--{dest.replace('_', '-')} needs {flag}")
+    if scenario in ("track", "walk") and getattr(args, "push", None) is None:
+        for dest in PUSH_DETAILS:
+            if getattr(args, dest, None) is not None:
+                raise MjcharError(f"--{dest.replace('_', '-')} in the {scenario} scenario "
+                                  "needs --push N (one push while moving)")
 
 
 def fill_defaults(args: argparse.Namespace) -> None:
@@ -201,7 +214,7 @@ def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float |
             raise _bad("--seeds", args.seeds, f"at most {MAX_SEEDS}")
     if scenario in ("push", "push-search") and args.push_duration > 5.0:
         raise _bad("--push-duration", args.push_duration, "at most 5 s")
-    if scenario == "push":
+    if scenario == "push" or (scenario in ("track", "walk") and args.push is not None):
         run = args.duration if args.duration is not None else default_duration
         if run is not None and args.push_time >= run:
             raise _bad("--push-time", args.push_time,

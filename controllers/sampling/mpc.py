@@ -1,0 +1,464 @@
+"""Receding-horizon sampling MPC: closed-loop clip tracking with batched rollouts.
+
+Follows Howell, Gileadi, Tunyasuvunakool, Zakka, Erez and Tassa, "Predictive Sampling: Real-time
+Behaviour Synthesis with MuJoCo" (2022; MuJoCo MPC), with the MPPI update of Williams, Aldrich
+and Theodorou, "Model Predictive Path Integral Control" (2017) and the cross-entropy method
+(Rubinstein 1999; Botev et al. 2013) as alternatives. Where SAMCON and CMA-ES reconstruct a clip
+open loop, offline, this controller replans from the *current simulated state* every
+``replan`` seconds, so pushes and perturbed starts are corrected. Native ``<position>``
+actuators, no force on the root.
+
+The plan, with MJPC's symbols:
+
+- **Decision variables.** ``K`` spline knots ``X (K, nu)`` spread evenly over a horizon ``H``
+  (a few tenths of a second): PD-target offsets in units of the per-joint role widths ``w``
+  (:func:`~controllers.sampling.tracking.sampling_widths`), linearly interpolated to the controls
+  (``control_dt``; :class:`~controllers.sampling.trajopt.KnotSpline`) and added to the base targets
+  ``q_hat`` (inverse dynamics on the reference,
+  :func:`~controllers.sampling.tracking.inverse_dynamics_targets`)::
+
+      u(t) = q_hat(t) + w * (B X)(t)
+
+- **Sampling.** Every replanning step the nominal ``X`` is shifted to the current time (the old
+  spline evaluated at the new knot times, the last knot held beyond its end: the warm start)
+  and ``N - 1`` candidates ``X + sigma eps`` (``eps ~ N(0, 1)``, ``sigma = noise``) are drawn;
+  the nominal is candidate 0. All ``N`` are simulated from the current state in one batch
+  (:mod:`controllers.sampling.rollout`, every core, deterministic).
+- **Cost** of a candidate: the SAMCON tracking cost
+  (:class:`~controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance, COM,
+  joint positions) averaged over the control ends of the horizon, plus
+  ``smoothness * sum_t mean_u ((Delta u_t) / w)^2`` over the offset changes (the first against
+  the offset being applied now), plus a fall penalty graded by how early the candidate fell
+  (:func:`~controllers.sampling.tracking.fall_penalty`).
+- **Update** (``update``): ``"sampling"`` (predictive sampling) keeps the cheapest candidate;
+  ``"mppi"`` averages the candidates with weights ``exp(-(c - c_min) / lambda)``, ``lambda =
+  temperature * (median(c) - c_min)`` (scale-free); ``"cem"`` moves the mean to the elite
+  average and refits a per-knot, per-actuator ``sigma`` to the elites (smoothed, kept within
+  ``[0.2, 2] x noise``).
+- **Execution.** The new plan's first ``replan`` seconds are applied, then it replans. The
+  constraint solver's warm start is cleared at each replanning, as every rollout starts, so
+  without a disturbance the character follows the chosen candidate's rollout bit for bit.
+
+Deterministic: the same options (seed) and the same model give the same trajectory, whatever the
+thread count (each rollout is independent). The reference and base targets are computed on
+demand in blocks, so cyclic clips (``ReferenceMotion(cyclic=True)``) can be tracked for as long
+as the scenario runs.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from bvh.errors import MjcharError
+
+from ..core.base import Action, ControllerError
+from ..core.character import Character
+from ..core.registry import ControllerSpec, register
+from .executors import LocalExecutor
+from .rollout import RolloutRequest, get_state
+from .tracking import (
+    CostWeights,
+    PoseReference,
+    ReferenceFeatures,
+    TrackingCost,
+    fall_penalty,
+    inverse_dynamics_targets,
+    reference_features,
+    sampling_widths,
+    tracking_rollout_model,
+)
+from .trajectory import model_fingerprint
+from .trajopt import KnotSpline
+
+__all__ = ["MPC_WIDTHS", "UPDATES", "MpcController", "MpcError", "MpcOptions", "ReferenceGrid",
+           "make_mpc", "shift_matrix"]
+
+#: plan updates: predictive sampling, MPPI, cross-entropy
+UPDATES = ("sampling", "mppi", "cem")
+#: the MPC's default noise widths: the arms and head are not sampled (their PD tracks them;
+#: halving the dimension of the search tracked walk60 better, docs/mpc.md); the legs and
+#: spine use the shared ``ROLE_WIDTHS``
+MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "head": 0.0}
+
+
+class MpcError(MjcharError):
+    """The MPC was given settings it cannot use (sizes, times, an unknown update)."""
+
+
+@dataclass
+class MpcOptions:
+    """Sampling MPC settings (see the module docstring).
+
+    Attributes:
+        samples: candidates per replanning step ``N`` (the nominal included), >= 2.
+        horizon: seconds planned ahead ``H`` (a whole number of controls).
+        knots: spline knots over the horizon ``K`` (>= 2; knot spacing ``H / (K - 1)``).
+        replan: seconds between replanning steps (a whole number of controls, <= horizon).
+        control_dt: seconds per PD-target control (a whole number of physics steps).
+        update: ``"sampling"``, ``"mppi"`` or ``"cem"``.
+        noise: standard deviation of the knot perturbations, in units of the role widths.
+        widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`);
+            width_scale: factor on them.
+        temperature: MPPI's ``lambda`` as a fraction of ``median(c) - min(c)``.
+        elites: CEM's elite fraction; cem_rate: how fast CEM's sigma follows the elites.
+        smoothness: weight of the control-smoothness term.
+        antithetic: draw the perturbations in pairs ``+eps, -eps`` (variance reduction).
+        weights: the tracking cost weights (:class:`CostWeights`).
+        smoothing: seconds of Gaussian smoothing of the inverse-dynamics targets.
+        seed: random seed; threads: rollout threads (``None``: every core).
+    """
+
+    samples: int = 48
+    horizon: float = 0.5
+    knots: int = 3
+    replan: float = 0.04
+    control_dt: float = 0.02
+    update: str = "mppi"
+    noise: float = 0.5
+    widths: dict = field(default_factory=lambda: dict(MPC_WIDTHS))
+    width_scale: float = 1.0
+    temperature: float = 0.1
+    elites: float = 0.25
+    cem_rate: float = 0.5
+    smoothness: float = 1.0
+    antithetic: bool = False
+    weights: CostWeights = field(default_factory=CostWeights)
+    smoothing: float = 0.03
+    seed: int = 0
+    threads: int | None = None
+
+    def check(self, timestep: float | None = None) -> None:
+        """Raise :class:`MpcError` for impossible settings (``timestep``: the physics step the
+        controls must be a whole number of)."""
+        for k, lo in (("samples", 2), ("knots", 2), ("seed", 0)):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < lo:
+                raise MpcError(f"{k} must be an integer >= {lo}, got {v!r}")
+        if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(
+                self.threads, int | np.integer) or self.threads < 1):
+            raise MpcError(f"threads must be a positive integer or None, got {self.threads!r}")
+        for k in ("horizon", "replan", "control_dt", "noise", "temperature", "elites",
+                  "cem_rate", "width_scale"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
+                                           and v > 0):
+                raise MpcError(f"{k} must be a positive number, got {v!r}")
+        for k in ("smoothness", "smoothing"):
+            v = getattr(self, k)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise MpcError(f"{k} must be a non-negative number, got {v!r}")
+        if self.update not in UPDATES:
+            raise MpcError(f"update must be one of {', '.join(UPDATES)}, got {self.update!r}")
+        if self.elites > 1 or self.cem_rate > 1:
+            raise MpcError("elites and cem_rate must be in (0, 1]")
+        if not isinstance(self.antithetic, bool | np.bool_):
+            raise MpcError(f"antithetic must be True or False, got {self.antithetic!r}")
+        if not isinstance(self.weights, CostWeights):
+            raise MpcError("weights must be a CostWeights")
+        for k in ("horizon", "replan"):
+            c = getattr(self, k) / self.control_dt
+            if abs(c - round(c)) > 1e-6 or round(c) < 1:
+                raise MpcError(f"{k} ({getattr(self, k)} s) must be a whole number of controls "
+                               f"of {self.control_dt} s")
+        if self.replan > self.horizon + 1e-9:
+            raise MpcError(f"replan ({self.replan} s) cannot exceed horizon ({self.horizon} s)")
+        if timestep is not None:
+            k = self.control_dt / timestep
+            if abs(k - round(k)) > 1e-6 or round(k) < 1:
+                raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
+                               f"{timestep} s physics steps")
+
+    @classmethod
+    def from_kwargs(cls, **kw) -> MpcOptions:
+        """Options from keyword arguments; an unknown name lists the valid ones; a ``weights``
+        dict becomes :class:`CostWeights`."""
+        names = [f.name for f in fields(cls)]
+        unknown = [k for k in kw if k not in names]
+        if unknown:
+            raise MpcError(f"unknown MPC option(s) {', '.join(unknown)}; valid: "
+                           f"{', '.join(names)}")
+        if isinstance(kw.get("weights"), dict):
+            try:
+                kw["weights"] = CostWeights(**kw["weights"])
+            except TypeError as e:
+                raise MpcError(f"bad cost weights: {e}") from None
+        o = cls(**kw)
+        o.check()
+        return o
+
+
+def shift_matrix(n_knots: int, knot_dt: float, shift: float) -> np.ndarray:
+    """``(K, K)`` ``S`` such that ``S @ X`` are the knots of the piecewise-linear spline ``X``
+    (knots at ``0, knot_dt, ...``) evaluated at ``shift + j knot_dt``, the last knot held beyond
+    the end (the warm start of the next plan)."""
+    s = np.clip((np.arange(n_knots) * knot_dt + shift) / knot_dt, 0.0, n_knots - 1.0)
+    i = np.minimum(np.floor(s).astype(int), n_knots - 2)
+    a = s - i
+    S = np.zeros((n_knots, n_knots))
+    S[np.arange(n_knots), i] = 1.0 - a
+    S[np.arange(n_knots), i + 1] += a
+    return S
+
+
+class ReferenceGrid:
+    """Base targets at control midpoints and reference features at control ends on the grid
+    ``n control_dt`` (``n = 0, 1, ...``), computed in blocks of ``block`` controls on demand
+    (so an endless cyclic reference costs memory in proportion to the time tracked).
+
+    Base targets (:func:`inverse_dynamics_targets`) of a block are computed with a margin of
+    four smoothing widths on each side, so blocks join without a visible seam.
+    """
+
+    def __init__(self, character: Character, reference, rmodel, control_dt: float,
+                 smoothing: float, block: int = 50):
+        self.character, self.reference, self.rmodel = character, reference, rmodel
+        self.dt, self.smoothing, self.block = float(control_dt), float(smoothing), int(block)
+        self.pad = int(math.ceil(4 * smoothing / control_dt)) + 1 if smoothing > 0 else 0
+        self._base = np.zeros((0, character.nu))
+        self.features: ReferenceFeatures | None = None
+
+    @property
+    def size(self) -> int:
+        return len(self._base)
+
+    def ensure(self, n_end: int) -> None:
+        """Compute rows up to control ``n_end`` (exclusive)."""
+        while self.size < n_end:
+            a = self.size
+            b = a + self.block
+            n = np.arange(a - self.pad, b + self.pad)
+            base = inverse_dynamics_targets(self.character, self.reference, (n + 0.5) * self.dt,
+                                            smoothing=self.smoothing)[self.pad:len(n) - self.pad]
+            f = reference_features(self.rmodel, self.reference, (np.arange(a, b) + 1) * self.dt)
+            self._base = np.concatenate([self._base, base])
+            if self.features is None:
+                self.features = f
+            else:
+                self.features = ReferenceFeatures(*(
+                    np.concatenate([getattr(self.features, k.name), getattr(f, k.name)])
+                    for k in fields(ReferenceFeatures)))
+
+    def base(self, a: int, b: int) -> np.ndarray:
+        """``(b - a, nu)`` base targets of controls ``a .. b-1``."""
+        self.ensure(b)
+        return self._base[a:b]
+
+
+class MpcController:
+    """Closed-loop sampling MPC tracking ``target`` (a ReferenceMotion, or a pose ``(nq,)`` to
+    hold) on native PD actuators; see the module docstring.
+
+    Args:
+        target: what to track (``None``: the character's standing pose at :meth:`reset`).
+        options: :class:`MpcOptions`.
+        progress: a tqdm bar of the simulated time on the terminal (``None``: only when stderr
+            is a terminal; ``False``: never).
+
+    Attributes:
+        stats: replanning steps, rollouts and physics steps simulated, seconds spent planning,
+            and the chosen cost of every replanning step.
+    """
+
+    name = "mpc"
+    actuation = "native"
+
+    def __init__(self, target=None, options: MpcOptions | None = None, progress=None):
+        self.options = options or MpcOptions()
+        self.options.check()
+        self.target = target
+        self.progress = progress
+        self._executor: LocalExecutor | None = None
+        self._rmodel = None
+        self._rm_key = None
+        self._bar = None
+        self._bound = False
+
+    # -- setup -------------------------------------------------------------------------------
+    def reset(self, character: Character) -> None:
+        """Bind to ``character``: native PD with the model's own gains, the rollout model (same
+        physics and time step), the reference grid, a fresh plan and random stream."""
+        o, ch = self.options, character
+        o.check(ch.timestep)
+        if not np.all(ch.position_actuators):
+            raise ControllerError("mpc needs <position> actuators on every actuated dof")
+        if ch.source is None:
+            raise MpcError("mpc builds its rollout model from the model file: give the "
+                           "Character an MJCF path (or None for the bundled humanoid)")
+        ch.set_actuation("native")
+        kp, kd = ch.default_gains()
+        ch.set_native_gains(kp, kd)
+        key = (ch.source, ch.timestep)
+        if self._rm_key != key:
+            rm = tracking_rollout_model(ch.source, ch)
+            rm.model.opt.timestep = ch.timestep
+            if model_fingerprint(rm.model) != model_fingerprint(ch.model):
+                raise MpcError(f"the character's physics differs from its model file "
+                               f"{ch.source} (edited gains or options?)")
+            self._rmodel, self._rm_key = rm, key
+        ref = self.target
+        if ref is None:
+            from ..core.scenarios import standing_pose
+
+            ref = standing_pose(ch)
+        if isinstance(ref, np.ndarray):
+            if ref.shape != (ch.nq,):
+                raise MpcError(f"a pose target must have shape ({ch.nq},), got {ref.shape}")
+            ref = PoseReference(ref, ch.nv)
+        elif getattr(getattr(ref, "model", None), "nq", ch.nq) != ch.nq:
+            raise MpcError("the reference motion was built for another model")
+        self.reference = ref
+        self.k = int(round(o.control_dt / ch.timestep))
+        self.T = int(round(o.horizon / o.control_dt))
+        self.R = int(round(o.replan / o.control_dt))
+        self.widths = sampling_widths(ch, o.widths, o.width_scale)
+        self.knot_dt = o.horizon / (o.knots - 1)
+        self.spline = KnotSpline(self.T, o.control_dt, self.knot_dt, np.diag(self.widths))
+        if self.spline.n_knots != o.knots:
+            raise MpcError(f"internal: {self.spline.n_knots} knots instead of {o.knots}")
+        self.cost = TrackingCost(ch, o.weights, site_names=self._rmodel.site_names)
+        self.grid = ReferenceGrid(ch, ref, self._rmodel, o.control_dt, o.smoothing)
+        threads = o.threads or os.cpu_count() or 1
+        if self._executor is None or self._executor.threads != threads:
+            if self._executor is not None:
+                self._executor.close()
+            self._executor = LocalExecutor(threads=threads)
+        self.rng = np.random.default_rng(o.seed)
+        nu = ch.nu
+        self.X = np.zeros((o.knots, nu))
+        self.sigma = np.full((o.knots, nu), o.noise)
+        self._n0 = 0
+        self._plan: np.ndarray | None = None
+        self._offsets = np.zeros((self.T, nu))
+        self._next = 0
+        self.stats = {"replans": 0, "rollouts": 0, "physics_steps": 0, "planning_s": 0.0,
+                      "costs": []}
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        self._bound = True
+
+    def close(self) -> None:
+        """Release the rollout threads and the progress bar."""
+        if self._executor is not None:
+            self._executor.close()
+            self._executor = None
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    # -- control -----------------------------------------------------------------------------
+    def act(self, character: Character, t: float) -> Action:
+        """The plan's PD targets for the control interval containing ``t`` (replanning from
+        the current state when a replanning time is reached)."""
+        if not self._bound:
+            raise ControllerError("mpc: act() called before reset()")
+        n = int(math.floor(t / self.options.control_dt + 1e-6))
+        if self._plan is None or n >= self._next:
+            self._replan(character, n)
+        i = min(max(n - self._n0, 0), self.T - 1)
+        return Action(target=self._plan[i])
+
+    def _replan(self, ch: Character, n0: int) -> None:
+        o = self.options
+        t0 = time.perf_counter()
+        cdt = o.control_dt
+        if self._plan is not None:
+            S = shift_matrix(o.knots, self.knot_dt, (n0 - self._n0) * cdt)
+            X = S @ self.X
+            sigma = S @ self.sigma
+            applied = self._offsets[min(max(n0 - self._n0 - 1, 0), self.T - 1)]
+        else:
+            X, sigma, applied = self.X, self.sigma, np.zeros(ch.nu)
+        N = o.samples
+        if o.antithetic:  # pairs +eps, -eps (and one more when N - 1 is odd)
+            half = self.rng.standard_normal(((N - 1) // 2,) + X.shape)
+            extra = self.rng.standard_normal(((N - 1) % 2,) + X.shape)
+            eps = np.concatenate([half, -half, extra])
+        else:
+            eps = self.rng.standard_normal((N - 1,) + X.shape)
+        Xs = np.concatenate([X[None], X[None] + sigma * eps])  # (N, K, nu)
+        off = self.spline.offsets(Xs)  # (N, T, nu), radians
+        base = self.grid.base(n0, n0 + self.T)
+        state = get_state(ch.model, ch.data)
+        req = RolloutRequest(self._rmodel, state, base[None] + off, self.k)
+        res = self._executor.evaluate(req)
+        c = self._costs(res, off, applied, n0)
+        X, sigma, best = self._update(Xs, c, X, sigma)
+        self.X, self.sigma = X, sigma
+        self._offsets = self.spline.offsets(X)
+        self._plan = base + self._offsets
+        self._n0, self._next = n0, n0 + self.R
+        ch.data.qacc_warmstart[:] = 0.0  # as every rollout started
+        st = self.stats
+        st["replans"] += 1
+        st["rollouts"] += N
+        st["physics_steps"] += N * self.T * self.k
+        st["costs"].append(float(best))
+        st["planning_s"] += time.perf_counter() - t0
+        self._show(n0 * cdt, best)
+
+    def _costs(self, res, off: np.ndarray, applied: np.ndarray, n0: int) -> np.ndarray:
+        """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts."""
+        feats = self.grid.features
+        c = np.empty((off.shape[0], self.T))
+        for i in range(self.T):
+            c[:, i] = self.cost(res.qpos[:, i], res.qvel[:, i], res.com[:, i],
+                                res.com_vel[:, i], res.sites[:, i], feats, n0 + i)
+        c = np.where(np.isfinite(c), c, 1e3).mean(axis=1)
+        if self.options.smoothness > 0:
+            prev = np.concatenate([np.broadcast_to(applied, (off.shape[0], 1, off.shape[2])),
+                                   off], axis=1)
+            d = np.diff(prev, axis=1) / np.where(self.widths > 0, self.widths, 1.0)
+            c = c + self.options.smoothness * (d * d).mean(axis=2).sum(axis=1)
+        return c + fall_penalty(self.cost, res)
+
+    def _update(self, Xs: np.ndarray, c: np.ndarray, X: np.ndarray, sigma: np.ndarray):
+        """The new nominal knots and CEM's sigma from candidates ``Xs (N, K, nu)`` and their
+        costs ``c (N,)``; returns ``(X, sigma, cost of the best candidate)``."""
+        o = self.options
+        order = np.argsort(c, kind="stable")
+        best = float(c[order[0]])
+        if o.update == "sampling":
+            return Xs[order[0]].copy(), sigma, best
+        if o.update == "mppi":
+            spread = max(float(np.median(c)) - best, 1e-9)
+            w = np.exp(-(c - best) / (o.temperature * spread))
+            w /= w.sum()
+            return np.tensordot(w, Xs, axes=1), sigma, best
+        n_el = max(2, int(math.ceil(o.elites * len(c))))
+        el = Xs[order[:n_el]]
+        mean = el.mean(axis=0)
+        std = el.std(axis=0)
+        sigma = np.clip((1 - o.cem_rate) * sigma + o.cem_rate * std,
+                        0.2 * o.noise, 2.0 * o.noise)
+        return mean, sigma, best
+
+    def _show(self, t: float, best: float) -> None:
+        if self.progress is False:
+            return
+        if self._bar is None:
+            from tqdm import tqdm
+
+            self._bar = tqdm(desc="MPC", disable=None if self.progress is None else False,
+                             bar_format="{desc}: {n:.2f} sim s [{elapsed}, {postfix}]",
+                             leave=False)
+        self._bar.n = t + self.options.replan
+        self._bar.set_postfix_str(f"cost {best:.2f}", refresh=True)
+
+
+def make_mpc(character: Character | None = None, target=None, **options) -> MpcController:
+    """An :class:`MpcController` tracking ``target`` (a ReferenceMotion or a pose); ``options``
+    are :class:`MpcOptions` fields (``progress`` is the controller's own)."""
+    progress = options.pop("progress", None)
+    return MpcController(target, MpcOptions.from_kwargs(**options), progress=progress)
+
+
+register(ControllerSpec(
+    name="mpc", label="sampling MPC tracker (closed loop)", kind="balance", factory=make_mpc,
+    scenarios=("track", "walk", "stand", "push"), default_scenario="track",
+    bench=("track",), expected=("track",)))

@@ -1,0 +1,314 @@
+"""The closed-loop sampling MPC tracker (controllers/sampling/mpc.py) and cyclic clips.
+
+Fast tests run a few tenths of a second with few samples and short horizons; the figures of
+docs/mpc.md (whole shared clips, a 60 s loop, pushes, perturbed starts) are slow tests
+(``-m slow``, minutes each).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import run_command, shared_clip
+
+import bvh
+from bvh.editing import EditingError, make_cyclic
+from bvh.errors import MjcharError
+from bvh.reference import ReferenceMotion
+from controllers.core import scenarios as S
+from controllers.core.character import Character
+from controllers.core.registry import get, make_controller
+from controllers.sampling.mpc import MpcController, MpcError, MpcOptions, make_mpc, shift_matrix
+from controllers.sampling.rollout import RolloutRequest, get_state
+
+#: small, fast settings (about 1 s of wall time per 0.1 s simulated on 2 cores)
+FAST = {"samples": 8, "horizon": 0.2, "knots": 2, "replan": 0.04, "threads": 2}
+
+
+def _track(character, reference, duration, **options):
+    """Run the MPC in the track scenario; returns ``(result, qpos rows per control step)``."""
+    controller = make_mpc(character, reference, progress=False, **{**FAST, **options})
+    rows = []
+    r = S.track(character, controller, reference, duration=duration,
+                frame_callback=lambda ch: rows.append(ch.qpos.copy()))
+    controller.close()
+    return r, np.array(rows), controller
+
+
+# -- options -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("options, match", [
+    ({"samples": 1}, "samples"),
+    ({"knots": 1}, "knots"),
+    ({"update": "newton"}, "update must be one of sampling, mppi, cem"),
+    ({"horizon": 0.25}, "horizon .* whole number of controls"),
+    ({"replan": 0.5, "horizon": 0.3}, "replan .* cannot exceed horizon"),
+    ({"noise": -1.0}, "noise must be a positive number"),
+    ({"threads": 0}, "threads"),
+    ({"smoothness": float("nan")}, "smoothness"),
+    ({"colour": "red"}, "unknown MPC option.*colour.*valid: samples"),
+    ({"weights": {"pose": -1.0}}, "cost weight pose"),
+    ({"widths": {"tail": 0.1}}, "unknown joint role 'tail'"),
+])
+def test_bad_options_are_refused_with_a_clear_message(character, walk_ref, options, match):
+    with pytest.raises(MjcharError, match=match):  # MpcError, or TrackingError for costs/widths
+        c = make_mpc(character, walk_ref, **options)
+        c.reset(character)
+
+
+def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
+    c = make_mpc(character, walk_ref, control_dt=0.015, horizon=0.3, replan=0.03)
+    with pytest.raises(MpcError, match="whole number of .* physics steps"):
+        c.reset(character)
+
+
+def test_a_model_without_a_file_is_refused(walk_ref):
+    ch = Character(Character().model)  # built from an MjModel: no file to compile rollouts from
+    with pytest.raises(MpcError, match="MJCF path"):
+        make_mpc(ch, walk_ref).reset(ch)
+
+
+def test_registered_as_a_closed_loop_tracker():
+    spec = get("mpc")
+    assert spec.default_scenario == "track" and "track" in spec.bench
+    assert isinstance(make_controller("mpc", None, None, samples=4), MpcController)
+
+
+# -- the plan --------------------------------------------------------------------------------------
+def test_shift_matrix_moves_the_knots_and_holds_the_last():
+    X = np.array([[0.0], [1.0], [2.0], [3.0]])
+    np.testing.assert_allclose(shift_matrix(4, 0.1, 0.0) @ X, X)
+    np.testing.assert_allclose(shift_matrix(4, 0.1, 0.1) @ X, [[1], [2], [3], [3]])
+    np.testing.assert_allclose(shift_matrix(4, 0.1, 0.05) @ X, [[0.5], [1.5], [2.5], [3]])
+
+
+def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
+    """Base targets computed in blocks (with a smoothing margin) match a one-shot computation."""
+    from controllers.sampling.mpc import ReferenceGrid
+    from controllers.sampling.tracking import inverse_dynamics_targets, tracking_rollout_model
+
+    rm = tracking_rollout_model(character.source, character)
+    grid = ReferenceGrid(character, walk_ref, rm, 0.02, 0.03, block=20)
+    base = grid.base(0, 60)
+    n = np.arange(-10, 70)
+    whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03)
+    np.testing.assert_allclose(base, whole[10:70], atol=1e-6)
+    assert grid.features.qpos.shape[0] == 60
+    np.testing.assert_allclose(grid.features.times, (np.arange(60) + 1) * 0.02)
+
+
+def test_tracks_the_bundled_walk_without_falling(walk_ref):
+    ch = Character()
+    r, _, c = _track(ch, walk_ref, 0.4)
+    assert not r.fell
+    assert r.root_force_mean_N == 0.0  # no hand of god
+    assert r.tracking_error_m < 0.04
+    assert c.stats["replans"] == 10 and c.stats["rollouts"] == 80
+
+
+@pytest.mark.parametrize("update", ["mppi", "cem"])
+def test_every_update_tracks(walk_ref, update):
+    r, _, _ = _track(Character(), walk_ref, 0.3, update=update)
+    assert not r.fell and r.tracking_error_m < 0.04
+
+
+def test_holds_a_pose_in_the_stand_scenario():
+    ch = Character()
+    c = make_mpc(ch, S.standing_pose(ch), progress=False, **FAST)
+    r = S.stand(ch, c, duration=0.3)
+    assert not r.fell and r.com_drop_m < 0.02
+
+
+def test_same_seed_same_trajectory_bit_for_bit_whatever_the_threads(walk_ref):
+    # MPPI: every sample moves the plan, so another seed gives another trajectory
+    _, a, _ = _track(Character(), walk_ref, 0.3, seed=5, update="mppi")
+    _, b, _ = _track(Character(), walk_ref, 0.3, seed=5, update="mppi")
+    _, c, _ = _track(Character(), walk_ref, 0.3, seed=5, update="mppi", threads=1)
+    _, d, _ = _track(Character(), walk_ref, 0.3, seed=6, update="mppi")
+    assert np.array_equal(a, b) and np.array_equal(a, c)
+    assert not np.array_equal(a, d)
+
+
+def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
+    """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
+    at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
+    ch = Character()
+    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
+    c.reset(ch)
+    c.act(ch, 0.0)
+    res = c._executor.evaluate(RolloutRequest(c._rmodel, get_state(ch.model, ch.data),
+                                              c._plan[None], c.k))
+    for _ in range(c.R * c.k):
+        ch.step(c.act(ch, ch.time))
+    np.testing.assert_array_equal(get_state(ch.model, ch.data)[1:],
+                                  res.states[0, c.R - 1][1:])
+    c.close()
+
+
+def test_mjchar_run_mpc(capsys):
+    import json
+
+    assert run_command(["run", "mpc", "--duration", "0.2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["controller"] == "mpc" and not out["fell"] and out["tracking_error_m"] < 0.05
+
+
+# -- cyclic clips ----------------------------------------------------------------------------------
+def test_make_cyclic_cuts_a_seamless_gait_cycle():
+    ch = Character()
+    cycle = make_cyclic(bvh.load(shared_clip("walk60.bvh")))
+    ref = ReferenceMotion(ch.model, cycle, info=ch.info)
+    assert ref.cyclic  # detected: first and last poses agree
+    assert 0.9 < ref.duration < 1.4  # one gait cycle of a 1.2 m/s walk
+    assert 1.0 < np.linalg.norm(ref.cycle_displacement) < 1.8
+    T = ref.duration
+    seam = ref.body_positions(np.array([T - 1e-4, T + 1e-4]))[:, ref.joint_body_ids]
+    assert np.abs(seam[1] - seam[0]).max() < 0.005
+
+
+def test_make_cyclic_refuses_a_clip_too_short():
+    m = bvh.load(shared_clip("walk_forward.bvh"))
+    with pytest.raises(EditingError, match="no cycle"):
+        make_cyclic(m, min_period=5.0)
+
+
+def test_options_dataclass_defaults_are_valid():
+    MpcOptions().check(0.002)
+
+
+def test_looped_clip_runs_as_long_as_asked(capsys):
+    """``mjchar run --loop``: a cycle of walk60 repeated with its root advanced (hand-of-god:
+    fast), well past the clip's own 3 s."""
+    import json
+
+    path = str(shared_clip("walk60.bvh"))
+    assert run_command(["run", "hand_of_god", "--motion", path, "--loop", "--duration", "5",
+                        "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["sim_time_s"] == pytest.approx(5.0, abs=0.01) and not out["fell"]
+    assert out["distance_m"] > 5.0 and out["tracking_error_m"] < 0.05
+
+
+# -- pushes while tracking and perturbed starts -------------------------------------------------
+def test_a_push_while_tracking_moves_the_character(walk_ref):
+    def run(force):
+        ch = Character()
+        c = make_controller("native_pd", ch, walk_ref)
+        return S.track(ch, c, walk_ref, duration=0.5, push=S.PushEvent(force, 90.0, 0.1, 0.2))
+
+    quiet, pushed = run(0.0), run(300.0)
+    assert pushed.push_N == 300.0 and pushed.push_direction_deg == 90.0
+    assert pushed.tracking_error_m > quiet.tracking_error_m + 0.005
+
+
+def test_a_push_past_the_end_of_the_run_is_refused(walk_ref):
+    ch = Character()
+    with pytest.raises(S.ScenarioError, match="ends after the run"):
+        S.track(ch, make_controller("native_pd", ch, walk_ref), walk_ref, duration=0.5,
+                push=S.PushEvent(100.0, 0.0, 0.4, 0.2))
+    with pytest.raises(S.ScenarioError, match="non-negative"):
+        S.PushEvent(-5.0)
+
+
+def test_mjchar_run_pushes_in_the_track_scenario(capsys):
+    import json
+
+    assert run_command(["run", "hand_of_god", "--duration", "0.6", "--push", "100",
+                        "--push-time", "0.2", "--direction", "left", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scenario"] == "track" and out["push_N"] == 100.0
+    assert out["push_direction_deg"] == 90.0
+
+
+def test_perturbed_start_is_seeded_and_on_the_floor(character, walk_ref):
+    q0, v0 = walk_ref.qpos(0.0), walk_ref.qvel(0.0)
+    a = S.perturbed_start(character, q0, v0, 3)
+    b = S.perturbed_start(character, q0, v0, 3)
+    c = S.perturbed_start(character, q0, v0, 4)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert not np.array_equal(a[0], c[0])
+    assert character.lowest_point(a[0]) == pytest.approx(0.0, abs=1e-6)
+    dv = a[1] - v0
+    assert np.all(dv[character.root_dofs[2:]] == 0) and np.abs(dv[:2]).max() > 0
+
+
+# -- slow: the figures of docs/mpc.md (default settings; minutes each) ---------------------------
+def _shared_ref(ch, name, cyclic=False):
+    motion = bvh.load(shared_clip(f"{name}.bvh"))
+    if cyclic:
+        motion = make_cyclic(motion)
+    return ReferenceMotion(ch.model, motion, info=ch.info, cyclic=True if cyclic else None)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("clip, bound", [("walk60", 0.05), ("walk_forward", 0.05),
+                                         ("walk_and_turn_right", 0.05), ("idle", 0.03)])
+def test_slow_tracks_the_shared_clips(clip, bound):
+    ch = Character()
+    ref = _shared_ref(ch, clip)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref)
+    c.close()
+    assert not r.fell and r.root_force_mean_N == 0.0
+    assert r.tracking_error_m < bound
+
+
+@pytest.mark.slow
+def test_slow_loops_walk60_for_a_minute():
+    ch = Character()
+    ref = _shared_ref(ch, "walk60", cyclic=True)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref, duration=60.0)
+    c.close()
+    assert not r.fell and r.tracking_error_m < 0.06
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("moment", [0, 1, 2, 3])
+def test_slow_recovers_from_pushes_while_walking(moment):
+    """100 N x 0.2 s on the pelvis at 4 moments of the gait cycle x 4 directions: no fall, and
+    the mean joint error back below 8 cm within 2 s of the push's end."""
+    for direction in (0.0, 90.0, 180.0, 270.0):
+        ch = Character()
+        ref = _shared_ref(ch, "walk60", cyclic=True)
+        push = S.PushEvent(100.0, direction, round(0.5 + moment * ref.duration / 4, 3), 0.2)
+        c = make_mpc(ch, ref, progress=False)
+        t, pos = [], []
+
+        def probe(ch, t=t, pos=pos):
+            if not t or ch.time >= t[-1] + 0.02 - 1e-9:
+                t.append(ch.time)
+                pos.append(ch.joint_positions())
+
+        r = S.track(ch, c, ref, duration=push.end + 2.5, push=push, frame_callback=probe)
+        c.close()
+        assert not r.fell, (moment, direction)
+        times = np.array(t)
+        err = np.linalg.norm(np.array(pos) - ref.body_positions(times)[:, ref.joint_body_ids],
+                             axis=-1).mean(axis=1)
+        back = times[(times >= push.end) & (err < 0.08)]
+        assert len(back) and back[0] - push.end <= 2.0, (moment, direction)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(5))
+def test_slow_survives_perturbed_starts(seed):
+    ch = Character()
+    ref = _shared_ref(ch, "walk60")
+    start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
+    c = make_mpc(ch, ref, progress=False)
+    r = S.track(ch, c, ref, start=start)
+    c.close()
+    assert not r.fell
+
+
+def test_mjchar_run_pushes_a_replay_too(capsys):
+    import json
+
+    runs = []
+    for extra in ([], ["--push", "300", "--push-time", "0.3", "--direction", "right"]):
+        assert run_command(["run", "samcon_replay", "--duration", "1.0", "--json"] + extra) == 0
+        runs.append(json.loads(capsys.readouterr().out))
+    quiet, pushed = runs
+    assert quiet["push_N"] is None and pushed["push_N"] == 300.0
+    assert pushed["tracking_error_m"] > quiet["tracking_error_m"] + 0.005
