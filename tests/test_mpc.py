@@ -267,7 +267,8 @@ def test_slow_loops_walk60_for_a_minute():
 @pytest.mark.parametrize("moment", [0, 1, 2, 3])
 def test_slow_recovers_from_pushes_while_walking(moment):
     """100 N x 0.2 s on the pelvis at 4 moments of the gait cycle x 4 directions: no fall, and
-    the mean joint error back below 8 cm within 2 s of the push's end."""
+    the mean joint error back below 8 cm within 2 s of the push's end (and staying there for
+    the 4 s simulated after it)."""
     for direction in (0.0, 90.0, 180.0, 270.0):
         ch = Character()
         ref = _shared_ref(ch, "walk60", cyclic=True)
@@ -280,14 +281,14 @@ def test_slow_recovers_from_pushes_while_walking(moment):
                 t.append(ch.time)
                 pos.append(ch.joint_positions())
 
-        r = S.track(ch, c, ref, duration=push.end + 2.5, push=push, frame_callback=probe)
+        r = S.track(ch, c, ref, duration=push.end + 4.0, push=push, frame_callback=probe)
         c.close()
         assert not r.fell, (moment, direction)
         times = np.array(t)
         err = np.linalg.norm(np.array(pos) - ref.body_positions(times)[:, ref.joint_body_ids],
                              axis=-1).mean(axis=1)
-        back = times[(times >= push.end) & (err < 0.08)]
-        assert len(back) and back[0] - push.end <= 2.0, (moment, direction)
+        high = times[(times >= push.end) & (err >= 0.08)]  # below 8 cm for good after 2 s
+        assert not len(high) or high[-1] - push.end <= 2.0, (moment, direction)
 
 
 @pytest.mark.slow

@@ -21,9 +21,11 @@ The plan, with MJPC's symbols:
 
 - **Sampling.** Every replanning step the nominal ``X`` is shifted to the current time (the old
   spline evaluated at the new knot times, the last knot held beyond its end: the warm start)
-  and ``N - 1`` candidates ``X + sigma eps`` (``eps ~ N(0, 1)``, ``sigma = noise``) are drawn;
-  the nominal is candidate 0. All ``N`` are simulated from the current state in one batch
-  (:mod:`controllers.sampling.rollout`, every core, deterministic).
+  and ``N - 1`` candidates ``X + b sigma eps`` (``eps ~ N(0, 1)``, ``sigma = noise``) are drawn;
+  the nominal is candidate 0. ``b``, in ``[1, max_boost]``, is the last plan's cost over its
+  running mean: the search widens after a disturbance (a push) raises the cost. All ``N`` are
+  simulated from the current state in one batch (:mod:`controllers.sampling.rollout`, every
+  core, deterministic).
 - **Cost** of a candidate: the SAMCON tracking cost
   (:class:`~controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance, COM,
   joint positions) averaged over the control ends of the horizon, plus
@@ -108,13 +110,15 @@ class MpcOptions:
         elites: CEM's elite fraction; cem_rate: how fast CEM's sigma follows the elites.
         smoothness: weight of the control-smoothness term.
         antithetic: draw the perturbations in pairs ``+eps, -eps`` (variance reduction).
+        max_boost: largest factor on the noise when the cost rises above its running mean
+            (time constant ``boost_time`` s), e.g. after a push; 1 turns it off.
         weights: the tracking cost weights (:class:`CostWeights`).
         smoothing: seconds of Gaussian smoothing of the inverse-dynamics targets.
         seed: random seed; threads: rollout threads (``None``: every core).
     """
 
     samples: int = 48
-    horizon: float = 0.5
+    horizon: float = 0.7
     knots: int = 3
     replan: float = 0.04
     control_dt: float = 0.02
@@ -127,6 +131,8 @@ class MpcOptions:
     cem_rate: float = 0.5
     smoothness: float = 1.0
     antithetic: bool = False
+    max_boost: float = 2.0
+    boost_time: float = 1.0
     weights: CostWeights = field(default_factory=CostWeights)
     smoothing: float = 0.03
     seed: int = 0
@@ -143,7 +149,7 @@ class MpcOptions:
                 self.threads, int | np.integer) or self.threads < 1):
             raise MpcError(f"threads must be a positive integer or None, got {self.threads!r}")
         for k in ("horizon", "replan", "control_dt", "noise", "temperature", "elites",
-                  "cem_rate", "width_scale"):
+                  "cem_rate", "width_scale", "boost_time"):
             v = getattr(self, k)
             if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
                                            and v > 0):
@@ -154,6 +160,8 @@ class MpcOptions:
                 raise MpcError(f"{k} must be a non-negative number, got {v!r}")
         if self.update not in UPDATES:
             raise MpcError(f"update must be one of {', '.join(UPDATES)}, got {self.update!r}")
+        if not (isinstance(self.max_boost, int | float) and self.max_boost >= 1):
+            raise MpcError(f"max_boost must be a number >= 1, got {self.max_boost!r}")
         if self.elites > 1 or self.cem_rate > 1:
             raise MpcError("elites and cem_rate must be in (0, 1]")
         if not isinstance(self.antithetic, bool | np.bool_):
@@ -331,6 +339,7 @@ class MpcController:
         nu = ch.nu
         self.X = np.zeros((o.knots, nu))
         self.sigma = np.full((o.knots, nu), o.noise)
+        self._mean_cost = None
         self._n0 = 0
         self._plan: np.ndarray | None = None
         self._offsets = np.zeros((self.T, nu))
@@ -381,7 +390,7 @@ class MpcController:
             eps = np.concatenate([half, -half, extra])
         else:
             eps = self.rng.standard_normal((N - 1,) + X.shape)
-        Xs = np.concatenate([X[None], X[None] + sigma * eps])  # (N, K, nu)
+        Xs = np.concatenate([X[None], X[None] + self._boost() * sigma * eps])  # (N, K, nu)
         off = self.spline.offsets(Xs)  # (N, T, nu), radians
         base = self.grid.base(n0, n0 + self.T)
         state = get_state(ch.model, ch.data)
@@ -401,6 +410,17 @@ class MpcController:
         st["costs"].append(float(best))
         st["planning_s"] += time.perf_counter() - t0
         self._show(n0 * cdt, best)
+
+    def _boost(self) -> float:
+        """Noise factor: the last plan's cost over its running mean (time constant
+        ``boost_time``), clipped to ``[1, max_boost]``; wider search after a disturbance."""
+        o, c = self.options, self.stats["costs"]
+        if o.max_boost <= 1.0 or not c:
+            return 1.0
+        a = min(1.0, o.replan / o.boost_time)
+        self._mean_cost = c[-1] if self._mean_cost is None else (
+            (1 - a) * self._mean_cost + a * c[-1])
+        return float(np.clip(c[-1] / max(self._mean_cost, 1e-9), 1.0, o.max_boost))
 
     def _costs(self, res, off: np.ndarray, applied: np.ndarray, n0: int) -> np.ndarray:
         """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts."""
