@@ -37,7 +37,8 @@ def plot_cycles(stats: list, path: str | os.PathLike) -> None:
         ax.set_xlabel("gait cycle (%)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7)
+    if axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend(fontsize=7)
     fig.tight_layout()
     try:
         fig.savefig(path, dpi=110)
