@@ -62,7 +62,10 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
 
 
 def test_a_model_without_a_file_is_refused(walk_ref):
-    ch = Character(Character().model)  # built from an MjModel: no file to compile rollouts from
+    m = Character().model
+    make_mpc(None, walk_ref).reset(Character(m))  # an MjModel of the bundled humanoid: found
+    m.body_mass[1] += 1.0  # another model given as an MjModel: no file to compile rollouts from
+    ch = Character(m)
     with pytest.raises(MpcError, match="MJCF path"):
         make_mpc(ch, walk_ref).reset(ch)
 

@@ -294,19 +294,17 @@ class MpcController:
         o.check(ch.timestep)
         if not np.all(ch.position_actuators):
             raise ControllerError("mpc needs <position> actuators on every actuated dof")
-        if ch.source is None:
-            raise MpcError("mpc builds its rollout model from the model file: give the "
-                           "Character an MJCF path (or None for the bundled humanoid)")
         ch.set_actuation("native")
         kp, kd = ch.default_gains()
         ch.set_native_gains(kp, kd)
-        key = (ch.source, ch.timestep)
+        source = _model_file(ch)
+        key = (source, ch.timestep)
         if self._rm_key != key:
-            rm = tracking_rollout_model(ch.source, ch)
+            rm = tracking_rollout_model(source, ch)
             rm.model.opt.timestep = ch.timestep
             if model_fingerprint(rm.model) != model_fingerprint(ch.model):
                 raise MpcError(f"the character's physics differs from its model file "
-                               f"{ch.source} (edited gains or options?)")
+                               f"{source} (edited gains or options?)")
             self._rmodel, self._rm_key = rm, key
         ref = self.target
         if ref is None:
@@ -469,6 +467,25 @@ class MpcController:
                              leave=False)
         self._bar.n = t + self.options.replan
         self._bar.set_postfix_str(f"cost {best:.2f}", refresh=True)
+
+
+def _model_file(character: Character) -> str:
+    """The MJCF file the rollout model is compiled from: the Character's own, or for a
+    Character built from an ``MjModel`` the bundled humanoid's when the physics is the same
+    (what ``mjchar bench`` does); else :class:`MpcError`."""
+    if character.source is not None:
+        return character.source
+    import mujoco
+
+    from bvh.assets import humanoid_path
+
+    path = os.fspath(humanoid_path())
+    if model_fingerprint(mujoco.MjModel.from_xml_path(path)) == model_fingerprint(
+            character.model):
+        return path
+    raise MpcError("mpc builds its rollout model from the model file: give the Character an "
+                   "MJCF path (a Character built from an MjModel works only for the bundled "
+                   "humanoid)")
 
 
 def make_mpc(character: Character | None = None, target=None, **options) -> MpcController:
