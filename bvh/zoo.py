@@ -29,7 +29,7 @@ import numpy as np
 from .io import load
 from .motion import Motion
 from .rigs import rerest
-from .rotations import quat_conj, quat_from_rotvec, quat_identity
+from .rotations import quat_conj, quat_from_rotvec, quat_identity, quat_mul, quat_rotate
 from .skeleton import POSITION_CHANNELS, Skeleton
 from .units import UNIT_SCALES, transform_motion, up_axis_rotation
 
@@ -170,9 +170,12 @@ def add_static_root(motion: Motion, name: str, rotation: np.ndarray | None = Non
 
 
 def insert_zero_length_joint(motion: Motion, child: str, new_name: str,
-                             channels: tuple[str, ...] = _rot("ZYX")) -> Motion:
+                             channels: tuple[str, ...] = _rot("ZYX"),
+                             rest_rotation: np.ndarray | None = None) -> Motion:
     """Insert ``new_name`` with a zero offset between ``child`` and its parent (a CMU-style
-    ``LHipJoint`` helper). It stays unrotated; ``child`` keeps its offset and motion."""
+    ``LHipJoint`` helper). It holds the constant rotation ``rest_rotation`` (wxyz; default
+    none); the child's offset, translation and rotation are expressed in the new joint's frame,
+    so every original joint keeps its global position and orientation."""
     sk = motion.skeleton
     c = sk.index(child)
     idx = np.arange(sk.n_joints) + (np.arange(sk.n_joints) >= c)
@@ -181,16 +184,21 @@ def insert_zero_length_joint(motion: Motion, child: str, new_name: str,
     parents[idx] = [idx[p] if p >= 0 else -1 for p in sk.parents]
     parents[c] = idx[sk.parents[c]]
     parents[c + 1] = c
+    q = quat_identity() if rest_rotation is None else np.asarray(rest_rotation, dtype=float)
+    qi = quat_conj(q)
     offsets = np.zeros((sk.n_joints + 1, 3))
     offsets[idx] = sk.offsets
+    offsets[c + 1] = quat_rotate(qi, sk.offsets[c])
     chans = list(sk.channels[:c]) + [tuple(channels)] + list(sk.channels[c:])
     new = Skeleton(names, parents, offsets, chans, idx[sk.end_site_parents],
                    sk.end_site_offsets.copy(), list(sk.end_site_names))
     n_f = motion.n_frames
     lp = np.zeros((n_f, sk.n_joints + 1, 3))
     lp[:, idx] = motion.local_positions
-    rot = np.tile(quat_identity(), (n_f, sk.n_joints + 1, 1))
+    lp[:, c + 1] = quat_rotate(qi, motion.local_positions[:, c])
+    rot = np.tile(q, (n_f, sk.n_joints + 1, 1))
     rot[:, idx] = motion.rotations
+    rot[:, c + 1] = quat_mul(qi, motion.rotations[:, c])
     m = Motion(new, motion.frame_time, lp, rot)
     return Motion.from_channels(new, motion.frame_time, m.to_channels())
 

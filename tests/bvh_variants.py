@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 
 import bvh
-from bvh.rotations import quat_conj, quat_from_euler, quat_mul, quat_rotate
+from bvh.rotations import quat_from_euler, quat_rotate
 from bvh.skeleton import Skeleton
 from bvh.units import transform_motion, up_axis_rotation
+from bvh.zoo import CONVENTIONS, all_channels, insert_zero_length_joint, rename, with_channels
 
 SHARED_BVH = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
 XYZ_POS = ("Xposition", "Yposition", "Zposition")
@@ -213,57 +214,6 @@ def base_motion(prefer_shared: bool = True) -> tuple[bvh.Motion, str]:
 
 
 # -- motion-level edits (the truth stays known) -------------------------------------------------
-def with_channels(motion: bvh.Motion, new: dict[str, tuple[str, ...]]) -> bvh.Motion:
-    """Same motion with other channel lists for some joints.
-
-    Reordered rotation channels keep every rotation; fewer rotation channels keep what those
-    axes can express (the result is re-decoded from its own channels, so it is exactly what
-    the file will say); position channels added to a joint carry its local translation.
-    """
-    sk = motion.skeleton.copy()
-    for name, chans in new.items():
-        sk.channels[sk.index(name)] = tuple(chans)
-    m = bvh.Motion(sk, motion.frame_time, motion.local_positions.copy(), motion.rotations.copy())
-    return bvh.Motion.from_channels(sk, motion.frame_time, m.to_channels())
-
-
-def insert_zero_length_joint(motion: bvh.Motion, child: str, new_name: str,
-                             channels: tuple[str, ...], rest_rotation: np.ndarray) -> bvh.Motion:
-    """Insert ``new_name`` between ``child`` and its parent with a zero offset.
-
-    The new joint holds a constant rotation ``rest_rotation`` (wxyz); the child's offset,
-    translation and rotation are expressed in the new joint's frame so that every original
-    joint keeps its global position and orientation.
-    """
-    sk = motion.skeleton
-    c = sk.index(child)
-    old_to_new = np.arange(sk.n_joints) + (np.arange(sk.n_joints) >= c)
-    names = list(sk.names[:c]) + [new_name] + list(sk.names[c:])
-    parents = np.empty(sk.n_joints + 1, dtype=int)
-    parents[old_to_new] = [old_to_new[p] if p >= 0 else -1 for p in sk.parents]
-    parents[c] = old_to_new[sk.parents[c]]
-    parents[c + 1] = c
-    q = np.asarray(rest_rotation, dtype=float)
-    qi = quat_conj(q)
-    offsets = np.zeros((sk.n_joints + 1, 3))
-    offsets[old_to_new] = sk.offsets
-    offsets[c + 1] = quat_rotate(qi, sk.offsets[c])
-    chans = list(sk.channels[:c]) + [tuple(channels)] + list(sk.channels[c:])
-    new_sk = Skeleton(names, parents, offsets, chans, old_to_new[sk.end_site_parents],
-                      sk.end_site_offsets.copy())
-    n_f = motion.n_frames
-    lp = np.zeros((n_f, sk.n_joints + 1, 3))
-    lp[:, old_to_new] = motion.local_positions
-    lp[:, c] = 0.0
-    lp[:, c + 1] = quat_rotate(qi, motion.local_positions[:, c])
-    rot = np.zeros((n_f, sk.n_joints + 1, 4))
-    rot[:, old_to_new] = motion.rotations
-    rot[:, c] = q
-    rot[:, c + 1] = quat_mul(qi, motion.rotations[:, c])
-    m = bvh.Motion(new_sk, motion.frame_time, lp, rot)
-    return bvh.Motion.from_channels(new_sk, motion.frame_time, m.to_channels())
-
-
 def add_end_site(motion: bvh.Motion, joint: str, offset: tuple[float, float, float]) -> bvh.Motion:
     """Same motion with one more End Site under ``joint`` (also allowed on inner joints)."""
     sk = motion.skeleton.copy()
@@ -488,27 +438,12 @@ def big_motion(n_frames: int = 10_000, seed: int = 7) -> bvh.Motion:
                             seed=seed)
 
 
-#: the GAMES-105 clips' joint names -> CMU (cgspeed BVH conversion) names
-CMU_NAMES = {
-    "RootJoint": "Hips", "pelvis_lowerback": "LowerBack", "lowerback_torso": "Spine1",
-    "torso_head": "Neck", "lHip": "LeftUpLeg", "lKnee": "LeftLeg", "lAnkle": "LeftFoot",
-    "lToeJoint": "LeftToeBase", "rHip": "RightUpLeg", "rKnee": "RightLeg", "rAnkle": "RightFoot",
-    "rToeJoint": "RightToeBase", "lTorso_Clavicle": "LeftShoulder", "lShoulder": "LeftArm",
-    "lElbow": "LeftForeArm", "lWrist": "LeftHand", "rTorso_Clavicle": "RightShoulder",
-    "rShoulder": "RightArm", "rElbow": "RightForeArm", "rWrist": "RightHand",
-}
+#: the GAMES-105 clips' joint names -> CMU names (the rig zoo's convention)
+CMU_NAMES = CONVENTIONS["cmu"]
 
 
 def cmu_style(motion: bvh.Motion) -> bvh.Motion:
     """A GAMES-105 clip re-expressed as a CMU-style export: CMU joint names, ``Zrotation
     Yrotation Xrotation`` on every joint (root ``X/Y/Zposition`` first), inches, Y-up.
     Forward kinematics is the original's, scaled to inches."""
-    inches = transform_motion(motion, scale=1.0 / 0.0254)
-    sk = inches.skeleton.copy()
-    sk.names = [CMU_NAMES.get(n, n) for n in sk.names]
-    sk.end_site_names = [f"{CMU_NAMES.get(motion.skeleton.names[p], '')}_end"
-                         for p in sk.end_site_parents]
-    renamed = bvh.Motion(sk, inches.frame_time, inches.local_positions, inches.rotations)
-    zyx = rot_channels("ZYX")
-    return with_channels(renamed, {n: (XYZ_POS + zyx if j == 0 else zyx)
-                                   for j, n in enumerate(sk.names)})
+    return all_channels(rename(transform_motion(motion, scale=1.0 / 0.0254), CMU_NAMES), "ZYX")

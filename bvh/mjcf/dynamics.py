@@ -110,6 +110,17 @@ SNAP_AXIS_DEG = 25.0
 MIN_FLEXION_DEG = 5.0
 
 
+def _snap_axis(a: np.ndarray) -> tuple[str, float, np.ndarray]:
+    """``(axis name, sign, unit vector)`` of the unit axis ``a``: the nearest world axis names
+    it; within :data:`SNAP_AXIS_DEG` of that axis the vector becomes the axis itself."""
+    i = int(np.argmax(np.abs(a)))
+    if abs(a[i]) >= np.cos(np.radians(SNAP_AXIS_DEG)):
+        e = np.zeros(3)
+        e[i] = np.sign(a[i])
+        a = e
+    return "xyz"[i], float(np.sign(a[i])), a
+
+
 def _flexion_from_clip(b: _Body, rotvec: np.ndarray) -> tuple[str, float, np.ndarray] | None:
     """(nearest world axis, sign, exact unit axis) of a knee's or elbow's flexion hinge from
     how it turns in the clip: ``rotvec`` ``(F, 3)`` are its local rotations (relative to its
@@ -123,12 +134,7 @@ def _flexion_from_clip(b: _Body, rotvec: np.ndarray) -> tuple[str, float, np.nda
     a = v[:, int(np.argmax(w))]
     if float(np.mean(rotvec @ a)) < 0:
         a = -a
-    i = int(np.argmax(np.abs(a)))
-    if abs(a[i]) >= np.cos(np.radians(SNAP_AXIS_DEG)):
-        e = np.zeros(3)
-        e[i] = np.sign(a[i])
-        a = e
-    return "xyz"[i], float(np.sign(a[i])), a
+    return _snap_axis(a)
 
 
 def _flexion_from_rest(b: _Body, bodies: dict[int, _Body]) -> tuple[str, float, np.ndarray] | None:
@@ -145,12 +151,7 @@ def _flexion_from_rest(b: _Body, bodies: dict[int, _Body]) -> tuple[str, float, 
     if np.linalg.norm(a) < np.sin(np.radians(10.0)):
         return None
     a /= np.linalg.norm(a)
-    i = int(np.argmax(np.abs(a)))
-    if abs(a[i]) >= np.cos(np.radians(SNAP_AXIS_DEG)):
-        e = np.zeros(3)
-        e[i] = np.sign(a[i])
-        a = e
-    return "xyz"[i], float(np.sign(a[i])), a
+    return _snap_axis(a)
 
 
 def _best_order(q_mj: np.ndarray) -> str:

@@ -36,6 +36,7 @@ from .base import Gains
 from .character import Character
 from .errors import SimulationDiverged
 from .metrics import STEP_DISTANCE, FallDetector, Recorder, Result
+from .recording import chain_callbacks
 from .registry import SCENARIOS, make_controller
 
 #: the four horizontal push directions (degrees in the heading frame)
@@ -162,7 +163,7 @@ def with_push(push: PushEvent | None, kw: dict) -> dict:
     if push is None:
         return kw
     inner = kw.get("frame_callback")
-    done = [False]
+    done = [False]  # scheduled once: at the events call if it starts at 0, else on a step
 
     def schedule(ch: Character) -> None:
         if not done[0] and ch.time >= push.time - 1e-9:
@@ -170,17 +171,8 @@ def with_push(push: PushEvent | None, kw: dict) -> dict:
             ch.push(push.body or ch.role("pelvis"), f, push.end - ch.time, start=ch.time)
             done[0] = True
 
-    def callback(ch: Character) -> None:
-        schedule(ch)
-        if inner is not None:
-            inner(ch)
-
-    def events(ch: Character) -> None:
-        if kw.get("events") is not None:
-            kw["events"](ch)
-        schedule(ch)
-
-    return {**kw, "events": events, "frame_callback": callback}
+    return {**kw, "events": chain_callbacks(kw.get("events"), schedule),
+            "frame_callback": chain_callbacks(schedule, inner)}
 
 
 # -- the scenarios -------------------------------------------------------------------------------

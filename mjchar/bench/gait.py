@@ -24,7 +24,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None) -> 
     from controllers.core.character import Character
     from controllers.core.recording import MotionRecorder
 
-    from .matrix import _options
+    from .matrix import factory_options
 
     start = min(GAIT_START_S, 0.25 * config.walk_duration)
     walks, falls, skipped = [], {}, {}
@@ -35,7 +35,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None) -> 
         ch = Character(None)
         if spec.timestep:
             ch.set_timestep(spec.timestep)
-        ctrl = registry.make_controller(name, ch, None, **_options(spec, "walk", config))
+        ctrl = registry.make_controller(name, ch, None, **factory_options(spec, "walk", config))
         rec = MotionRecorder()
         result = S.run_scenario("walk", ch, ctrl, duration=config.walk_duration,
                                 frame_callback=rec)

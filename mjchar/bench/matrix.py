@@ -242,7 +242,7 @@ def build_controller(ctx: BenchContext, name: str, scenario: str, reference=None
         return ch, registry.make_controller(name, ch, target)
     if spec.kind == "replay":  # replays go through trajectory.replay
         raise BenchError(f"{name} is a replay: it is not built by build_controller")
-    return ch, registry.make_controller(name, ch, **_options(spec, scenario, ctx.config))
+    return ch, registry.make_controller(name, ch, **factory_options(spec, scenario, ctx.config))
 
 
 def _result_run(variant: str, seed, r, probe: _Probe, frames: int | None = None) -> dict:
@@ -347,7 +347,7 @@ def _seed_label(seed) -> str:
     return "no seed (deterministic start)" if seed is None else f"seed {seed}"
 
 
-def _options(spec, scenario: str, config: BenchConfig) -> dict:
+def factory_options(spec, scenario: str, config: BenchConfig) -> dict:
     """Factory options of a bench run: walkers that take a speed walk at ``ipm_speed`` in the
     walking scenarios and stand (speed 0) otherwise."""
     if "speed" in spec.options:
@@ -362,7 +362,7 @@ def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> di
     cfg = ctx.config
     spec = _spec(name)
     protocol = cfg.push_protocol(spec.push)
-    options = _options(spec, "push-search", cfg)
+    options = factory_options(spec, "push-search", cfg)
     rates = survival_rates(name, protocol, options=options, processes=cfg.push_processes,
                            progress=progress)
     weakest = min(protocol.directions, key=lambda d: rates.largest_100_N.get(d, 0.0))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .argtypes import integer, non_negative, number, positive
+from .run_options import check_speed
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,10 +56,8 @@ def _walker_stats(args, spec):
             continue
         if name not in spec.options:
             raise MjcharError(f"--{name} does not apply to {spec.name}")
-        limit = spec.limit(name) if name == "speed" else None
-        if limit is not None and not limit[0] <= value <= limit[1]:
-            raise MjcharError(f"--speed {value:g} is out of range: {spec.name} walks at "
-                              f"{limit[0]:g} to {limit[1]:g} m/s")
+        if name == "speed":
+            check_speed(spec, value)
         options[name] = value
     if "speed" in spec.options and "speed" not in options:
         options["speed"] = 1.0

@@ -172,6 +172,14 @@ def _bad(flag: str, value, what: str) -> MjcharError:
     return MjcharError(f"{flag} {value:g} is out of range: {what}")
 
 
+def check_speed(spec, speed: float) -> None:
+    """One-line :class:`MjcharError` when ``speed`` is outside the controller's registered
+    ``speed`` limits (none registered: any speed)."""
+    lim = spec.limit("speed")
+    if lim is not None and not lim[0] <= speed <= lim[1]:
+        raise _bad("--speed", speed, f"{spec.name} walks at {lim[0]:g} to {lim[1]:g} m/s")
+
+
 def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float | None = None,
                  height: float | None = None, default_duration: float | None = None) -> None:
     """One-line :class:`MjcharError` for a value the controller does not support.
@@ -182,11 +190,8 @@ def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float |
         default_duration: the scenario's run length when ``--duration`` is not given (a push
             must start within the run).
     """
-    lim = spec.limit("speed")
-    if "speed" in spec.options and scenario == "walk" and lim is not None:
-        lo, hi = lim
-        if not lo <= args.speed <= hi:
-            raise _bad("--speed", args.speed, f"{spec.name} walks at {lo:g} to {hi:g} m/s")
+    if "speed" in spec.options and scenario == "walk":
+        check_speed(spec, args.speed)
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
         raise _bad("--heading", args.heading,
                    f"give degrees within +-{MAX_HEADING_DEG:g}")
