@@ -12,7 +12,8 @@
    warning with its variation in mm;
 3. **re-rests a rig whose rest pose is not a standing figure** (offsets along each bone's local
    X axis, as game engines export: legs not parallel, or the trunk not opposite the legs): the
-   rest becomes the clip's frame with the straightest legs, turned to face along file axes;
+   rest becomes the clip's frame with the straightest legs, turned to face along file axes,
+   with each leg straightened to hang below its hip and each foot as in its flattest stance;
 4. **guesses the unit and up axis from anatomy** (unless given): up is the file axis along the
    legs (hip above ankle), the unit the one that makes the figure nearest 1.6 m tall (in log scale),
    the height measured along up, or from the leg bones (hip to ankle = 0.49 of the stature)
@@ -217,8 +218,61 @@ def _rest_from_clip(motion: Motion, rec: Recognition) -> tuple[int, np.ndarray, 
     from scipy.spatial.transform import Rotation
 
     turn = from_rotation(Rotation.from_rotvec(ang * u))  # takes the pose's left to the axis
-    rest = quat_mul(quat_conj(turn)[None], fk.orientations[f])
+    rest = _stand_legs(sk, fk, f, legs, u, quat_conj(turn))
     return f, rest, up
+
+
+def _yaw_between(a: np.ndarray, b: np.ndarray, u: np.ndarray):
+    """Rotation about ``u`` taking the horizontal part of ``a`` to that of ``b``."""
+    from scipy.spatial.transform import Rotation
+
+    a = a - (a @ u) * u
+    b = b - (b @ u) * u
+    ang = np.arctan2(float(np.cross(a, b) @ u), float(a @ b))
+    return Rotation.from_rotvec(ang * u)
+
+
+def _stand_legs(sk: Skeleton, fk, f: int, legs, u: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """Rest orientations ``(J, 4)``: frame ``f``'s pose turned by ``turn``, with each leg made a
+    standing leg: thigh and shank straight down (the least rotation of each), the foot and the
+    joints below it as in that foot's flattest stance of the clip (its ankle's lowest frame),
+    turned about ``u`` from that frame's facing to the rest's. A walking frame has one foot ahead
+    of the other and the feet near the midline; this stands the figure on its hips' width."""
+    from scipy.spatial.transform import Rotation
+
+    def R(q: np.ndarray) -> Rotation:
+        return Rotation.from_quat(np.reshape(q, 4), scalar_first=True)
+
+    p, g = fk.positions, fk.orientations
+    rest = quat_mul(np.reshape(turn, (1, 4)), g[f])
+    rot = R(turn)
+
+    def left(frame: int) -> np.ndarray:
+        return p[frame, legs[0][0]] - p[frame, legs[1][0]]
+
+    left_rest = rot.apply(left(f))
+    for h, k, a in legs:
+        for j, c in ((h, k), (k, a)):  # the bone from j to its leg child c points down
+            d = R(rest[j]).apply(sk.offsets[c])
+            n = np.linalg.norm(d)
+            if n < 1e-12:
+                continue
+            r, _ = Rotation.align_vectors([-u], [d / n])
+            rest[j] = from_rotation(r * R(rest[j]))
+        ff = int(np.argmin(p[:, a] @ u))  # the ankle's lowest frame: the foot flat in stance
+        yaw = _yaw_between(left(ff), left_rest, u)
+        for j in _subtree(sk, a):
+            rest[j] = from_rotation(yaw * R(g[ff, j]))
+    return rest
+
+
+def _subtree(sk: Skeleton, j: int) -> list[int]:
+    out, todo = [], [j]
+    while todo:
+        i = todo.pop()
+        out.append(i)
+        todo += sk.children(i)
+    return out
 
 
 def _up_from_legs(sk: Skeleton, rec: Recognition) -> str | None:
