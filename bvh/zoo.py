@@ -93,6 +93,8 @@ class ZooRig:
         height_m: standing height of the figure (T-pose vertical extent of joints and end sites).
         source: the clip it was made from; ``features``: what was done to it.
         names: GAMES-105 joint name -> this rig's name (the essential joints).
+        mass_kg: the total mass to convert it with (70 kg, the converter's default, for the
+            clip rigs; the scaled humanoids are 1.5 m / 50 kg and 1.95 m / 100 kg).
     """
 
     name: str
@@ -104,6 +106,7 @@ class ZooRig:
     source: str
     features: list[str] = field(default_factory=list)
     names: dict[str, str] = field(default_factory=dict)
+    mass_kg: float = 70.0
 
     @property
     def unit_scale(self) -> float:
@@ -287,9 +290,10 @@ def _half_rate(motion: Motion) -> Motion:
 # ------------------------------------------------------------------------------------------------
 # the zoo
 # ------------------------------------------------------------------------------------------------
-def _rig(name, motion, convention, unit, up, height_m, source, features) -> ZooRig:
+def _rig(name, motion, convention, unit, up, height_m, source, features,
+         mass_kg: float = 70.0) -> ZooRig:
     return ZooRig(name, motion, convention, unit, up, float(height_m), source, features,
-                  dict(CONVENTIONS[convention]))
+                  dict(CONVENTIONS[convention]), float(mass_kg))
 
 
 def zoo_rigs(shared_bvh: str | os.PathLike | None = None, *, humanoid: bool = True) -> list[ZooRig]:
@@ -376,10 +380,11 @@ def _humanoids() -> list[ZooRig]:
     m = load(motion_path("walk"))
     h0 = stature(m.skeleton)
     out = []
-    for height, unit, up in ((1.5, "m", "z"), (1.95, "in", "y")):
+    for height, mass, unit, up in ((1.5, 50.0, "m", "z"), (1.95, 100.0, "in", "y")):
         r = all_channels(_units_axes(m, height / h0, unit, up), "XYZ")
         out.append(_rig(f"humanoid-{int(round(height * 100))}-{unit}-{up}up", r, "games", unit,
-                        up, height, "bundled walk", [f"bundled skeleton scaled to {height} m"]))
+                        up, height, "bundled walk",
+                        [f"bundled skeleton scaled to {height} m / {mass:g} kg"], mass))
     return out
 
 
@@ -395,6 +400,7 @@ def main(argv: list[str] | None = None) -> int:
     for rig in zoo_rigs(argv[0]):
         save(rig.motion, os.path.join(argv[1], f"{rig.name}.bvh"))
         print(f"{rig.name}: {rig.convention}, {rig.unit}, {rig.up}-up, {rig.height_m:.2f} m, "
+              f"{rig.mass_kg:g} kg, "
               f"{rig.motion.skeleton.n_joints} joints, {rig.motion.n_frames} frames")
     return 0
 

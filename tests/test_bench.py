@@ -390,3 +390,30 @@ def test_optional_parts_report_unavailable(monkeypatch):
     monkeypatch.setitem(sys.modules, "envs", None)
     with pytest.raises(perf.PerfUnavailable, match="envs"):
         perf.env_throughput(steps=1, repeats=1)
+
+
+def test_skeletons_section(tmp_path, main, capsys):
+    """``--skeletons``: rigs written and converted, checks in results.json (schema) and
+    table.md; a failed check fails the exit status."""
+    from mjchar.bench.skeletons import SkeletonConfig
+
+    cfg = SkeletonConfig(stand_duration=1.0, checks=("stand", "hand_of_god"),
+                         rigs=("humanoid-150-m-zup",))
+    doc = B.run_bench(tiny(), matrix=False, skeletons=cfg, out_dir=tmp_path, progress=False,
+                      plots=False, trajectories={})
+    written = json.loads((tmp_path / "results.json").read_text())
+    assert B.validate(written, B.load_schema()) == []
+    (rig,) = written["skeletons"]["rigs"]
+    assert rig["rig"] == "humanoid-150-m-zup" and rig["mass_kg"] == 50.0
+    assert rig["conversion"]["model_mass_kg"] == pytest.approx(50.0, rel=1e-3)
+    assert rig["checks"]["stand"]["ok"] and rig["checks"]["hand_of_god"]["ok"]
+    assert (tmp_path / "skeletons" / "humanoid-150-m-zup.xml").is_file()
+    assert "| humanoid-150-m-zup |" in (tmp_path / "table.md").read_text()
+    assert written["cells"] == [] and B.exit_status(doc) == 0
+    doc["skeletons"]["rigs"][0]["checks"]["stand"]["ok"] = False
+    assert B.exit_status(doc) == 1
+    with pytest.raises(B.BenchError, match="unknown zoo rig.*humanoid-150-m-zup"):
+        B.run_bench(tiny(), matrix=False, skeletons=SkeletonConfig(rigs=("nope",)),
+                    progress=False, plots=False)
+    assert main(["bench", "--skeletons-only", "--controllers", "spd"]) == 2
+    assert "--skeletons-only runs no matrix" in capsys.readouterr().err

@@ -71,7 +71,8 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
               scenarios: Sequence[str] | None = None, out_dir: str | os.PathLike | None = None,
               videos: bool = False, performance: bool = True, plots: bool = True,
               trajectories: dict[str, Path] | None = None, progress: bool = True,
-              command: Sequence[str] | None = None) -> dict:
+              command: Sequence[str] | None = None, skeletons=None,
+              matrix: bool = True) -> dict:
     """Run the matrix (and the performance section), write ``results.json``, the plots and the
     videos into ``out_dir`` (nothing is written when it is ``None``); returns the document.
 
@@ -85,10 +86,17 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         plots: write the PNG plots (needs matplotlib: the bench extra).
         trajectories: ``{"samcon_replay": path, "cmaes_replay": path}`` (default:
             :func:`find_trajectories`).
+        skeletons: a :class:`~mjchar.bench.skeletons.SkeletonConfig` to add the skeletons
+            section (every check on every zoo rig; the rigs and their models are written to
+            ``out_dir/skeletons``), or ``None``.
+        matrix: run the controller x scenario matrix (and with it the performance and gait
+            sections); ``False`` with ``skeletons`` runs the skeletons section alone.
     """
     config.check()
     t_start = time.perf_counter()
-    cells = select_cells(controllers, scenarios)
+    cells = select_cells(controllers, scenarios) if matrix else []
+    if not matrix:
+        performance = False
     trajectories = find_trajectories() if trajectories is None else dict(trajectories)
     out = None if out_dir is None else Path(out_dir)
     if out is not None:
@@ -137,6 +145,14 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         doc["gait"] = run_gait(config, list(doc["controllers"]),
                                progress=print if progress else None)
         timings["gait_s"] = time.perf_counter() - t0
+    doc["skeletons"] = None
+    if skeletons is not None:
+        from .skeletons import public, run_skeletons
+
+        t0 = time.perf_counter()
+        doc["skeletons"] = public(run_skeletons(skeletons, out_dir=out,
+                                                progress=print if progress else None))
+        timings["skeletons_s"] = time.perf_counter() - t0
     doc["table"] = table_rows(doc)
     doc["expectations"] = check_expectations(doc)
     doc["videos"] = vids
@@ -163,10 +179,14 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         from .gait import gait_markdown
 
         notes = TABLE_NOTES + tuple(protocol_notes(doc["table"]))
+        from .skeletons import skeletons_markdown
+
         gait = gait_markdown(doc["gait"])
+        rigs = skeletons_markdown(doc["skeletons"])
         (out / "table.md").write_text(markdown_table(doc["table"]) + "\n\n"
                                       + "\n".join(f"- {n}" for n in notes) + "\n"
-                                      + (f"\n{gait}\n" if gait else ""))
+                                      + (f"\n{gait}\n" if gait else "")
+                                      + (f"\n{rigs}\n" if rigs else ""))
         timings["outputs_s"] = time.perf_counter() - t0
     timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
                         for c in doc["cells"]}
@@ -202,7 +222,9 @@ def physics_view(doc: dict) -> dict:
 
 
 def exit_status(doc: dict) -> int:
-    """0 when no expectation failed, else 1."""
-    return 1 if any(e["status"] == "fail" for e in doc["expectations"]) else 0
+    """0 when no expectation failed and every check of the skeletons section passed, else 1."""
+    rigs = (doc.get("skeletons") or {}).get("rigs", [])
+    failed = any(not c["ok"] for r in rigs for c in r["checks"].values())
+    return 1 if failed or any(e["status"] == "fail" for e in doc["expectations"]) else 0
 
 

@@ -47,6 +47,14 @@ def register(sub: argparse._SubParsersAction) -> None:
             p.add_argument(f"--{_trajectory_option(spec.name)}", metavar="FILE.npz",
                            dest=_trajectory_dest(spec.name),
                            help=f"saved trajectory for the {spec.name} row ({spec.label})")
+    p.add_argument("--skeletons", action="store_true",
+                   help="add the skeletons section: static balance, pushes, SIMBICON, IPM, "
+                        "hand-of-god and SAMCON on every rig of the zoo (bvh.zoo: the shared "
+                        "walks on CMU, Mixamo, LAFAN1, Unreal, game-studio, SMPL, Blender and "
+                        "Xsens conventions, and the bundled humanoid at 1.5 m / 50 kg and "
+                        "1.95 m / 100 kg); rigs and models are written to OUT/skeletons")
+    p.add_argument("--skeletons-only", action="store_true",
+                   help="run the skeletons section alone (no matrix, performance or gait)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
 
@@ -86,11 +94,26 @@ def run(args: argparse.Namespace) -> int:
             if not Path(path).is_file():
                 raise B.BenchError(f"trajectory file {path} not found")
             trajectories[name] = Path(path)
+    skeletons = None
+    if args.skeletons or args.skeletons_only:
+        from ..bench.skeletons import SkeletonConfig
+
+        skeletons = SkeletonConfig.quick() if args.quick else SkeletonConfig()
+    if args.skeletons_only and (args.controllers or args.scenarios or args.videos):
+        raise B.BenchError("--skeletons-only runs no matrix: --controllers, --scenarios and "
+                           "--videos do not apply")
     doc = B.run_bench(config, controllers=args.controllers, scenarios=args.scenarios,
                       out_dir=args.out, videos=args.videos, performance=not args.no_perf,
                       plots=not args.no_plots, trajectories=trajectories,
-                      progress=not args.quiet, command=["mjchar", *sys.argv[1:]])
-    print(B.format_table(doc["table"]))
+                      progress=not args.quiet, command=["mjchar", *sys.argv[1:]],
+                      skeletons=skeletons, matrix=not args.skeletons_only)
+    if doc["skeletons"] is not None:
+        from ..bench.skeletons import skeletons_markdown
+
+        print(skeletons_markdown(doc["skeletons"]))
+        print()
+    if not args.skeletons_only:
+        print(B.format_table(doc["table"]))
     if doc["performance"]:
         print()
         print(B.format_performance(doc["performance"]))
