@@ -54,13 +54,22 @@ def squat_profile(depth: float = 0.2, start: float = 1.0, down: float = 1.5, hol
     return dz
 
 
+#: default virtual-force stiffness per kilogram of the character (s^-2; x, y, z): a COM
+#: natural frequency of 2.9 rad/s horizontally, 2.1 rad/s vertically (600/300 N/m at 70 kg)
+COM_KP_PER_KG = np.array([600.0, 600.0, 300.0]) / 70.0
+#: default virtual-force damping per kilogram (s^-1; x, y, z)
+COM_KD_PER_KG = np.array([120.0, 120.0, 60.0]) / 70.0
+
+
 class StaticBalance:
     """PD on a pose + Jacobian-transpose virtual COM force on the stance legs.
 
     Args:
         pose: ``(nq,)`` pose to hold (``None``: the pose at reset).
         pd: the PD controller to use (default: stable PD); its target is set to ``pose``.
-        kp, kd: virtual-force gains, scalars or ``(3,)`` per world axis (N/m, N s/m).
+        kp, kd: virtual-force gains, scalars or ``(3,)`` per world axis (N/m, N s/m); ``None``
+            (default): :data:`COM_KP_PER_KG` and :data:`COM_KD_PER_KG` times the character's
+            mass, so every body gets the same COM dynamics.
         height: COM height offset in m (a number, or a callable ``t -> dz`` such as
             :func:`squat_profile`); negative squats.
         offset: ``(2,)`` horizontal offset (m, world) of the COM target from the support centre.
@@ -69,16 +78,17 @@ class StaticBalance:
 
     name = "static_balance"
 
-    def __init__(self, pose: np.ndarray | None = None, *, pd=None, kp=(600.0, 600.0, 300.0),
-                 kd=(120.0, 120.0, 60.0), height: float | Callable[[float], float] = 0.0,
+    def __init__(self, pose: np.ndarray | None = None, *, pd=None, kp=None, kd=None,
+                 height: float | Callable[[float], float] = 0.0,
                  offset=(0.0, 0.0), squat_ik: bool = True):
         self.pose = None if pose is None else np.array(pose, dtype=float)
         self.pd = pd if pd is not None else StablePDController()
-        self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (3,)).copy()
-        self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (3,)).copy()
-        if not (np.all(np.isfinite(self.kp)) and np.all(self.kp >= 0) and
-                np.all(np.isfinite(self.kd)) and np.all(self.kd >= 0)):
-            raise ControllerError("static balance: kp and kd must be non-negative numbers")
+        self._gains = (kp, kd)
+        self.kp = self.kd = None
+        for g in (kp, kd):
+            v = np.asarray(0.0 if g is None else g, dtype=float)
+            if not (np.all(np.isfinite(v)) and np.all(v >= 0)):
+                raise ControllerError("static balance: kp and kd must be non-negative numbers")
         self.height = height
         self.offset = np.asarray(offset, dtype=float).reshape(2)
         self.squat_ik = squat_ik
@@ -94,6 +104,11 @@ class StaticBalance:
         """Bind the pose, reset the PD, and take the support centre and COM height from now."""
         pose = character.qpos.copy() if self.pose is None else self.pose
         self._base_pose = pose
+        kp, kd = self._gains
+        self.kp = np.broadcast_to(np.asarray(
+            COM_KP_PER_KG * character.mass if kp is None else kp, dtype=float), (3,)).copy()
+        self.kd = np.broadcast_to(np.asarray(
+            COM_KD_PER_KG * character.mass if kd is None else kd, dtype=float), (3,)).copy()
         self.pd.reset(character)
         self.pd.set_target(pose, character)
         self._legs = []
