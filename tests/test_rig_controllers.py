@@ -122,7 +122,7 @@ def test_samcon_and_cmaes_replays_run_on_the_opaque_rig(opaque_rig, tmp_path, ca
     assert r["fell"] is False
 
 
-# -- re-rested rigs stand ----------------------------------------------------------------------------
+# -- re-rested rigs stand -------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["unreal-cm-zup", "gamestudio-cm-yup"])
 def test_a_re_rested_rig_stands_on_its_hips_width(name):
     """The converter re-rests a rig whose bones lie along local axes from a walking frame; the

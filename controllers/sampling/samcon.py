@@ -70,6 +70,7 @@ from .tracking import (
     FALL_COST,
     CostWeights,
     TrackingCost,
+    clip_window,
     inverse_dynamics_targets,
     reference_features,
     sampling_widths,
@@ -327,10 +328,7 @@ class Samcon:
         self.executor = executor if executor is not None else LocalExecutor()
         self.source_motion = str(source_motion)
         o = self.options
-        clip_end = reference.duration
-        if o.start >= clip_end:
-            raise SamconError(f"start {o.start} s is past the end of the clip ({clip_end:.3f} s)")
-        self.duration = (clip_end - o.start) if o.duration is None else float(o.duration)
+        self.duration = clip_window(reference, o.start, o.duration, SamconError)
         self.slices = slice_layout(self.duration, o.slice_dt, o.control_dt)
         self.n_controls = self.slices[-1][1]
         self.k = int(round(o.control_dt / self.character.timestep))

@@ -125,6 +125,21 @@ def tracking_rollout_model(source, character: Character) -> RolloutModel:
     return RolloutModel.from_source(spec, sites=plain + added)
 
 
+def clip_window(reference, start: float, duration: float | None, error: type[Exception]) -> float:
+    """Seconds to track from ``start``: ``duration``, or to the clip's end when ``None``. A start
+    past the end, or (for a clip that does not loop) a window past the end, raises ``error``
+    naming the clip's length: past its end a non-cyclic reference holds its last frame, and a
+    tracker would chase a figure frozen mid-stride."""
+    end = reference.duration
+    if start >= end:
+        raise error(f"start {start:g} s is past the end of the clip ({end:.3f} s)")
+    duration = (end - start) if duration is None else float(duration)
+    if start + duration > end + 1e-6 and not getattr(reference, "cyclic", False):
+        raise error(f"start {start:g} s + duration {duration:g} s goes past the end of the clip "
+                    f"({end:.3f} s): a duration of at most {end - start:.3f} s")
+    return duration
+
+
 # ------------------------------------------------------------------------------------------------
 # inverse dynamics targets
 

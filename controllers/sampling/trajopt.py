@@ -48,6 +48,7 @@ from .tracking import (
     PoseReference,
     TrackingCost,
     actuator_roles,
+    clip_window,
     fall_penalty,
     inverse_dynamics_targets,
     reference_features,
@@ -458,10 +459,7 @@ def track_clip(reference, *, model=None, options: TrajoptOptions | None = None,
     o.check(ch.timestep)
     if reference.model.nq != ch.nq:
         raise TrajoptError("the reference motion was built for another model")
-    if o.start >= reference.duration:
-        raise TrajoptError(f"start {o.start} s is past the end of the clip "
-                           f"({reference.duration:.3f} s)")
-    duration = (reference.duration - o.start) if o.duration is None else o.duration
+    duration = clip_window(reference, o.start, o.duration, TrajoptError)
     T = int(round(duration / o.control_dt))
     if T < 1:
         raise TrajoptError(f"duration {duration} s is shorter than one control")

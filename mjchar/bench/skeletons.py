@@ -18,7 +18,8 @@ measured:
 - ``hand_of_god``: tracks the rig's own clip (mean joint error; the root force is the point of
   this controller);
 - ``samcon``: SAMCON at its defaults reconstructs the first ``samcon_duration`` s of the rig's
-  clip; the saved trajectory is replayed (no fall, mean joint error).
+  clip (the whole clip when it is shorter); the saved trajectory is replayed (no fall, mean
+  joint error).
 
 A check passes when nothing fell (and, where the issue sets a bar, the bar holds: IPM within
 ``speed_tolerance`` of the command, trackers below ``track_error`` / ``samcon_error``).
@@ -109,7 +110,7 @@ def run_skeletons(config: SkeletonConfig, *, shared_bvh: Path | None = SHARED_BV
             "shared_clips": shared is not None}
 
 
-# -- conversion ------------------------------------------------------------------------------------
+# -- conversion -----------------------------------------------------------------------------------
 def _convert(rig, folder: Path) -> dict:
     import bvh
     from bvh.mjcf import convert
@@ -159,7 +160,7 @@ def _run(result) -> dict:
         "steady_speed_mps": d.get("extra", {}).get("steady_speed_mps")}
 
 
-# -- the checks --------------------------------------------------------------------------------------
+# -- the checks -----------------------------------------------------------------------------------
 def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
     from controllers import registry
     from controllers.core import scenarios as S
@@ -244,7 +245,7 @@ def _samcon(rig, rec, cfg: SkeletonConfig) -> dict:
 
     ch = Character(xml)
     ref = ReferenceMotion(ch.model, bvh.load(bvh_path), info=ch.info)
-    opts = dict(RECONSTRUCTION_OPTIONS, duration=cfg.samcon_duration)
+    opts = dict(RECONSTRUCTION_OPTIONS, duration=min(cfg.samcon_duration, ref.duration))
     if cfg.samcon_samples is not None:
         opts["samples"] = cfg.samcon_samples
     if cfg.samcon_saved is not None:
@@ -269,7 +270,7 @@ _CHECKS: dict[str, Callable] = {
 }
 
 
-# -- report ------------------------------------------------------------------------------------------
+# -- report ---------------------------------------------------------------------------------------
 def public(section: dict) -> dict:
     """The section without the private paths (what goes into ``results.json``)."""
     out = dict(section)
