@@ -33,6 +33,7 @@ import numpy as np
 
 from .errors import MjcharError
 from .motion import Motion
+from .rigs import undo_record
 from .rotations import quat_conj, quat_mul, quat_normalize
 
 __all__ = ["ExportError", "DEFAULT_FPS", "export_rate", "resample_qpos", "qpos_to_motion"]
@@ -151,4 +152,5 @@ def qpos_to_motion(model: mujoco.MjModel, times, qpos, *, fps: float | None = No
         rotations[:, j] = quat_mul(quat_conj(glob[:, parents[j]]), glob[:, j])
     local_positions = np.broadcast_to(skeleton.offsets, (n_f, n_j, 3)).copy()
     local_positions[:, 0] = root_pos
-    return Motion(skeleton, 1.0 / rate, local_positions, quat_normalize(rotations))
+    motion = Motion(skeleton, 1.0 / rate, local_positions, quat_normalize(rotations))
+    return undo_record(motion, info.extra.get("rig"), info.original_skeleton())

@@ -14,8 +14,9 @@ and a reference motion can apply the same normalisation to the file's clip:
 - :func:`fold_root`: drop the single-child chain of joints above joint ``k``; ``k`` becomes the
   root and carries its global transform per frame.
 - :func:`bones_from_channels`: translation channels of non-root joints: the mean is the bone.
-- :func:`normalise` / :func:`apply_record`: the converter's use of the three, and its replay
-  from the record kept in a model's metadata.
+- :func:`apply_record`: the converter's use of the three, replayed from the record kept in a
+  model's metadata; :func:`undo_record` takes a motion on the normalised skeleton back to the
+  file's own layout (what :mod:`bvh.export` writes).
 """
 
 from __future__ import annotations
@@ -35,7 +36,8 @@ from .rotations import (
 )
 from .skeleton import POSITION_CHANNELS, Skeleton
 
-__all__ = ["rerest", "fold_root", "bones_from_channels", "static_chain_above", "apply_record"]
+__all__ = ["rerest", "fold_root", "unfold_root", "bones_from_channels", "static_chain_above",
+           "apply_record", "undo_record"]
 
 
 def rerest(motion: Motion, rest: np.ndarray) -> Motion:
@@ -99,6 +101,44 @@ def fold_root(motion: Motion, k: int) -> Motion:
     return Motion(new, motion.frame_time, pos, rot)
 
 
+def unfold_root(motion: Motion, original: Skeleton, chain_pose: dict) -> Motion:
+    """The inverse of :func:`fold_root`: ``motion`` (root = the original's joint ``k``) on the
+    ``original`` skeleton, whose joints ``0..k-1`` form a single-child chain above it, held at
+    ``chain_pose`` (name -> ``{"position": (3,), "rotation": (4,) wxyz}``, their local channel
+    values). Joint ``k`` carries the motion when it has position channels, else the top joint
+    does (the chain below it held). Joint positions are unchanged."""
+    k = original.index(motion.skeleton.names[0])
+    if original.names[k:] != motion.skeleton.names:
+        raise ValueError("the motion's joints are not the original's below the folded chain")
+    n_f = motion.n_frames
+    pos = np.broadcast_to(original.offsets, (n_f, original.n_joints, 3)).copy()
+    rot = np.broadcast_to(quat_identity(), (n_f, original.n_joints, 4)).copy()
+    pos[:, k:] = motion.local_positions
+    rot[:, k:] = motion.rotations
+    for j in range(k):
+        p = chain_pose[original.names[j]]
+        pos[:, j] = p["position"]
+        rot[:, j] = p["rotation"]
+    # the chain's constant transform from joint 0's frame to joint k's parent's frame
+    cq, cp = quat_identity(), np.zeros(3)
+    for j in range(1, k):
+        cp = cp + quat_rotate(cq, pos[0, j])
+        cq = quat_mul(cq, rot[0, j])
+    g_q, g_p = motion.rotations[:, 0], motion.local_positions[:, 0]  # joint k, world
+    if any(c in POSITION_CHANNELS for c in original.channels[k]):
+        top_q, top_p = rot[:, 0], pos[:, 0]  # held: joint k carries the motion
+        par_q = quat_mul(top_q, cq[None])
+        par_p = top_p + quat_rotate(top_q, np.broadcast_to(cp, (n_f, 3)))
+        rot[:, k] = quat_mul(quat_conj(par_q), g_q)
+        pos[:, k] = quat_rotate(quat_conj(par_q), g_p - par_p)
+    else:  # joint k has its offset only: the top joint carries the motion, joint k is at rest
+        rot[:, k] = quat_identity()
+        rot[:, 0] = quat_mul(g_q, quat_conj(cq)[None])
+        par_p = g_p - quat_rotate(g_q, np.broadcast_to(original.offsets[k], (n_f, 3)))
+        pos[:, 0] = par_p - quat_rotate(rot[:, 0], np.broadcast_to(cp, (n_f, 3)))
+    return Motion(original, motion.frame_time, pos, quat_normalize(rot))
+
+
 def bones_from_channels(motion: Motion) -> tuple[Motion, dict[str, float]]:
     """Offsets of non-root joints with translation channels set to the mean translation.
 
@@ -142,6 +182,34 @@ def fold_record(motion: Motion, k: int) -> dict:
         if np.degrees(dev.max()) < STATIC_ROTATION_DEG and np.degrees(ang0) > 0.01:
             rec["fold_rotation"] = [float(x) for x in quat_normalize(g[0])]
     return rec
+
+
+def undo_record(motion: Motion, record: dict | None, original: Skeleton | None) -> Motion:
+    """The inverse of :func:`apply_record`: a motion on the normalised skeleton (e.g. exported
+    from a model) on the file's ``original`` skeleton (its static chain above the pelvis, its
+    translation-channel bones, its rest pose). Forward kinematics is unchanged. Without a
+    record (or without the original) the motion is returned as it is."""
+    if not record or original is None:
+        return motion
+    rest = record.get("rest")
+    if rest:
+        names = motion.skeleton.names
+        r = quat_identity((len(names),))
+        for n, q in rest.items():
+            r[names.index(n)] = q
+        motion = rerest(motion, quat_conj(r))
+    if record.get("fold"):
+        if record.get("fold_rotation") is not None:
+            q = quat_conj(np.asarray(record["fold_rotation"], dtype=float))
+            motion = rerest(motion, np.tile(q, (motion.skeleton.n_joints, 1)))
+        motion = unfold_root(motion, original, record.get("fold_pose") or {})
+    sk = original.copy()
+    pos = motion.local_positions.copy()
+    has = sk.has_position_channels()
+    keep = ~has  # joints without translation channels sit at the original's offsets
+    keep[0] = False
+    pos[:, keep] = sk.offsets[keep]
+    return Motion(sk, motion.frame_time, pos, motion.rotations)
 
 
 def apply_record(motion: Motion, record: dict | None,

@@ -220,3 +220,55 @@ def test_cmu_rig_acceptance_round_trips(cmu_rig, tmp_path):
             "samcon_replay": _replay(trajectory, model=str(xml))}
     errors = {k: round_trip_error(r, tmp_path / f"{k}.bvh")[0] for k, r in runs.items()}
     assert max(errors.values()) < TOLERANCE_M, errors
+
+
+@pytest.fixture(scope="module")
+def rerooted_rig(tmp_path_factory):
+    """The zoo's Unreal-style rig (a static ``root`` node above ``pelvis``, bones along local
+    axes, so the converter folds the root and takes a new rest pose), as a file and its model."""
+    from bvh.zoo import zoo_rigs
+
+    shared_clip("walk60.bvh")
+    rig = next(r for r in zoo_rigs(shared_clip("walk60.bvh").parent) if r.name.startswith("unreal"))
+    clip = tmp_path_factory.mktemp("unreal") / f"{rig.name}.bvh"
+    bvh.save(rig.motion, clip)
+    conv = convert(clip, total_mass=rig.mass_kg)
+    assert conv.info.extra["rig"]["fold"] and conv.info.extra["rig"]["rest"]
+    xml = clip.with_suffix(".xml")
+    conv.save(xml)
+    return clip, xml
+
+
+def test_a_normalised_rig_exports_on_its_own_skeleton(rerooted_rig, tmp_path):
+    """The export undoes the converter's normalisation: the file's static root node, its rest
+    pose (bones along local axes) and channels come back, and every joint below the folded node
+    is where the simulation had it."""
+    clip, xml = rerooted_rig
+    rec = _track(str(xml), clip, duration=1.0)
+    err, loaded = round_trip_error(rec, tmp_path / "unreal_sim.bvh")
+    assert err < TOLERANCE_M, f"{err * 1000:.3f} mm"
+    source = bvh.load(clip)
+    assert loaded.skeleton.names == source.skeleton.names
+    assert loaded.skeleton.channels == source.skeleton.channels
+    np.testing.assert_allclose(loaded.skeleton.offsets, source.skeleton.offsets, atol=1e-6)
+    # the static node stays where the file holds it
+    np.testing.assert_allclose(loaded.root_positions - source.root_positions[0], 0.0, atol=1e-6)
+
+
+def test_export_of_a_normalised_clip_replay_matches_the_clip(rerooted_rig):
+    """Replaying the clip itself (``joint_model="full"``) and exporting gives the clip back: every
+    joint below the folded node within 0.01 mm, up to one constant floor shift."""
+    clip, _ = rerooted_rig
+    source = bvh.load(clip)
+    conv = convert(source, joint_model="full")
+    model = mujoco.MjModel.from_xml_string(conv.xml)
+    ref = ReferenceMotion(model, source, info=conv.info)
+    n = min(source.n_frames, 40)
+    out = qpos_to_motion(model, np.arange(n) * source.frame_time, ref.frame_qpos[:n],
+                         fps=1.0 / source.frame_time, info=conv.info)
+    below = [i for i, name in enumerate(out.skeleton.names)
+             if name not in conv.info.extra["rig"]["fold"]]
+    d = (bvh.forward_kinematics(out).positions - bvh.forward_kinematics(source).positions[:n])
+    d = d[:, below]
+    d -= d.mean(axis=(0, 1))
+    assert np.abs(d).max() * conv.info.unit_scale < 1e-5

@@ -230,8 +230,9 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             "source": source_record(skeleton, motion),
         },
     )
-    if prep.record:
-        info.extra["rig"] = prep.record
+    if prep.record:  # with the file's own hierarchy, so an export can go back to it
+        info.extra["rig"] = dict(prep.record,
+                                 original=source_record(source_skeleton)["hierarchy"])
     xml = _write_xml(model_name or default_name, bodies, actuators, info, offset,
                      opts["timestep"], skeleton)
     n_dofs = 6 + sum(1 if jt["type"] == "hinge" else 3 for b in bodies.values()

@@ -186,6 +186,17 @@ class ModelInfo:
         ft = rec.get("frame_time")
         return motion.skeleton, (None if ft is None else float(ft))
 
+    def original_skeleton(self):
+        """The file's own skeleton when the converter normalised the rig (a static root chain
+        folded, translation-channel bones, a new rest pose: the ``rig`` record), else ``None``
+        (the source skeleton is the file's)."""
+        rig = self.extra.get("rig")
+        if not isinstance(rig, dict) or "original" not in rig:
+            return None
+        from ..io import loads
+
+        return loads(rig["original"] + "MOTION\nFrames: 0\nFrame Time: 1\n").skeleton
+
     # -- conveniences --------------------------------------------------------------------------
     def role(self, role: str):
         """Joint name (or list for ``spine``/``neck``) with ``role``; ``None`` when absent."""

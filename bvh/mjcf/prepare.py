@@ -92,6 +92,9 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     k = work.skeleton.index(pelvis) if isinstance(pelvis, str) else 0
     if k > 0 and static_chain_above(work.skeleton, k):
         fr = fold_record(work, k)
+        fr["fold_pose"] = {work.skeleton.names[j]: {
+            "position": [float(x) for x in work.local_positions[0, j]],
+            "rotation": [float(x) for x in work.rotations[0, j]]} for j in range(k)}
         record.update(fr)
         work = fold_root(work, k)
         if fr["fold_rotation"] is not None:
