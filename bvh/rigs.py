@@ -191,13 +191,8 @@ def undo_record(motion: Motion, record: dict | None, original: Skeleton | None) 
     record (or without the original) the motion is returned as it is."""
     if not record or original is None:
         return motion
-    rest = record.get("rest")
-    if rest:
-        names = motion.skeleton.names
-        r = quat_identity((len(names),))
-        for n, q in rest.items():
-            r[names.index(n)] = q
-        motion = rerest(motion, quat_conj(r))
+    if record.get("rest"):
+        motion = rerest(motion, quat_conj(_rest_array(motion.skeleton, record["rest"])))
     if record.get("fold"):
         if record.get("fold_rotation") is not None:
             q = quat_conj(np.asarray(record["fold_rotation"], dtype=float))
@@ -238,11 +233,14 @@ def apply_record(motion: Motion, record: dict | None,
             motion = rerest(motion, np.tile(q, (motion.skeleton.n_joints, 1)))
     if record.get("bones"):
         motion, _ = bones_from_channels(motion)
-    rest = record.get("rest")
-    if rest:
-        names = motion.skeleton.names
-        r = quat_identity((len(names),))
-        for n, q in rest.items():
-            r[names.index(n)] = q
-        motion = rerest(motion, r)
+    if record.get("rest"):
+        motion = rerest(motion, _rest_array(motion.skeleton, record["rest"]))
     return motion
+
+
+def _rest_array(sk: Skeleton, rest: dict) -> np.ndarray:
+    """``(J, 4)`` rest orientations from a record's ``{joint: wxyz}`` (identity elsewhere)."""
+    r = quat_identity((sk.n_joints,))
+    for name, q in rest.items():
+        r[sk.index(name)] = q
+    return r
