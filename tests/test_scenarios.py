@@ -152,3 +152,23 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
     assert default_timestep("ipm") is None
     with pytest.raises(RegistryError, match="simbicon, ipm"):
         make_controller("walker", ch)
+
+
+def test_walk_seeds_perturb_a_walker_without_its_own_start_state():
+    """IPM has no ``start_state``: the walk scenario's seed still perturbs its standing start
+    (so the seeds of a robustness rate are different runs), and the same seed repeats."""
+    from controllers.core.terrain import walk
+
+    ch = Character()
+    if default_timestep("ipm"):
+        ch.set_timestep(default_timestep("ipm"))
+
+    def final(seed):
+        ctrl = make_controller("ipm", ch, speed=0.6)
+        r = walk(ch, ctrl, duration=1.0, seed=seed, steady_window=0.5)
+        assert not r.fell
+        return ch.data.qpos.copy()
+
+    a, b, c = final(0), final(1), final(0)
+    assert np.array_equal(a, c)
+    assert np.abs(a - b).max() > 1e-4

@@ -36,7 +36,7 @@ from bvh.errors import MjcharError
 
 from .character import Character
 from .metrics import FALL_HEIGHT_FRACTION, Result
-from .scenarios import simulate, standing_pose
+from .scenarios import perturbed_start, simulate, standing_pose
 
 
 class TerrainError(MjcharError):
@@ -248,14 +248,27 @@ class GaitDriver:
         )
 
 
+#: the seeded start perturbation of a walker without its own ``start_state`` (the same sizes as
+#: SIMBICON's): rad per actuated dof, m/s per horizontal axis of the root
+START_JOINT_NOISE = 0.02
+START_VELOCITY_NOISE = 0.05
+
+
 def _start(
     character: Character, controller, seed: int | None, perturb: bool, clearance: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Start state from the controller (``start_state``) or the standing pose, on the floor."""
+    """Start state from the controller (``start_state``, given the seeded generator) or the
+    standing pose, on the floor. A controller without ``start_state`` gets the same small seeded
+    perturbation (joint angles ~N(0, :data:`START_JOINT_NOISE`) rad, root horizontal velocity
+    ~N(0, :data:`START_VELOCITY_NOISE`) m/s), so its seeds are different runs."""
     rng = np.random.default_rng(seed) if (perturb and seed is not None) else None
     inner = getattr(controller, "controller", controller)
     if hasattr(inner, "start_state"):
         q, v = inner.start_state(character, rng)
+    elif rng is not None:
+        q, v = perturbed_start(character, standing_pose(character), np.zeros(character.nv),
+                               seed, joint_noise=START_JOINT_NOISE,
+                               root_velocity_noise=START_VELOCITY_NOISE)
     else:
         q, v = standing_pose(character), np.zeros(character.nv)
     return place_on_floor(character, q, clearance), v
