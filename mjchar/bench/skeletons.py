@@ -170,8 +170,8 @@ def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
     r = _run(S.stand(ch, c, duration=cfg.stand_duration))
     ok = not r["fell"]
     return {"ok": ok, "run": r,
-            "summary": f"{'stands' if ok else 'falls at %.1f s' % r['fall_time_s']} "
-                       f"{cfg.stand_duration:g} s, moved {r['distance_m']:.3f} m"}
+            "summary": ("stands " if ok else f"falls at {r['fall_time_s']:.1f} s of ")
+                       + f"{cfg.stand_duration:g} s, moved {r['distance_m']:.3f} m"}
 
 
 def _push(rig, rec, cfg: SkeletonConfig) -> dict:
