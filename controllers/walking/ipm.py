@@ -294,11 +294,14 @@ class IPMController:
         self._stand = None
         self._swing = swing
         self._t0 = t
-        self._T = self.params.step_time if duration is None else duration
+        step_time, self._knee_kp, self._knee_ramp = self.params.at_speed(self.speed_target)
+        self._T = step_time if duration is None else duration
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
         self._step_com0 = ch.com()
+        self._knee0 = min(float(ch.qpos[self._legs[1 - swing].knee_q]),
+                          self.params.stance_knee_ramp_max)
         self.step_switches.append(t)
         # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
         # stride-phase tools (controllers.core.terrain.push_walk) work with IPM too
@@ -538,7 +541,11 @@ class IPMController:
         _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
         D[sw.hip] = p.hip_kd * (A_sw.T @ jr_thigh)
         tau[sw.knee_dof] = p.knee_kp * (flexion - qpos[sw.knee_q]) + p.knee_kd * flex_rate
-        tau[st.knee_dof] = p.knee_kp * (p.stance_knee - qpos[st.knee_q])
+        knee_target = p.stance_knee
+        if self._knee_ramp > 0:  # from the landing flexion to stance_knee, no impulse
+            x = min(self.phase / self._knee_ramp, 1.0)
+            knee_target += (self._knee0 - p.stance_knee) * (1.0 - x * x * (3.0 - 2.0 * x))
+        tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
         for leg, R_des, kp, kd in ((sw, R_foot_des, p.swing_ankle_kp, p.swing_ankle_kd),
                                    (st, None, p.ankle_kp, p.ankle_kd)):
