@@ -161,7 +161,7 @@ class IPMParams:
     stance_knee_ramp: float = 0.0
     fast_stance_knee_kp: float = 200.0
     fast_stance_knee_ramp: float = 1.0
-    stance_knee_ramp_max: float = 0.7
+    stance_knee_ramp_max: float = 0.9
     upper_gain_scale: float = 1.0
     vf_sagittal: float = 30.0
     vf_coronal_pos: float = 0.0
