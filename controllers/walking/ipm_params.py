@@ -82,7 +82,8 @@ class IPMParams:
             (N m/rad, N m s/rad); pelvis in the world frame.
         pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
         stance_knee: stance knee flexion target (rad).
-        stance_knee_kp: the stance knee's stiffness (N m/rad; the swing knee's is ``knee_kp``).
+        stance_knee_kp: the stance knee's stiffness up to ``slow_speed`` (N m/rad; ``None``:
+            ``knee_kp``, the swing knee's).
         stance_knee_ramp: the stance knee's target eases (smoothstep) from its flexion at
             landing to ``stance_knee`` over this many phases (0: the target from the start):
             no knee-extension impulse at landing.
@@ -157,7 +158,7 @@ class IPMParams:
     pelvis_yaw_kp: float = 300.0
     pelvis_yaw_kd: float = 60.0
     stance_knee: float = 0.15
-    stance_knee_kp: float = 300.0
+    stance_knee_kp: float | None = None
     stance_knee_ramp: float = 0.0
     fast_stance_knee_kp: float = 200.0
     fast_stance_knee_ramp: float = 1.0
@@ -222,8 +223,9 @@ class IPMParams:
         """``(step_time, stance_knee_kp, stance_knee_ramp)`` at a desired speed (m/s): the slow
         values up to ``slow_speed``, the ``fast_*`` ones from ``fast_speed``, linear between."""
         x = self.speed_blend(speed)
+        kp = self.knee_kp if self.stance_knee_kp is None else self.stance_knee_kp
         return (self.step_time + x * (self.fast_step_time - self.step_time),
-                self.stance_knee_kp + x * (self.fast_stance_knee_kp - self.stance_knee_kp),
+                kp + x * (self.fast_stance_knee_kp - kp),
                 self.stance_knee_ramp + x * (self.fast_stance_knee_ramp
                                              - self.stance_knee_ramp))
 
