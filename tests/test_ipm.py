@@ -170,6 +170,19 @@ def test_walks_at_commanded_speed(character, speed):
     assert abs(yaw[-1]) < math.radians(10)
 
 
+def test_walks_fast_with_quicker_steps(character):
+    """1.5 m/s (beyond the old 1.0 m/s range): no fall in 10 s, the speed within 0.15 m/s once
+    the ramped speed target has arrived, and quicker steps than at 0.5 m/s."""
+    c = make_ipm(character, speed=1.5)
+    r, times, com, yaw = run_walk(character, c, 10.0)
+    assert not r.fell, r.fall_reason
+    assert r.root_force_max_N == 0.0
+    v = mean_velocity(times, com, 6.0)
+    assert abs(v[0] - 1.5) < 0.15, v
+    late = np.diff([t for t in c.step_switches if t > 6.0])
+    assert late.mean() < 0.45 < c.params.at_speed(0.5)[0]
+
+
 def test_stops_and_stands(character):
     c = make_ipm(character, speed=lambda t: 0.5 if t < 4.0 else 0.0)
     r, times, com, _ = run_walk(character, c, 10.0)
@@ -227,6 +240,32 @@ def test_walks_60s_with_small_speed_error(character, speed):
     assert r.root_force_max_N == 0.0
 
 
+#: 60 s walks that fall with the defaults (docs/ipm.md, speed range)
+_FALLS_60S = {1.5: "falls at 25.9 s (60 s walk)", 1.6: "falls at 13.2 s"}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", [round(0.3 + 0.1 * i, 1) for i in range(14)])
+def test_speed_range_60s(character, speed):
+    """0.3 to 1.6 m/s: 60 s with no fall, steady speed (last 10 s) within 0.15 m/s."""
+    if speed in _FALLS_60S:
+        pytest.xfail(_FALLS_60S[speed])
+    c = make_ipm(character, speed=speed)
+    r, times, com, _ = run_walk(character, c, 60.0)
+    assert not r.fell, r.fall_reason
+    assert abs(np.linalg.norm(mean_velocity(times, com, 50.0)) - speed) < 0.15
+
+
+@pytest.mark.slow
+def test_speed_schedule_slow_fast_slow(character):
+    """0.5 -> 1.5 -> 0.5 m/s in one run (commands at 15 and 35 s): no fall, each speed reached."""
+    c = make_ipm(character, speed=lambda t: 0.5 if t < 15.0 else 1.5 if t < 35.0 else 0.5)
+    r, times, com, _ = run_walk(character, c, 50.0)
+    assert not r.fell, r.fall_reason
+    for t0, t1, v in ((10.0, 15.0, 0.5), (25.0, 35.0, 1.5), (45.0, 50.0, 0.5)):
+        assert abs(np.linalg.norm(mean_velocity(times, com, t0, t1)) - v) < 0.15, (t0, v)
+
+
 @pytest.mark.slow
 def test_turns_at_1mps(character):
     c = make_ipm(character, speed=1.0, heading=lambda t: 0.0 if t < 3.0 else 90.0)
@@ -241,6 +280,27 @@ def test_survives_200N_push_from_every_direction(character, direction):
     r = push(character, make_ipm(character, speed=0.0), force=200.0, direction=direction,
              allow_steps=True)
     assert survived(r, allow_steps=True), r.fall_reason
+
+
+def test_step_time_and_stance_knee_follow_the_commanded_speed():
+    """Up to slow_speed the slow values (today's walk), from fast_speed the fast ones (shorter
+    steps, a softer stance knee easing from its landing flexion), linear between; the speeds
+    scale with the body like every speed."""
+    p = IPMParams()
+    assert p.fast_step_time < p.step_time
+    for v in (0.0, 0.5, p.slow_speed, -0.8):
+        assert p.at_speed(v) == (p.step_time, p.knee_kp, p.stance_knee_ramp)
+    for v in (p.fast_speed, 1.5, 3.0):
+        assert p.at_speed(v) == (p.fast_step_time, p.fast_stance_knee_kp,
+                                 p.fast_stance_knee_ramp)
+    mid = p.at_speed(0.5 * (p.slow_speed + p.fast_speed))
+    assert mid[0] == pytest.approx(0.5 * (p.step_time + p.fast_step_time))
+    assert IPMParams(stance_knee_kp=250.0).at_speed(0.5)[1] == 250.0
+    big = p.for_body(2 * 0.878, 140.0)
+    assert big.at_speed(p.fast_speed * math.sqrt(2))[0] == pytest.approx(
+        p.fast_step_time * math.sqrt(2))
+    with pytest.raises(IPMError):
+        IPMParams(fast_step_time=0.0).check()
 
 
 def test_parameters_follow_the_body_by_similarity():

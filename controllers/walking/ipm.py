@@ -72,6 +72,13 @@ docs/ipm.md): step time 0.5 s (paper ~0.6), scales ``s_s = s_c = 1.0`` (1.1 / 1.
 blend (``(1 - phase)^2`` is available), swing hip 600/60 (300/35), pelvis yaw 300/60 (1000/200)
 and no coronal virtual force (20 / 9): the stance ankle cannot apply the roll moment it asks for.
 
+Speed dependence (:meth:`IPMParams.at_speed`, chosen at every step start from the ramped speed
+target): up to 1.0 m/s the step takes 0.5 s and the stance knee is a plain PD (kp 300) on
+``stance_knee``; from 1.1 m/s the step takes 0.4 s and the stance knee (kp 200) eases from its
+landing flexion (at most 0.9 rad) to ``stance_knee`` over the step, linear in between. Long
+steps land on a bent knee; pulling it straight at once saturates the knee (200 N m) and, with
+0.4 s steps alone, 1.2 m/s fell at 16.5 s and 1.5 m/s at 6.8 s (docs/ipm.md, speed range).
+
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
     ch = Character()
@@ -294,11 +301,14 @@ class IPMController:
         self._stand = None
         self._swing = swing
         self._t0 = t
-        self._T = self.params.step_time if duration is None else duration
+        step_time, self._knee_kp, self._knee_ramp = self.params.at_speed(self.speed_target)
+        self._T = step_time if duration is None else duration
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
         self._step_com0 = ch.com()
+        self._knee0 = min(float(ch.qpos[self._legs[1 - swing].knee_q]),
+                          self.params.stance_knee_ramp_max)
         self.step_switches.append(t)
         # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
         # stride-phase tools (controllers.core.terrain.push_walk) work with IPM too
@@ -538,7 +548,11 @@ class IPMController:
         _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
         D[sw.hip] = p.hip_kd * (A_sw.T @ jr_thigh)
         tau[sw.knee_dof] = p.knee_kp * (flexion - qpos[sw.knee_q]) + p.knee_kd * flex_rate
-        tau[st.knee_dof] = p.knee_kp * (p.stance_knee - qpos[st.knee_q])
+        knee_target = p.stance_knee
+        if self._knee_ramp > 0:  # from the landing flexion to stance_knee, no impulse
+            x = min(self.phase / self._knee_ramp, 1.0)
+            knee_target += (self._knee0 - p.stance_knee) * (1.0 - x * x * (3.0 - 2.0 * x))
+        tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
         for leg, R_des, kp, kd in ((sw, R_foot_des, p.swing_ankle_kp, p.swing_ankle_kd),
                                    (st, None, p.ankle_kp, p.ankle_kd)):
@@ -670,7 +684,8 @@ register(ControllerSpec(
     factory=lambda character, target=None, **options: make_ipm(character, **options),
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
     options=("speed", "heading"), steps=True,
-    # walks 30 s with no fall from 0.2 to 1.0 m/s; falls at 1.1 m/s after 14.4 s (mjchar run ipm
-    # --speed V --duration 30, bundled humanoid); 0 stops and stands
-    limits=(("speed", 0.0, 1.0),),
+    # walks 60 s with no fall from 0.3 to 1.4 m/s, steady speed within 0.01 m/s of the command;
+    # 1.5 m/s falls at 25.9 s, 1.6 at 13.2 s (bundled humanoid, docs/ipm.md speed range);
+    # 0 stops and stands
+    limits=(("speed", 0.0, 1.4),),
     bench=("stand", "random-push", "push-search", "walk", "slopes"), expected=("stand", "walk")))

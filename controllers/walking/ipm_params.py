@@ -25,19 +25,21 @@ TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
            "coronal_offset", "stance_ankle_limit")
-_TIME = ("step_time", "first_step_time", "push_step_time", "settle_time", "speed_offset",
-         "speed_integral")
-_SPEED = ("stop_speed", "descent_speed")
+_TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
+         "speed_offset", "speed_integral")
+_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 _RATE2 = ("vf_coronal_pos",)
-_TORQUE_GAIN = ("hip_kp", "knee_kp", "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
+_TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp", "ankle_kp",
+                "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
 _DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
                  "pelvis_yaw_kd")
 _FORCE = ("vf_max_sagittal", "vf_max_coronal")
 _TORQUE = ("stance_yaw_limit",)
 #: parameters without a dimension (phases, scales, angles, switches), left as they are
 _DIMENSIONLESS = ("min_phase", "max_phase", "sagittal_scale", "coronal_scale", "clamp",
-                  "swing_blend", "stance_knee", "upper_gain_scale", "acceleration",
+                  "swing_blend", "stance_knee", "stance_knee_ramp", "fast_stance_knee_ramp",
+                  "stance_knee_ramp_max", "upper_gain_scale", "acceleration",
                   "turn_acceleration", "gravity_compensation", "implicit_damping", "feedforward",
                   "heading_tolerance", "arm_abduction", "yaw_friction")
 
@@ -51,7 +53,14 @@ class IPMParams:
     """Every tunable number of :class:`IPMController` (SI units, angles in rad).
 
     Attributes:
-        step_time: nominal step duration ``T`` (s).
+        step_time: nominal step duration ``T`` (s) up to ``slow_speed``.
+        slow_speed, fast_speed: from ``slow_speed`` to ``fast_speed`` (m/s of desired speed)
+            the ``fast_*`` values take over linearly from their slow counterparts
+            (:meth:`IPMParams.at_speed`), and hold above ``fast_speed``.
+        fast_step_time: step time (s) at ``fast_speed``: a faster walk takes quicker steps,
+            as people do.
+        fast_stance_knee_kp, fast_stance_knee_ramp: ``stance_knee_kp``, ``stance_knee_ramp``
+            at ``fast_speed``.
         min_phase: swing-foot contact ends the step only after this phase.
         max_phase: the step is ended at this phase even without contact.
         sagittal_scale, coronal_scale: IPM offset scales ``s_s``, ``s_c`` (paper: 1.1, 1.3).
@@ -73,6 +82,14 @@ class IPMParams:
             (N m/rad, N m s/rad); pelvis in the world frame.
         pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
         stance_knee: stance knee flexion target (rad).
+        stance_knee_kp: the stance knee's stiffness up to ``slow_speed`` (N m/rad; ``None``:
+            ``knee_kp``, the swing knee's).
+        stance_knee_ramp: the stance knee's target eases (smoothstep) from its flexion at
+            landing to ``stance_knee`` over this many phases (0: the target from the start):
+            no knee-extension impulse at landing.
+        stance_knee_ramp_max: the ramp starts from at most this flexion (rad), so a knee that
+            lands deeply bent is still pushed up at once (without it a fast walk sinks into a
+            deeper crouch step after step and collapses).
         upper_gain_scale: factor on the model's gains table for spine, arms, head and toes.
         vf_sagittal, vf_coronal_pos, vf_coronal_vel: virtual-force gains ``30``, ``c_p``,
             ``c_v`` (1/s, 1/s^2, 1/s; paper: 30, 20, 9).
@@ -112,6 +129,9 @@ class IPMParams:
     """
 
     step_time: float = 0.5
+    slow_speed: float = 1.0
+    fast_speed: float = 1.1
+    fast_step_time: float = 0.4
     min_phase: float = 0.5
     max_phase: float = 1.6
     sagittal_scale: float = 1.0
@@ -138,6 +158,11 @@ class IPMParams:
     pelvis_yaw_kp: float = 300.0
     pelvis_yaw_kd: float = 60.0
     stance_knee: float = 0.15
+    stance_knee_kp: float | None = None
+    stance_knee_ramp: float = 0.0
+    fast_stance_knee_kp: float = 200.0
+    fast_stance_knee_ramp: float = 1.0
+    stance_knee_ramp_max: float = 0.9
     upper_gain_scale: float = 1.0
     vf_sagittal: float = 30.0
     vf_coronal_pos: float = 0.0
@@ -187,6 +212,23 @@ class IPMParams:
             changes[name] = tuple(x * k for x in v) if isinstance(v, tuple) else v * k
         return replace(self, **changes)
 
+    def speed_blend(self, speed: float) -> float:
+        """0 up to ``slow_speed`` (m/s), 1 from ``fast_speed`` on, linear in between."""
+        v = abs(float(speed))
+        if v <= self.slow_speed or self.fast_speed <= self.slow_speed:
+            return 0.0 if v <= self.slow_speed else 1.0
+        return min((v - self.slow_speed) / (self.fast_speed - self.slow_speed), 1.0)
+
+    def at_speed(self, speed: float) -> tuple[float, float, float]:
+        """``(step_time, stance_knee_kp, stance_knee_ramp)`` at a desired speed (m/s): the slow
+        values up to ``slow_speed``, the ``fast_*`` ones from ``fast_speed``, linear between."""
+        x = self.speed_blend(speed)
+        kp = self.knee_kp if self.stance_knee_kp is None else self.stance_knee_kp
+        return (self.step_time + x * (self.fast_step_time - self.step_time),
+                kp + x * (self.fast_stance_knee_kp - kp),
+                self.stance_knee_ramp + x * (self.fast_stance_knee_ramp
+                                             - self.stance_knee_ramp))
+
     def check(self) -> IPMParams:
         """Raise :class:`IPMError` on non-finite or out-of-range values; returns self."""
         if self.swing_blend not in ("quadratic", "smooth"):
@@ -201,8 +243,11 @@ class IPMParams:
                 if not isinstance(x, bool) and not (isinstance(x, (int, float))
                                                     and math.isfinite(x)):
                     raise IPMError(f"IPM option {f.name} must be finite numbers, got {v!r}")
-        if self.step_time <= 0:
-            raise IPMError(f"step_time must be positive seconds, got {self.step_time}")
+        if self.step_time <= 0 or self.fast_step_time <= 0:
+            raise IPMError(f"step_time and fast_step_time must be positive seconds, got "
+                           f"{self.step_time}, {self.fast_step_time}")
+        if self.stance_knee_ramp < 0 or self.fast_stance_knee_ramp < 0:
+            raise IPMError("stance_knee_ramp must be a phase >= 0")
         if not 0 <= self.min_phase < self.max_phase:
             raise IPMError("need 0 <= min_phase < max_phase")
         if self.clamp <= 0:
