@@ -37,12 +37,20 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
-from .gaits import Gait, get_gait
+from .gaits import GRAVITY, Gait, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
+#: world-frame gains ``(kp N m/rad, kd N m s/rad)`` of a gait that leaves them out, for the gait's
+#: own body (scaled with it, :meth:`~controllers.walking.gaits.Gait.scaled`)
+DEFAULT_GAINS = {
+    "torso": (1000.0, 100.0),
+    "stance_twist": (300.0, 30.0),
+    "swing_hip": (600.0, 60.0),
+    "swing_ankle_world": (100.0, 10.0),
+}
 
 
 def _rot_x(a: float) -> np.ndarray:
@@ -148,8 +156,17 @@ class Simbicon:
             its dict.
         heading: desired heading (rad, world yaw); ``None`` = the pelvis's heading at reset.
         first_stance: ``"left"`` or ``"right"``: the stance leg of state 0.
+        speed: commanded forward speed (m/s); ``None``: the gait's own speed. A command is a
+            feed-forward (:meth:`~controllers.walking.gaits.Gait.for_speed`: the gait's
+            ``speed_anchors`` interpolated at the command's Froude speed ``v / sqrt(g L)``, ``L``
+            the body's leg length) plus the gait's step-to-step speed regulation towards it
+            (``speed_target = speed``).
         overrides: gait parameters to change
             (:meth:`~controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
+
+    The gait is scaled to the body at :meth:`reset`
+    (:meth:`~controllers.walking.gaits.Gait.scaled`: times, gains and feedback by the body's leg
+    length and mass against the gait's own body); :attr:`gait` is the gait in use from then on.
 
     Attributes (read by scenarios):
         state: FSM state 0-3 (0/1: ``first_stance`` leg on the ground; 0/2 lift-off, 1/3 swing).
@@ -160,6 +177,7 @@ class Simbicon:
         step_speed: mean forward speed of the centre of mass over the last step (m/s).
         speed_offset: the speed regulation's swing-hip offset (rad; 0 unless the gait has a
             ``speed_target``).
+        leg_length: the body's leg length (m; hips' height over the soles at rest), after reset.
     """
 
     name = "simbicon"
@@ -171,9 +189,16 @@ class Simbicon:
         *,
         heading: float | None = None,
         first_stance: str = "left",
+        speed: float | None = None,
         **overrides,
     ):
-        self.gait = get_gait(gait, **overrides)
+        self.gait = self.base_gait = get_gait(gait, **overrides)
+        if speed is not None:
+            if not math.isfinite(speed) or speed <= 0.0:
+                raise ControllerError(f"simbicon: the speed command must be > 0 m/s, got {speed}")
+            self.base_gait.for_speed(1.0)  # a gait that takes no command fails here
+        self.speed = speed
+        self.leg_length: float | None = None
         if first_stance not in _SIDES:
             raise ControllerError(f"first_stance must be 'left' or 'right', got {first_stance!r}")
         self.heading = heading
@@ -220,6 +245,21 @@ class Simbicon:
             out[key] = _Hinge(int(dof), int(m.jnt_qposadr[j]), j, int(self._dof2act[dof]))
         return out
 
+    def _body_gait(self, ch: Character, rest: mujoco.MjData) -> Gait:
+        """The gait for this body and the speed command (see the class docstring)."""
+        hips = [rest.xpos[ch.body_id(ch.role(f"{side}_hip"))][2] for side in _SIDES]
+        self.leg_length = float(np.mean(hips)) - ch.lowest_point(ch.model.qpos0)
+        g = self.base_gait
+        missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
+        if missing:
+            g = g.with_overrides(**missing)
+        if self.speed is not None:
+            g = g.for_speed(self.speed / math.sqrt(GRAVITY * self.leg_length))
+        g = g.scaled(self.leg_length, ch.mass)
+        if self.speed is not None:
+            g = g.with_overrides(speed_target=float(self.speed))
+        return g
+
     def _map(self, ch: Character) -> None:
         m = ch.model
         if not np.all(ch.actuator_qpos >= 0):
@@ -233,6 +273,7 @@ class Simbicon:
         rest.qpos[:] = m.qpos0
         mujoco.mj_kinematics(m, rest)
         self._rest = rest
+        self.gait = self._body_gait(ch, rest)
         pelvis = ch.role("pelvis")
         self._pelvis = ch.body_id(pelvis)
         Rp = rest.xmat[self._pelvis].reshape(3, 3)
@@ -346,13 +387,13 @@ class Simbicon:
             kp[sel], kd[sel] = gkp, gkd
         self._kp, self._kd = kp, kd
         self._base = base
-        kpt, kdt = g.gains.get("torso", (1000.0, 100.0))
+        kpt, kdt = g.gains["torso"]
         kpy, kdy = g.gains.get("torso_yaw", (kpt, kdt))
-        self._twist_kp, self._twist_kd = g.gains.get("stance_twist", (300.0, 30.0))
+        self._twist_kp, self._twist_kd = g.gains["stance_twist"]
         self._torso_kp = np.array([kpt, kpt, kpy])
         self._torso_kd = np.array([kdt, kdt, kdy])
-        self._swing_gains = g.gains.get("swing_hip", (600.0, 60.0))
-        self._ankle_world_gains = g.gains.get("swing_ankle_world", (100.0, 10.0))
+        self._swing_gains = g.gains["swing_hip"]
+        self._ankle_world_gains = g.gains["swing_ankle_world"]
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -591,9 +632,10 @@ def make_simbicon(
     """The SIMBICON controller for ``character`` (only used for validation here; the controller
     binds to a character at ``reset``) with ``gait`` and parameter ``overrides``.
 
-    Besides gait parameters, ``heading`` (rad) and ``first_stance`` go to :class:`Simbicon`.
+    Besides gait parameters, ``heading`` (rad), ``first_stance`` and ``speed`` (m/s; ``None``:
+    the gait's own) go to :class:`Simbicon`.
     """
-    kw = {k: overrides.pop(k) for k in ("heading", "first_stance") if k in overrides}
+    kw = {k: overrides.pop(k) for k in ("heading", "first_stance", "speed") if k in overrides}
     return Simbicon(gait, **kw, **overrides)
 
 
