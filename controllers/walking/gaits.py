@@ -343,7 +343,8 @@ WALK = Gait(
     body_mass=BUNDLED_MASS,
     froude=0.357,
     speed_anchors=(
-        (0.22, {"state0_swing_hip": 0.696, "state1_swing_hip": 0.251}),
+        (0.22, {"state0_swing_hip": 0.666, "state1_swing_hip": 0.221, "torso_pitch": 0.2,
+                "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
         (0.53, {"state0_swing_hip": 0.486, "state1_swing_hip": 0.041, "torso_pitch": 0.5}),
     ),
     gains={

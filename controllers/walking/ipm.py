@@ -667,7 +667,9 @@ def make_ipm(character: Character | None = None, speed=0.0, heading=None, **opts
 
 register(ControllerSpec(
     name="ipm", label="IPM stepping", kind="walker",
-    factory=lambda character, target=None, **options: make_ipm(character, **options),
+    # no speed given (`mjchar run ipm`, `mjchar gait ipm`): 1 m/s
+    factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
+                                                                           **options),
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
     options=("speed", "heading"), steps=True,
     # walks 30 s with no fall from 0.2 to 1.0 m/s; falls at 1.1 m/s after 14.4 s (mjchar run ipm
