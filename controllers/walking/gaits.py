@@ -38,6 +38,10 @@ from bvh.errors import MjcharError
 GRAVITY = 9.81
 
 
+#: :class:`Gait` fields a speed anchor may set besides the per-state parameters
+ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist")
+
+
 class GaitError(MjcharError):
     """A gait was asked for by an unknown name, or given a parameter it does not have."""
 
@@ -117,6 +121,10 @@ class Gait:
             ...)``, parameters as :meth:`with_overrides` keys (a :class:`Gait` field or
             ``state0_``/``state1_<field>``) tuned at that Froude speed;
             :meth:`for_speed` interpolates them with the gait's own values at :attr:`froude`.
+            Only what the controller reads at every step: per-state parameters and
+            :data:`ANCHOR_FIELDS`.
+        speed_acceleration: how fast a speed command moves from the gait's own speed to the
+            commanded one, in g (0.02: 0.2 m/s^2; dimensionless, the same on every body).
     """
 
     name: str
@@ -139,6 +147,7 @@ class Gait:
     body_mass: float | None = None
     froude: float | None = None
     speed_anchors: tuple = ()
+    speed_acceleration: float = 0.02
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -236,6 +245,10 @@ class Gait:
         if self.froude is None:
             raise GaitError(f"gait {self.name!r} takes no speed command (its froude is unknown)")
         keys = sorted({k for _, o in self.speed_anchors for k in o})
+        for k in keys:
+            if k not in ANCHOR_FIELDS and k[:7] not in ("state0_", "state1_"):
+                raise GaitError(f"speed anchor parameter {k!r}: give state0_/state1_<field> or "
+                                f"one of {', '.join(ANCHOR_FIELDS)}")
         points = sorted([(self.froude, {})] + [(float(f), o) for f, o in self.speed_anchors],
                         key=lambda p: p[0])
         xs = [f for f, _ in points]
@@ -300,8 +313,12 @@ BUNDLED_LEG_LENGTH, BUNDLED_MASS = 0.878, 70.00001
 
 #: Normal walk. Started from REFERENCE.md's 3D SIMBICON walk targets and tuned on the bundled
 #: humanoid by CMA-ES (walk speed, heading, pushes at random phases, 5 degree slopes; see
-#: docs/simbicon.md). Steady speed 1.05 m/s on level ground; no speed regulation (it made the
-#: uphill walk slower, see docs/simbicon.md).
+#: docs/simbicon.md). Steady speed 1.05 m/s on level ground (Froude 0.357); no speed regulation
+#: of its own (it made the uphill walk slower, see docs/simbicon.md). A speed command
+#: (``Simbicon(speed=V)``, ``mjchar run simbicon --speed V``) interpolates two anchors tuned by
+#: hand on the bundled humanoid at Froude 0.22 (less lean, more swing-hip flexion and coronal
+#: feedback) and 0.53 (more lean, less swing-hip flexion) and regulates towards V with
+#: ``speed_gain`` (docs/simbicon.md, "Speed command").
 WALK = Gait(
     name="walk",
     states=(
@@ -345,7 +362,8 @@ WALK = Gait(
     speed_anchors=(
         (0.22, {"state0_swing_hip": 0.666, "state1_swing_hip": 0.221, "torso_pitch": 0.2,
                 "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
-        (0.53, {"state0_swing_hip": 0.486, "state1_swing_hip": 0.041, "torso_pitch": 0.5}),
+        (0.53, {"state0_swing_hip": 0.486, "state1_swing_hip": 0.041, "torso_pitch": 0.5,
+                "arm_swing": 0.6, "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
     ),
     gains={
         "torso": (873.399, 87.34),

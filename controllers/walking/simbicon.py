@@ -160,7 +160,8 @@ class Simbicon:
             feed-forward (:meth:`~controllers.walking.gaits.Gait.for_speed`: the gait's
             ``speed_anchors`` interpolated at the command's Froude speed ``v / sqrt(g L)``, ``L``
             the body's leg length) plus the gait's step-to-step speed regulation towards it
-            (``speed_target = speed``).
+            (``speed_target``); both follow :attr:`command`, which ramps from the gait's own
+            speed to ``speed`` (a fast gait from a standstill falls).
         overrides: gait parameters to change
             (:meth:`~controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
 
@@ -178,6 +179,9 @@ class Simbicon:
         speed_offset: the speed regulation's swing-hip offset (rad; 0 unless the gait has a
             ``speed_target``).
         leg_length: the body's leg length (m; hips' height over the soles at rest), after reset.
+        command: with a speed command, the command in use (m/s): it starts at the gait's own
+            speed and ramps to ``speed`` at the gait's ``speed_acceleration``, updated at every
+            lift-off.
     """
 
     name = "simbicon"
@@ -198,6 +202,7 @@ class Simbicon:
                 raise ControllerError(f"simbicon: the speed command must be > 0 m/s, got {speed}")
             self.base_gait.for_speed(1.0)  # a gait that takes no command fails here
         self.speed = speed
+        self.command: float | None = None
         self.leg_length: float | None = None
         if first_stance not in _SIDES:
             raise ControllerError(f"first_stance must be 'left' or 'right', got {first_stance!r}")
@@ -226,6 +231,7 @@ class Simbicon:
         self.speed_offset = 0.0
         self.step_speed: float | None = None
         self._step_start = (character.time, character.com())
+        self._command_time = character.time
         self._limits = character.torque_limits()[self._act_dof]
         del m
         self._ready = True
@@ -246,19 +252,38 @@ class Simbicon:
         return out
 
     def _body_gait(self, ch: Character, rest: mujoco.MjData) -> Gait:
-        """The gait for this body and the speed command (see the class docstring)."""
+        """The gait for this body (see the class docstring); with a speed command, the gait at
+        the command's start (the gait's own speed)."""
         hips = [rest.xpos[ch.body_id(ch.role(f"{side}_hip"))][2] for side in _SIDES]
         self.leg_length = float(np.mean(hips)) - ch.lowest_point(ch.model.qpos0)
+        self._mass = ch.mass
         g = self.base_gait
         missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
         if missing:
             g = g.with_overrides(**missing)
-        if self.speed is not None:
-            g = g.for_speed(self.speed / math.sqrt(GRAVITY * self.leg_length))
-        g = g.scaled(self.leg_length, ch.mass)
-        if self.speed is not None:
-            g = g.with_overrides(speed_target=float(self.speed))
-        return g
+        self._full_gait = g
+        if self.speed is None:
+            return g.scaled(self.leg_length, ch.mass)
+        self._froude_unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
+        self.command = g.froude * self._froude_unit
+        return self._command_gait(self.command)
+
+    def _command_gait(self, v: float) -> Gait:
+        """The body's gait for a commanded speed ``v`` (m/s): feed-forward and regulation."""
+        g = self._full_gait.for_speed(v / self._froude_unit).scaled(self.leg_length, self._mass)
+        return g.with_overrides(speed_target=float(v))
+
+    def _ramp_command(self, t: float) -> None:
+        """At a lift-off: move the command towards :attr:`speed` by at most
+        ``speed_acceleration`` g since the last update, and take the gait for it."""
+        t0, v0 = self._command_time, self.command
+        dv = self.base_gait.speed_acceleration * GRAVITY * (t - t0)
+        v = v0 + min(max(self.speed - v0, -dv), dv)
+        self._command_time = t
+        if v != v0:
+            self.command = v
+            self.gait = self._command_gait(v)
+            self._targets = [self._state_targets(s) for s in range(4)]
 
     def _map(self, ch: Character) -> None:
         m = ch.model
@@ -459,6 +484,8 @@ class Simbicon:
             self.state_start = t
             self.transitions.append((t, self.state))
             if self.state % 2 == 0:
+                if self.speed is not None:
+                    self._ramp_command(t)
                 self._step_update(character, t)
 
     def _step_update(self, character: Character, t: float) -> None:
