@@ -102,7 +102,8 @@ def test_cli_clip_json_and_plot(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv,needle", [
-    (["gait", "simbicon", "--speed", "1.0"], "--speed does not apply to simbicon"),
+    (["gait", "ipm", "--gait", "walk"], "--gait does not apply to ipm"),
+    (["gait", "simbicon", "--speed", "3"], "simbicon walks at"),
     (["gait", "ipm", "--speed", "9"], "out of range"),
     (["gait", "hand_of_god"], "SOURCE must be a walker"),
     (["gait", "/no/such.bvh"], "no such file"),

@@ -7,12 +7,15 @@ benchmark (benchmarks/bench_simbicon.py) runs them too and docs/simbicon.md has 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import mujoco
 import numpy as np
 import pytest
 
+from controllers import registry
+from controllers.core.base import ControllerError
 from controllers.core.character import Character
 from controllers.core.push_protocol import PushProtocol, survival_rates
 from controllers.core.terrain import (
@@ -27,8 +30,11 @@ from controllers.core.terrain import (
 )
 from controllers.walking.gaits import GAITS, Gait, GaitError, get_gait
 from controllers.walking.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
+from mjchar.cli import main
 
 SPEED_RANGE = (0.7, 1.5)
+#: a commanded speed's steady speed (last 10 s of 60 s) is this close to the command (m/s)
+SPEED_TOLERANCE = 0.15
 PUSHES = {
     "forward": (0.0, 200.0),
     "backward": (180.0, 200.0),
@@ -72,6 +78,37 @@ def test_gait_overrides():
         get_gait("walk", not_a_parameter=1)
     with pytest.raises(GaitError, match="unknown gait"):
         get_gait("moonwalk")
+
+
+def test_gait_scaled_to_another_body():
+    """Froude scaling: times by sqrt(l), stiffness by m l, damping by m l sqrt(l), cd by 1/l,
+    cv by 1/sqrt(l); angles unchanged; the gait's own body gets the gait itself."""
+    g = GAITS["walk"]
+    assert g.scaled(g.body_leg_length, g.body_mass) is g
+    s = g.scaled(4 * g.body_leg_length, 3 * g.body_mass)
+    a, b = g.states[0], s.states[0]
+    assert b.duration == pytest.approx(2 * a.duration) and b.timeout == pytest.approx(2 * a.timeout)
+    assert b.cd == pytest.approx(a.cd / 4) and b.cv == pytest.approx(a.cv / 2)
+    assert b.swing_hip == a.swing_hip and s.torso_pitch == g.torso_pitch
+    kp, kd = g.gains["torso"]
+    assert s.gains["torso"] == pytest.approx((12 * kp, 24 * kd))
+    assert s.contact_force == pytest.approx(3 * g.contact_force)
+    assert s.speed_gain == pytest.approx(g.speed_gain / 2)
+
+
+def test_gait_for_speed_interpolates_in_froude_speed():
+    g = GAITS["walk"]
+    assert g.for_speed(g.froude) == g
+    (f0, lo), (f1, hi) = sorted(g.speed_anchors, key=lambda a: a[0])
+    for key, value in hi.items():
+        assert g.for_speed(f1).value(key) == pytest.approx(value)
+        assert g.for_speed(f1 + 0.2).value(key) == pytest.approx(value)  # held beyond
+        mid = g.for_speed(0.5 * (g.froude + f1)).value(key)
+        assert mid == pytest.approx(0.5 * (g.value(key) + value))
+    for key, value in lo.items():
+        assert g.for_speed(f0).value(key) == pytest.approx(value)
+    with pytest.raises(GaitError, match="takes no speed command"):
+        GAITS["crouch"].for_speed(0.3)
 
 
 # -- model conventions, measured on the model --------------------------------------------------
@@ -130,6 +167,40 @@ def test_walks_at_one_seed_and_fsm_cycles(ch):
     assert np.all(swing > c.gait.contact_phase * c.gait.states[1].duration)
     assert np.all(swing < c.gait.states[1].timeout)  # every step ended on contact
     assert len(states) > 4 * 12 / 1.5  # it keeps stepping
+
+
+def test_no_speed_is_the_gait_itself(ch):
+    """Without a speed command the bundled humanoid walks the gait as tuned (no scaling, no
+    regulation): the acceptance figures stay those of the gait."""
+    c = make_simbicon(gait="walk")
+    c.reset(ch)
+    walk_gait = GAITS["walk"]
+    assert c.gait.speed_target is None and c.gait.states == walk_gait.states
+    assert dataclasses.replace(c.gait, gains=walk_gait.gains) == walk_gait
+    assert all(c.gait.gains[k] == v for k, v in walk_gait.gains.items())  # + the defaults
+    assert c.leg_length == GAITS["walk"].body_leg_length
+
+
+@pytest.mark.parametrize("speed", [0.7, 1.4])
+def test_speed_command(ch, speed):
+    c = make_simbicon(gait="walk", speed=speed)
+    r = walk(ch, c, duration=12.0, seed=0, steady_window=6.0)
+    assert not r.fell, r.fall_reason
+    assert no_root_force(r)
+    assert c.gait.speed_target == speed
+    assert abs(r.extra["steady_speed_mps"] - speed) <= SPEED_TOLERANCE, r.extra
+
+
+def test_speed_command_checked(capsys):
+    lo, hi = registry.get("simbicon").limit("speed")
+    assert lo <= SPEED_RANGE[0] and hi >= SPEED_RANGE[1]
+    assert main(["run", "simbicon", "--speed", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"simbicon walks at {lo:g} to {hi:g} m/s" in err
+    with pytest.raises(ControllerError, match="speed command"):
+        make_simbicon(speed=-1.0)
+    with pytest.raises(GaitError, match="takes no speed command"):
+        make_simbicon(gait="crouch", speed=1.0)
 
 
 def test_feedback_off_falls_within_10s(ch):
@@ -210,6 +281,44 @@ def test_walks_60s(ch, seed):
     assert not r.fell, r.fall_reason
     assert SPEED_RANGE[0] <= r.extra["steady_speed_mps"] <= SPEED_RANGE[1]
     assert no_root_force(r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("speed", [0.7, 0.9, 1.1, 1.3, 1.5])
+def test_speed_command_60s(ch, speed, seed):
+    r = walk(ch, make_simbicon(gait="walk", speed=speed), duration=60.0, seed=seed)
+    assert not r.fell, r.fall_reason
+    assert abs(r.extra["steady_speed_mps"] - speed) <= SPEED_TOLERANCE, r.extra
+    assert no_root_force(r)
+
+
+@pytest.fixture(scope="module")
+def scaled_humanoids(tmp_path_factory):
+    """The bundled humanoid's skeleton scaled to 1.5 m / 50 kg and 1.95 m / 100 kg (the zoo's),
+    converted with their masses as the bench's skeletons section does."""
+    import bvh
+    from bvh.mjcf import convert
+    from bvh.zoo import _humanoids
+
+    out = {}
+    for rig in _humanoids():
+        xml = tmp_path_factory.mktemp("rigs") / f"{rig.name}.xml"
+        convert(bvh.loads(bvh.dumps(rig.motion)), total_mass=rig.mass_kg).save(xml)
+        out[rig.height_m] = str(xml)
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", [0.7, 1.5])
+@pytest.mark.parametrize("height", [1.5, 1.95])
+def test_speed_command_on_scaled_bodies(scaled_humanoids, height, speed):
+    ch = Character(scaled_humanoids[height], timestep=DEFAULT_TIMESTEP)
+    c = make_simbicon(ch, gait="walk", speed=speed)
+    r = walk(ch, c, duration=60.0, seed=0)
+    assert not r.fell, r.fall_reason
+    assert abs(r.extra["steady_speed_mps"] - speed) <= SPEED_TOLERANCE, r.extra
+    assert c.leg_length != GAITS["walk"].body_leg_length  # the gait was scaled to the body
 
 
 @pytest.mark.slow

@@ -29,9 +29,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field
 
 from bvh.errors import MjcharError
+
+#: standard gravity (m/s^2), for Froude numbers and body scaling
+GRAVITY = 9.81
+
+
+#: :class:`Gait` fields a speed anchor may set besides the per-state parameters
+ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist")
 
 
 class GaitError(MjcharError):
@@ -103,6 +111,20 @@ class Gait:
             speed of the centre of mass over the last step, m/s), bounded by ``speed_limit``,
             is added to theta_d. It is integral action on the speed (e.g. on slopes, where the
             proportional feedback ``cv v`` alone settles at another speed).
+        body_leg_length, body_mass: the body the gait was tuned on: its leg length (m; the hips'
+            height over the soles in the rest pose) and mass (kg). On another body the gait is
+            scaled by :meth:`scaled` (``None``: used as it is on every body).
+        froude: the gait's own steady forward speed (no speed regulation) on its body, as a
+            Froude number ``v / sqrt(g leg_length)`` (``None``: unknown; then it takes no speed
+            command).
+        speed_anchors: the speed command's feed-forward: ``((froude, {parameter: value}),
+            ...)``, parameters as :meth:`with_overrides` keys (a :class:`Gait` field or
+            ``state0_``/``state1_<field>``) tuned at that Froude speed;
+            :meth:`for_speed` interpolates them with the gait's own values at :attr:`froude`.
+            Only what the controller reads at every step: per-state parameters and
+            :data:`ANCHOR_FIELDS`.
+        speed_acceleration: how fast a speed command moves from the gait's own speed to the
+            commanded one, in g (0.02: 0.2 m/s^2; dimensionless, the same on every body).
     """
 
     name: str
@@ -121,6 +143,11 @@ class Gait:
     speed_target: float | None = None
     speed_gain: float = 0.0
     speed_limit: float = 0.3
+    body_leg_length: float | None = None
+    body_mass: float | None = None
+    froude: float | None = None
+    speed_anchors: tuple = ()
+    speed_acceleration: float = 0.02
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -128,6 +155,7 @@ class Gait:
         d = dataclasses.asdict(self)
         d["states"] = [dataclasses.asdict(s) for s in self.states]
         d["gains"] = {k: list(v) for k, v in self.gains.items()}
+        d["speed_anchors"] = [[f, dict(o)] for f, o in self.speed_anchors]
         return d
 
     def to_json(self, **kw) -> str:
@@ -145,7 +173,12 @@ class Gait:
             raise GaitError(f"a gait has 2 states (0/2 and 1/3), got {len(states)}")
         gains = {k: (float(v[0]), float(v[1])) for k, v in d.pop("gains", {}).items()}
         try:
-            return cls(states=states, gains=gains, **d)  # type: ignore[arg-type]
+            anchors = tuple((float(f), dict(o)) for f, o in d.pop("speed_anchors", ()))
+        except (TypeError, ValueError) as e:
+            raise GaitError(f"gait speed_anchors: a list of [froude, {{parameter: value}}]: {e}") \
+                from None
+        try:
+            return cls(states=states, gains=gains, speed_anchors=anchors, **d)  # type: ignore[arg-type]
         except TypeError as e:
             raise GaitError(f"gait: {e}") from None
 
@@ -194,11 +227,98 @@ class Gait:
         )
         return dataclasses.replace(self, states=states, gains=gains, **top)
 
+    def value(self, key: str) -> float:
+        """The number that :meth:`with_overrides` key ``key`` sets (a :class:`Gait` field or
+        ``state0_``/``state1_<field>``)."""
+        if key[:7] in ("state0_", "state1_"):
+            return getattr(self.states[int(key[5])], key[7:])
+        if key in ("states", "gains", "speed_anchors") or not hasattr(self, key):
+            raise GaitError(f"{key!r} is not a number of the gait (speed_anchors take a Gait "
+                            "field or state0_/state1_<field>)")
+        return getattr(self, key)
+
+    def for_speed(self, froude: float) -> Gait:
+        """The gait's feed-forward for a commanded speed (a Froude number ``v / sqrt(g L)``):
+        every parameter of :attr:`speed_anchors` interpolated linearly in Froude speed between
+        the gait's own value at :attr:`froude` and the anchors' values (held beyond the last
+        anchor). The speed regulation (:attr:`speed_target`) is left to the caller."""
+        if self.froude is None:
+            raise GaitError(f"gait {self.name!r} takes no speed command (its froude is unknown)")
+        keys = sorted({k for _, o in self.speed_anchors for k in o})
+        for k in keys:
+            if k not in ANCHOR_FIELDS and k[:7] not in ("state0_", "state1_"):
+                raise GaitError(f"speed anchor parameter {k!r}: give state0_/state1_<field> or "
+                                f"one of {', '.join(ANCHOR_FIELDS)}")
+        points = sorted([(self.froude, {})] + [(float(f), o) for f, o in self.speed_anchors],
+                        key=lambda p: p[0])
+        xs = [f for f, _ in points]
+        out = {}
+        for k in keys:
+            ys = [o.get(k, self.value(k)) for _, o in points]
+            out[k] = float(_interp(froude, xs, ys))
+        return self.with_overrides(**out) if out else self
+
+    def scaled(self, leg_length: float, mass: float) -> Gait:
+        """The gait on a body of ``leg_length`` m and ``mass`` kg, dynamically similar to its
+        own body (:attr:`body_leg_length`, :attr:`body_mass`): with ``l`` and ``m`` the length
+        and mass ratios, times (durations, timeout) scale by ``sqrt(l)``, speeds by ``sqrt(l)``,
+        PD stiffness by ``m l`` (torque per rad, as ``mass g leg_length``) and damping by
+        ``m l sqrt(l)``, the balance feedback ``cd`` by ``1/l`` (rad/m), ``cv`` and the speed
+        gain by ``1/sqrt(l)`` (rad s/m), the contact-force test by ``m``; angles are unchanged.
+        The same gait (``self``) when the body is the gait's own or the gait has none. The
+        result has no :attr:`speed_anchors` (they are in the own body's units: call
+        :meth:`for_speed` first)."""
+        if self.body_leg_length is None or self.body_mass is None:
+            return self
+        ratio_l = leg_length / self.body_leg_length
+        ratio_m = mass / self.body_mass
+        if ratio_l == 1.0 and ratio_m == 1.0:
+            return self
+        t = math.sqrt(ratio_l)
+        k = ratio_m * ratio_l
+
+        def state(p: StateParams) -> StateParams:
+            return dataclasses.replace(
+                p, duration=p.duration * t, timeout=p.timeout * t, cd=p.cd / ratio_l,
+                cv=p.cv / t, cd_coronal=p.cd_coronal / ratio_l, cv_coronal=p.cv_coronal / t)
+
+        return dataclasses.replace(
+            self,
+            states=tuple(state(p) for p in self.states),
+            gains={g: (kp * k, kd * k * t) for g, (kp, kd) in self.gains.items()},
+            contact_force=self.contact_force * ratio_m,
+            start_speed=self.start_speed * t,
+            speed_target=None if self.speed_target is None else self.speed_target * t,
+            speed_gain=self.speed_gain / t,
+            body_leg_length=leg_length,
+            body_mass=mass,
+            speed_anchors=(),  # in the gait's own body's units: apply for_speed first
+        )
+
+
+def _interp(x: float, xs: list[float], ys: list[float]) -> float:
+    """Piecewise-linear ``y(x)`` through ``(xs, ys)`` (``xs`` ascending), held at the ends."""
+    if x <= xs[0]:
+        return ys[0]
+    for x0, x1, y0, y1 in zip(xs, xs[1:], ys, ys[1:], strict=False):
+        if x <= x1:
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0) if x1 > x0 else y1
+    return ys[-1]
+
+
+#: leg length (m, hips' height over the soles at rest) and mass (kg) of the bundled humanoid,
+#: the body the gaits below were tuned on, as :class:`~controllers.walking.simbicon.Simbicon`
+#: measures them
+BUNDLED_LEG_LENGTH, BUNDLED_MASS = 0.878, 70.00001
 
 #: Normal walk. Started from REFERENCE.md's 3D SIMBICON walk targets and tuned on the bundled
 #: humanoid by CMA-ES (walk speed, heading, pushes at random phases, 5 degree slopes; see
-#: docs/simbicon.md). Steady speed 1.05 m/s on level ground; no speed regulation (it made the
-#: uphill walk slower, see docs/simbicon.md).
+#: docs/simbicon.md). Steady speed 1.05 m/s on level ground (Froude 0.357); no speed regulation
+#: of its own (it made the uphill walk slower, see docs/simbicon.md). A speed command
+#: (``Simbicon(speed=V)``, ``mjchar run simbicon --speed V``) interpolates two anchors tuned by
+#: hand on the bundled humanoid at Froude 0.22 (less lean, more swing-hip flexion and coronal
+#: feedback) and 0.53 (more lean, less swing-hip flexion) and regulates towards V with
+#: ``speed_gain`` (docs/simbicon.md, "Speed command").
 WALK = Gait(
     name="walk",
     states=(
@@ -235,6 +355,16 @@ WALK = Gait(
     spine_pitch=-0.029,
     arm_swing=0.442,
     max_twist=0.21,
+    speed_gain=0.02,
+    body_leg_length=BUNDLED_LEG_LENGTH,
+    body_mass=BUNDLED_MASS,
+    froude=0.357,
+    speed_anchors=(
+        (0.22, {"state0_swing_hip": 0.666, "state1_swing_hip": 0.221, "torso_pitch": 0.2,
+                "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
+        (0.53, {"state0_swing_hip": 0.486, "state1_swing_hip": 0.041, "torso_pitch": 0.5,
+                "arm_swing": 0.6, "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
+    ),
     gains={
         "torso": (873.399, 87.34),
         "swing_hip": (260.881, 26.088),
@@ -285,6 +415,8 @@ CROUCH = Gait(
     max_twist=0.21,
     speed_target=0.9,
     speed_gain=0.002,
+    body_leg_length=BUNDLED_LEG_LENGTH,
+    body_mass=BUNDLED_MASS,
     gains={
         "torso": (843.423, 84.342),
         "swing_hip": (337.36, 33.736),

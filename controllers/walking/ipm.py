@@ -681,7 +681,9 @@ def make_ipm(character: Character | None = None, speed=0.0, heading=None, **opts
 
 register(ControllerSpec(
     name="ipm", label="IPM stepping", kind="walker",
-    factory=lambda character, target=None, **options: make_ipm(character, **options),
+    # no speed given (`mjchar run ipm`, `mjchar gait ipm`): 1 m/s
+    factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
+                                                                           **options),
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
     options=("speed", "heading"), steps=True,
     # walks 60 s with no fall from 0.3 to 1.4 m/s, steady speed within 0.01 m/s of the command;

@@ -37,12 +37,20 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
-from .gaits import Gait, get_gait
+from .gaits import GRAVITY, Gait, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
+#: world-frame gains ``(kp N m/rad, kd N m s/rad)`` of a gait that leaves them out, for the gait's
+#: own body (scaled with it, :meth:`~controllers.walking.gaits.Gait.scaled`)
+DEFAULT_GAINS = {
+    "torso": (1000.0, 100.0),
+    "stance_twist": (300.0, 30.0),
+    "swing_hip": (600.0, 60.0),
+    "swing_ankle_world": (100.0, 10.0),
+}
 
 
 def _rot_x(a: float) -> np.ndarray:
@@ -148,8 +156,18 @@ class Simbicon:
             its dict.
         heading: desired heading (rad, world yaw); ``None`` = the pelvis's heading at reset.
         first_stance: ``"left"`` or ``"right"``: the stance leg of state 0.
+        speed: commanded forward speed (m/s); ``None``: the gait's own speed. A command is a
+            feed-forward (:meth:`~controllers.walking.gaits.Gait.for_speed`: the gait's
+            ``speed_anchors`` interpolated at the command's Froude speed ``v / sqrt(g L)``, ``L``
+            the body's leg length) plus the gait's step-to-step speed regulation towards it
+            (``speed_target``); both follow :attr:`command`, which ramps from the gait's own
+            speed to ``speed`` (a fast gait from a standstill falls).
         overrides: gait parameters to change
             (:meth:`~controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
+
+    The gait is scaled to the body at :meth:`reset`
+    (:meth:`~controllers.walking.gaits.Gait.scaled`: times, gains and feedback by the body's leg
+    length and mass against the gait's own body); :attr:`gait` is the gait in use from then on.
 
     Attributes (read by scenarios):
         state: FSM state 0-3 (0/1: ``first_stance`` leg on the ground; 0/2 lift-off, 1/3 swing).
@@ -160,6 +178,10 @@ class Simbicon:
         step_speed: mean forward speed of the centre of mass over the last step (m/s).
         speed_offset: the speed regulation's swing-hip offset (rad; 0 unless the gait has a
             ``speed_target``).
+        leg_length: the body's leg length (m; hips' height over the soles at rest), after reset.
+        command: with a speed command, the command in use (m/s): it starts at the gait's own
+            speed and ramps to ``speed`` at the gait's ``speed_acceleration``, updated at every
+            lift-off.
     """
 
     name = "simbicon"
@@ -171,9 +193,17 @@ class Simbicon:
         *,
         heading: float | None = None,
         first_stance: str = "left",
+        speed: float | None = None,
         **overrides,
     ):
-        self.gait = get_gait(gait, **overrides)
+        self.gait = self.base_gait = get_gait(gait, **overrides)
+        if speed is not None:
+            if not math.isfinite(speed) or speed <= 0.0:
+                raise ControllerError(f"simbicon: the speed command must be > 0 m/s, got {speed}")
+            self.base_gait.for_speed(1.0)  # a gait that takes no command fails here
+        self.speed = speed
+        self.command: float | None = None
+        self.leg_length: float | None = None
         if first_stance not in _SIDES:
             raise ControllerError(f"first_stance must be 'left' or 'right', got {first_stance!r}")
         self.heading = heading
@@ -201,6 +231,7 @@ class Simbicon:
         self.speed_offset = 0.0
         self.step_speed: float | None = None
         self._step_start = (character.time, character.com())
+        self._command_time = character.time
         self._limits = character.torque_limits()[self._act_dof]
         del m
         self._ready = True
@@ -220,6 +251,40 @@ class Simbicon:
             out[key] = _Hinge(int(dof), int(m.jnt_qposadr[j]), j, int(self._dof2act[dof]))
         return out
 
+    def _body_gait(self, ch: Character, rest: mujoco.MjData) -> Gait:
+        """The gait for this body (see the class docstring); with a speed command, the gait at
+        the command's start (the gait's own speed)."""
+        hips = [rest.xpos[ch.body_id(ch.role(f"{side}_hip"))][2] for side in _SIDES]
+        self.leg_length = float(np.mean(hips)) - ch.lowest_point(ch.model.qpos0)
+        self._mass = ch.mass
+        g = self.base_gait
+        missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
+        if missing:
+            g = g.with_overrides(**missing)
+        self._full_gait = g
+        if self.speed is None:
+            return g.scaled(self.leg_length, ch.mass)
+        self._froude_unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
+        self.command = g.froude * self._froude_unit
+        return self._command_gait(self.command)
+
+    def _command_gait(self, v: float) -> Gait:
+        """The body's gait for a commanded speed ``v`` (m/s): feed-forward and regulation."""
+        g = self._full_gait.for_speed(v / self._froude_unit).scaled(self.leg_length, self._mass)
+        return g.with_overrides(speed_target=float(v))
+
+    def _ramp_command(self, t: float) -> None:
+        """At a lift-off: move the command towards :attr:`speed` by at most
+        ``speed_acceleration`` g since the last update, and take the gait for it."""
+        t0, v0 = self._command_time, self.command
+        dv = self.base_gait.speed_acceleration * GRAVITY * (t - t0)
+        v = v0 + min(max(self.speed - v0, -dv), dv)
+        self._command_time = t
+        if v != v0:
+            self.command = v
+            self.gait = self._command_gait(v)
+            self._targets = [self._state_targets(s) for s in range(4)]
+
     def _map(self, ch: Character) -> None:
         m = ch.model
         if not np.all(ch.actuator_qpos >= 0):
@@ -233,6 +298,7 @@ class Simbicon:
         rest.qpos[:] = m.qpos0
         mujoco.mj_kinematics(m, rest)
         self._rest = rest
+        self.gait = self._body_gait(ch, rest)
         pelvis = ch.role("pelvis")
         self._pelvis = ch.body_id(pelvis)
         Rp = rest.xmat[self._pelvis].reshape(3, 3)
@@ -346,13 +412,13 @@ class Simbicon:
             kp[sel], kd[sel] = gkp, gkd
         self._kp, self._kd = kp, kd
         self._base = base
-        kpt, kdt = g.gains.get("torso", (1000.0, 100.0))
+        kpt, kdt = g.gains["torso"]
         kpy, kdy = g.gains.get("torso_yaw", (kpt, kdt))
-        self._twist_kp, self._twist_kd = g.gains.get("stance_twist", (300.0, 30.0))
+        self._twist_kp, self._twist_kd = g.gains["stance_twist"]
         self._torso_kp = np.array([kpt, kpt, kpy])
         self._torso_kd = np.array([kdt, kdt, kdy])
-        self._swing_gains = g.gains.get("swing_hip", (600.0, 60.0))
-        self._ankle_world_gains = g.gains.get("swing_ankle_world", (100.0, 10.0))
+        self._swing_gains = g.gains["swing_hip"]
+        self._ankle_world_gains = g.gains["swing_ankle_world"]
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -418,6 +484,8 @@ class Simbicon:
             self.state_start = t
             self.transitions.append((t, self.state))
             if self.state % 2 == 0:
+                if self.speed is not None:
+                    self._ramp_command(t)
                 self._step_update(character, t)
 
     def _step_update(self, character: Character, t: float) -> None:
@@ -591,15 +659,20 @@ def make_simbicon(
     """The SIMBICON controller for ``character`` (only used for validation here; the controller
     binds to a character at ``reset``) with ``gait`` and parameter ``overrides``.
 
-    Besides gait parameters, ``heading`` (rad) and ``first_stance`` go to :class:`Simbicon`.
+    Besides gait parameters, ``heading`` (rad), ``first_stance`` and ``speed`` (m/s; ``None``:
+    the gait's own) go to :class:`Simbicon`.
     """
-    kw = {k: overrides.pop(k) for k in ("heading", "first_stance") if k in overrides}
+    kw = {k: overrides.pop(k) for k in ("heading", "first_stance", "speed") if k in overrides}
     return Simbicon(gait, **kw, **overrides)
 
 
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
-    scenarios=("walk",), default_scenario="walk", options=("gait",),
+    scenarios=("walk",), default_scenario="walk", options=("gait", "speed"),
+    # the walk gait's speed command: 60 s with no fall at seeds 0-2 and a steady speed within
+    # 0.15 m/s of the command from 0.7 to 1.5 m/s on the bundled humanoid and on its skeleton
+    # scaled to 1.5 m / 50 kg and 1.95 m / 100 kg (docs/simbicon.md); no --speed: the gait's own
+    limits=(("speed", 0.7, 1.5),),
     timestep=DEFAULT_TIMESTEP, push="walking",
     bench=("walk", "push-search", "slopes"), expected=("walk",)))

@@ -348,9 +348,11 @@ def _seed_label(seed) -> str:
 
 
 def factory_options(spec, scenario: str, config: BenchConfig) -> dict:
-    """Factory options of a bench run: walkers that take a speed walk at ``ipm_speed`` in the
-    walking scenarios and stand (speed 0) otherwise."""
-    if "speed" in spec.options:
+    """Factory options of a bench run: walkers that take a speed and can stand (speed 0 within
+    their limits: IPM) walk at ``ipm_speed`` in the walking scenarios and stand (speed 0)
+    otherwise; walkers that only walk (SIMBICON) walk at their own gait's speed."""
+    lim = spec.limit("speed")
+    if "speed" in spec.options and (lim is None or lim[0] <= 0.0):
         return {"speed": config.ipm_speed if scenario in ("walk", "slopes") else 0.0}
     return {}
 

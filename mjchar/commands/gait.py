@@ -59,8 +59,6 @@ def _walker_stats(args, spec):
         if name == "speed":
             check_speed(spec, value)
         options[name] = value
-    if "speed" in spec.options and "speed" not in options:
-        options["speed"] = 1.0
     character = Character(args.model)
     if spec.timestep:
         character.set_timestep(spec.timestep)

@@ -47,8 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="replays only: a trajectory saved by mjchar samcon / mjchar trajopt "
                         "(default for samcon_replay / cmaes_replay: the bundled one)")
     p.add_argument("--speed", type=number("speed"), metavar="M/S",
-                   help="walk scenario, controllers taking a speed (ipm): desired forward speed "
-                        "(default 1.0; 0 stops and stands; each controller's range is checked)")
+                   help="walk scenario, controllers taking a speed (ipm, simbicon): desired "
+                        "forward speed (default: the controller's own, ipm 1.0, simbicon its "
+                        "gait's; ipm: 0 stops and stands; each controller's range is checked)")
     p.add_argument("--heading", type=number("heading"), metavar="DEG",
                    help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
     p.add_argument("--gait", metavar="NAME",
@@ -130,8 +131,11 @@ def _controller_options(spec, args: argparse.Namespace, scenario: str) -> dict:
         options["height"] = squat_profile(args.squat)
     if "gait" in spec.options:
         options["gait"] = args.gait
-    if "speed" in spec.options:
-        options["speed"] = args.speed if scenario == "walk" else 0.0
+    if "speed" in spec.options:  # walk: as typed, else the controller's own; elsewhere stand
+        if scenario != "walk":
+            options["speed"] = 0.0
+        elif args.speed is not None:
+            options["speed"] = args.speed
     if "heading" in spec.options:
         options["heading"] = args.heading
     return options

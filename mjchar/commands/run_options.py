@@ -76,7 +76,8 @@ class Option:
 
 
 OPTIONS: tuple[Option, ...] = (
-    Option("speed", "--speed", 1.0, _option("speed", ("walk",)),
+    # not typed: the controller's own speed (its factory's default: IPM 1 m/s, SIMBICON its gait's)
+    Option("speed", "--speed", None, _option("speed", ("walk",)),
            "the walk scenario of {names}"),
     Option("heading", "--heading", None, _option("heading"), "{names}"),
     Option("gait", "--gait", "walk", _option("gait"), "{names}"),
@@ -190,7 +191,7 @@ def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float |
         default_duration: the scenario's run length when ``--duration`` is not given (a push
             must start within the run).
     """
-    if "speed" in spec.options and scenario == "walk":
+    if "speed" in spec.options and scenario == "walk" and args.speed is not None:
         check_speed(spec, args.speed)
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
         raise _bad("--heading", args.heading,
