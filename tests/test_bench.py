@@ -417,3 +417,25 @@ def test_skeletons_section(tmp_path, main, capsys):
                     progress=False, plots=False)
     assert main(["bench", "--skeletons-only", "--controllers", "spd"]) == 2
     assert "--skeletons-only runs no matrix" in capsys.readouterr().err
+
+
+def test_skeletons_walker_checks_command_speeds():
+    """The walking checks command every configured speed at every seed and report each run;
+    the summary names the speeds, and a speed out of the band fails the check."""
+    from mjchar.bench.skeletons import SkeletonConfig, run_skeletons
+
+    cfg = SkeletonConfig(checks=("simbicon", "ipm"), rigs=("humanoid-150-m-zup",),
+                         walk_duration=4.0, steady_window=2.0, seeds=(0,),
+                         simbicon_speeds=(0.9, 1.2), ipm_speed=0.6, speed_tolerance=0.3)
+    (rig,) = run_skeletons(cfg, shared_bvh=None)["rigs"]
+    sim, ipm = rig["checks"]["simbicon"], rig["checks"]["ipm"]
+    assert sorted(sim["runs"]) == ["0.9/0", "1.2/0"] and list(ipm["runs"]) == ["0.6/0"]
+    assert "at 0.9, 1.2 m/s" in sim["summary"]
+    for check in (sim, ipm):
+        assert not any(r["fell"] for r in check["runs"].values())
+    assert sim["runs"]["1.2/0"]["steady_speed_mps"] > sim["runs"]["0.9/0"]["steady_speed_mps"]
+    strict = run_skeletons(SkeletonConfig(checks=("ipm",), rigs=("humanoid-150-m-zup",),
+                                          walk_duration=2.0, steady_window=1.0, seeds=(0,),
+                                          ipm_speed=1.2, speed_tolerance=0.01),
+                           shared_bvh=None)["rigs"][0]["checks"]["ipm"]
+    assert not strict["ok"] and "m/s seed 0 at" in strict["summary"]
