@@ -29,10 +29,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from dataclasses import dataclass, field
 
 from bvh.errors import MjcharError
+
+from .similarity import similarity_factors
 
 #: standard gravity (m/s^2), for Froude numbers and body scaling
 GRAVITY = 9.81
@@ -274,8 +275,8 @@ class Gait:
         ratio_m = mass / self.body_mass
         if ratio_l == 1.0 and ratio_m == 1.0:
             return self
-        t = math.sqrt(ratio_l)
-        k = ratio_m * ratio_l
+        f = similarity_factors(ratio_l, ratio_m)
+        t, k = f["time"], f["torque_gain"]
 
         def state(p: StateParams) -> StateParams:
             return dataclasses.replace(

@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..core.base import ControllerError
+from .similarity import similarity_factors
 
 GRAVITY = 9.81
 
@@ -198,12 +199,11 @@ class IPMParams:
         r, q = leg_length / TUNED_LEG_LENGTH, mass / TUNED_MASS
         if abs(r - 1) < 1e-6 and abs(q - 1) < 1e-6:
             return self
-        t = math.sqrt(r)
-        factor = {**dict.fromkeys(_LENGTH, r), **dict.fromkeys(_TIME, t),
-                  **dict.fromkeys(_SPEED, t), **dict.fromkeys(_RATE, 1 / t),
-                  **dict.fromkeys(_RATE2, 1 / r), **dict.fromkeys(_TORQUE_GAIN, q * r),
-                  **dict.fromkeys(_DAMPING_GAIN, q * r * t), **dict.fromkeys(_FORCE, q),
-                  **dict.fromkeys(_TORQUE, q * r)}
+        f = similarity_factors(r, q)
+        kinds = ((_LENGTH, "length"), (_TIME, "time"), (_SPEED, "speed"), (_RATE, "rate"),
+                 (_RATE2, "per_length"), (_TORQUE_GAIN, "torque_gain"),
+                 (_DAMPING_GAIN, "damping_gain"), (_FORCE, "force"), (_TORQUE, "torque"))
+        factor = {name: f[kind] for names, kind in kinds for name in names}
         changes = {}
         for name, k in factor.items():
             v = getattr(self, name)
