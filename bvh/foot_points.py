@@ -98,3 +98,64 @@ class _FootPoints:
                 p[:, 2] -= drop
                 pts.append(p)
         return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def foot_contact(points: np.ndarray, frame_time: float, height: float, speed: float,
+                 velocity: np.ndarray | None = None) -> np.ndarray:
+    """``(F,)`` bool: frames where one of a foot's points ``(F, P, 3)`` (z up, floor at 0) is
+    below ``height`` metres and moves slower than ``speed`` m/s (3-D; ``velocity`` ``(F, P, 3)``
+    when the caller has it, else central differences). Speed does most of the work: a swing foot
+    moves at metres per second, a stance foot's contact points barely move; the height bound is
+    generous because mocap feet are rarely level with the floor all through stance."""
+    if velocity is None:
+        velocity = (np.gradient(points, frame_time, axis=0) if len(points) > 1
+                    else np.zeros_like(points))
+    return np.any((points[..., 2] < height)
+                  & (np.linalg.norm(velocity, axis=-1) < speed), axis=1)
+
+
+#: a foot supports the body in a frame when one of its points is within this fraction of the
+#: clip's mean root height above the clip's floor (the shared walks' stance feet sit up to 9 cm
+#: above it: the take's floor is not the clip's lowest point) ...
+CONTACT_HEIGHT = 0.12
+#: ... and moves slower than this fraction of sqrt(g x mean root height) (Froude-scaled, so one
+#: rule serves a child and a tall adult: about 0.75 m/s for a 0.93 m root height)
+CONTACT_SPEED = 0.25
+
+
+def contact_grounding(feet: dict[str, np.ndarray], frame_time: float,
+                      root_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame vertical shifts that put a supporting foot on the floor.
+
+    Mocap stance feet float centimetres above the floor (marker offsets, a floor fitted to the
+    whole take, feet that sink through stance), which a physical foot cannot do. A frame where
+    some foot supports the body (:func:`foot_contact` with :data:`CONTACT_HEIGHT` x
+    ``root_height`` and :data:`CONTACT_SPEED` x ``sqrt(g root_height)``) is shifted so that its
+    lowest foot point is on the clip's floor (as ``floor="frame"``); a frame where no foot
+    supports (the flight of a run or a jump) takes the shift interpolated linearly from the
+    supported frames around it, so flight keeps its height above the floor, but never so much
+    that a foot goes below the floor. A hop lower than the height bound counts as support.
+
+    Args:
+        feet: foot points per side ``(F, P, 3)`` (metres, z up) in the clip's placement.
+        frame_time: seconds per frame.
+        root_height: the clip's mean root height above its floor (metres): the length scale.
+
+    Returns:
+        ``grounding`` ``(F,)`` metres to add to each frame's heights (``<= 0``; all zero when no
+        frame is supported) and ``support`` ``(F,)`` bool, the supported frames.
+    """
+    sides = [p for p in feet.values() if p.size]
+    if not sides:
+        raise ValueError("contact grounding needs foot points")
+    floor = min(float(np.min(p[..., 2])) for p in sides)
+    lift = np.array([0.0, 0.0, floor])
+    support = np.any([foot_contact(p - lift, frame_time, CONTACT_HEIGHT * root_height,
+                                   CONTACT_SPEED * np.sqrt(9.81 * root_height))
+                      for p in sides], axis=0)
+    frame = floor - np.min([np.min(p[..., 2], axis=1) for p in sides], axis=0)  # floor="frame"
+    if not support.any():
+        return np.zeros(len(frame)), support
+    idx = np.flatnonzero(support)
+    grounding = np.maximum(np.interp(np.arange(len(frame)), idx, frame[idx]), frame)
+    return grounding, support

@@ -28,10 +28,12 @@ generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-
    the clip's limb is nearly straight (see :func:`bvh.projection._project_ik`). Frames are
    solved in order, each warm-started with the previous frame's correction.
 4. **Floor.** The clip is shifted vertically so the lowest foot point over the clip (foot box
-   corners, or foot sites) is at ``z = 0`` (``floor="clip"``). With ``floor="frame"`` every
-   frame is shifted on its own so that its lowest foot point touches the floor: for motions that
-   always have a foot on the ground (walks, idles), whose mocap feet otherwise float centimetres
-   above the floor in mid-stance; not for jumps or runs.
+   corners, or foot sites) is at ``z = 0`` (``floor="clip"``). Mocap stance feet then float
+   centimetres above the floor in mid-stance, which a physical foot cannot follow, so by default
+   (``floor="contact"``) every frame where a foot supports the body (low and slow) is shifted
+   again so its lowest foot point touches the floor, and frames in flight (runs, jumps) take the
+   shift interpolated from the supported frames around them. ``floor="frame"`` shifts every
+   frame, flight included.
 5. **Loops.** A cyclic clip (given, or detected when its first and last poses agree within
    :data:`CYCLIC_POSE_TOLERANCE` once heading and horizontal position are removed) repeats with
    period ``duration = (F - 1) frame_time`` (the last frame is the first of the next cycle). Each
@@ -62,6 +64,8 @@ from .foot_points import (
     FOOT_SIDES,
     _FootPoints,
     _geom_local_points,  # noqa: F401  (tests import it from here)
+    contact_grounding,
+    foot_contact,
 )
 from .io import load
 from .joint_map import _build_slots, _model_info
@@ -91,6 +95,9 @@ __all__ = [
 
 #: metres: first and last poses (root-relative, heading-aligned) closer than this make a clip cyclic
 CYCLIC_POSE_TOLERANCE = 0.025
+
+#: ``floor=`` choices of :class:`ReferenceMotion`
+FLOOR_MODES = ("contact", "clip", "frame")
 #: radians: a cyclic clip whose heading changes less than this per cycle loops without turning
 TURN_THRESHOLD = np.radians(10.0)
 #: roles whose joints (and the end sites below them) count as end effectors in error reports
@@ -114,9 +121,11 @@ class ReferenceMotion:
         project: for bodies with fewer rotational dofs than the BVH joint (the ``hinge`` model's
             knees and elbows), correct the projected angles with damped-least-squares IK so the
             limb's joints land where the clip puts them. ``False``: projection only.
-        floor: ``"clip"`` (one vertical shift for the whole clip: its lowest foot point at
-            ``z = 0``) or ``"frame"`` (each frame shifted so its own lowest foot point is at
-            ``z = 0``; for motions with a foot on the ground throughout).
+        floor: ``"contact"`` (default: every frame where a foot supports the body shifted so
+            its lowest foot point is at ``z = 0``, frames in flight interpolated between them:
+            :func:`bvh.foot_points.contact_grounding`), ``"clip"`` (one vertical shift for the
+            whole clip: its lowest foot point at ``z = 0``) or ``"frame"`` (each frame shifted so
+            its own lowest foot point is at ``z = 0``, flight included).
 
     Attributes:
         model, info: the model and its metadata.
@@ -128,13 +137,14 @@ class ReferenceMotion:
             ``joint_body_ids``: ``(K,)`` their body ids.
         z_offset: metres added to every height to put the lowest foot point at ``z = 0``.
         grounding: ``(F,)`` metres added to each frame's heights on top of ``z_offset`` (zero with
-            ``floor="clip"``; ``<= 0`` with ``floor="frame"``).
+            ``floor="clip"``; ``<= 0`` otherwise); ``support``: ``(F,)`` bool, the frames with a
+            supporting foot (all with ``"clip"`` and ``"frame"``).
         cycle_heading: radians turned per cycle; ``cycle_displacement``: ``(2,)`` metres the root
             moves per cycle (frame ``F-1`` minus frame 0, horizontal).
     """
 
     def __init__(self, model: mujoco.MjModel, motion: Motion, *, info=None,
-                 cyclic: bool | None = None, project: bool = True, floor: str = "clip"):
+                 cyclic: bool | None = None, project: bool = True, floor: str = "contact"):
         if not isinstance(model, mujoco.MjModel):
             raise ReferenceMotionError(
                 f"model must be a mujoco.MjModel, got {type(model).__name__}")
@@ -171,8 +181,9 @@ class ReferenceMotion:
                                                    self._alg, qpos, fk)
 
         # floor placement: lowest foot point over the clip (or of every frame) at z = 0
-        if floor not in ("clip", "frame"):
-            raise ReferenceMotionError(f"floor must be 'clip' or 'frame', got {floor!r}")
+        if floor not in FLOOR_MODES:
+            raise ReferenceMotionError(
+                f"floor must be one of {', '.join(FLOOR_MODES)}, got {floor!r}")
         self.floor = floor
         self._feet = _FootPoints(model, self.info)
         pts = self._sample_points(qpos)
@@ -180,8 +191,15 @@ class ReferenceMotion:
         lowest = (np.min(all_pts[..., 2], axis=1) if all_pts.size
                   else np.zeros(self.n_frames))                    # (F,) per frame
         self.z_offset = float(-np.min(lowest))
-        self.grounding = (np.min(lowest) - lowest if floor == "frame"
-                          else np.zeros(self.n_frames))
+        self.grounding = np.zeros(self.n_frames)
+        self.support = np.ones(self.n_frames, dtype=bool)  # frames with a foot on the floor
+        if floor == "frame":
+            self.grounding = np.min(lowest) - lowest
+        elif floor == "contact" and all(k in pts for k in FOOT_SIDES):
+            root_z = qpos[:, self._root.qadr[0] + 2] + self.z_offset
+            self.grounding, self.support = contact_grounding(
+                {k: pts[k] for k in FOOT_SIDES}, self.frame_time,
+                max(float(np.mean(root_z)), 1e-3))
         lift = self.z_offset + self.grounding                         # (F,)
         qpos[:, self._root.qadr[0] + 2] += lift
         shift = lift[:, None, None] * np.array([0.0, 0.0, 1.0])       # (F, 1, 3)
@@ -425,11 +443,10 @@ class ReferenceMotion:
         """``(F, 2)`` bool foot-contact labels per frame, columns (left, right).
 
         A foot is in contact when one of its lowest points (foot and toe box corners, or foot
-        sites) is below ``height`` metres and moves slower than ``speed`` m/s (3-D speed, central
-        differences; across the seam for cyclic clips). Speed does most of the work: a swing foot
-        moves at metres per second, a stance foot's contact points barely move. The height bound
-        is generous because mocap feet are rarely level with the floor all through stance (the
-        shared clips' stance feet float up to ~9 cm above the placed floor at heel strike).
+        sites) is below ``height`` metres and moves slower than ``speed`` m/s
+        (:func:`bvh.foot_points.foot_contact`; central differences across the seam for cyclic
+        clips). The shared clips' stance feet float up to ~9 cm above the placed floor at heel
+        strike, hence the generous height.
         """
         if set(self._foot_pts) != set(FOOT_SIDES):
             raise ReferenceMotionError("the model has no recognisable left/right feet (no ankle "
@@ -438,17 +455,14 @@ class ReferenceMotion:
         dt = self.frame_time
         for c, side in enumerate(FOOT_SIDES):
             p = self._foot_pts[side]  # (F, P, 3)
-            if self.n_frames > 1:
+            vel = None
+            if self.n_frames > 1 and self.cyclic:  # central differences across the seam
                 vel = np.gradient(p, dt, axis=0)
-                if self.cyclic:  # central differences across the seam
-                    before = self._cycle_apply_points(p[-2][None], np.array([-1]))[0]
-                    after = self._cycle_apply_points(p[1][None], np.array([1]))[0]
-                    vel[0] = (p[1] - before) / (2 * dt)
-                    vel[-1] = (after - p[-2]) / (2 * dt)
-                sp = np.linalg.norm(vel, axis=-1)
-            else:
-                sp = np.zeros(p.shape[:2])
-            out[:, c] = np.any((p[..., 2] < height) & (sp < speed), axis=1)
+                before = self._cycle_apply_points(p[-2][None], np.array([-1]))[0]
+                after = self._cycle_apply_points(p[1][None], np.array([1]))[0]
+                vel[0] = (p[1] - before) / (2 * dt)
+                vel[-1] = (after - p[-2]) / (2 * dt)
+            out[:, c] = foot_contact(p, dt, height, speed, velocity=vel)
         return out
 
     def foot_contacts(self, t, height: float = 0.1, speed: float = 0.5) -> np.ndarray:

@@ -82,16 +82,18 @@ def test_track_with_a_motion_file(capsys):
     assert out["root_force_mean_N"] > 0
 
 
-def test_frame_floor_places_every_frame_of_the_reference(capsys):
+def test_floor_modes_place_the_reference(capsys):
     clip = str(shared_clip("walk60.bvh"))
     runs = {}
-    for floor in ("clip", "frame"):
+    for floor in ("clip", "frame", "contact"):
         assert main(["run", "hand_of_god", "--motion", clip, "--json", "--duration", "1.0",
                      "--floor", floor]) == 0
         runs[floor] = json.loads(capsys.readouterr().out)
     # another reference, so another run: both track it closely
     assert runs["clip"]["tracking_error_m"] != runs["frame"]["tracking_error_m"]
     assert max(r["tracking_error_m"] for r in runs.values()) < 0.05
+    # a foot supports every frame of walk60: contact places it as frame does
+    assert runs["contact"]["tracking_error_m"] == runs["frame"]["tracking_error_m"]
 
 
 def test_run_offers_every_registered_controller_and_scenario(capsys):

@@ -413,7 +413,7 @@ def _lowest_foot_corner_per_frame(model, ref) -> np.ndarray:
 def test_clip_is_placed_with_lowest_foot_point_on_the_floor(name):
     motion = bvh.load(shared_clip(name))
     model = _model(motion, "hinge", name)
-    ref = ReferenceMotion(model, motion)
+    ref = ReferenceMotion(model, motion, floor="clip")
     assert _lowest_foot_corner_per_frame(model, ref).min() == pytest.approx(0.0, abs=1e-9)
     assert not ref.grounding.any()
 
@@ -421,7 +421,7 @@ def test_clip_is_placed_with_lowest_foot_point_on_the_floor(name):
 def test_frame_floor_puts_a_foot_on_the_floor_in_every_frame(walk60):
     motion = bvh.load(walk60)
     model = _model(motion, "hinge", "walk60.bvh")
-    clip = ReferenceMotion(model, motion)
+    clip = ReferenceMotion(model, motion, floor="clip")
     ref = ReferenceMotion(model, motion, floor="frame")
     np.testing.assert_allclose(_lowest_foot_corner_per_frame(model, ref), 0.0, atol=1e-9)
     # the clip floats by up to ~4 cm mid-stance with the whole-clip placement
@@ -434,6 +434,48 @@ def test_frame_floor_puts_a_foot_on_the_floor_in_every_frame(walk60):
                                          ref.grounding), atol=1e-9)
     with pytest.raises(ReferenceMotionError, match="floor must be"):
         ReferenceMotion(model, motion, floor="lowest")
+
+
+def _jump(stand_floats: float) -> Motion:
+    """The bundled humanoid standing 1 s, floating ``stand_floats`` m in its second half-second
+    of stance, with a 0.25 m jump (frames 60-99, a parabola of the root) in between."""
+    m = humanoid_rest_motion(n_frames=160)
+    t = np.arange(40) / 40
+    m.local_positions[60:100, 0, 1] += 4 * 0.25 * t * (1 - t)
+    m.local_positions[110:, 0, 1] += stand_floats
+    return m
+
+
+def test_contact_floor_grounds_supported_frames_and_keeps_flight():
+    m = _jump(0.03)
+    model = _model(humanoid_rest_motion(), "hinge", "humanoid-rest")
+    clip = ReferenceMotion(model, m, floor="clip")
+    frame = ReferenceMotion(model, m, floor="frame")
+    contact = ReferenceMotion(model, m)  # the default
+    assert contact.floor == "contact"
+    z = model.jnt_qposadr[0] + 2
+    # standing frames, before and after the jump, have their feet on the floor
+    np.testing.assert_allclose(contact.frame_qpos[[0, 30, 130, 150], z],
+                               frame.frame_qpos[[0, 30, 130, 150], z], atol=1e-9)
+    assert clip.frame_qpos[130, z] - contact.frame_qpos[130, z] == pytest.approx(0.03, abs=1e-6)
+    # the flight keeps its height (interpolated shift: none here), "frame" flattens it
+    flight = ~contact.support
+    assert flight[75:85].all() and contact.support[:55].all() and contact.support[115:].all()
+    assert contact.frame_qpos[80, z] - contact.frame_qpos[0, z] == pytest.approx(
+        0.25 * 4 * 0.5 * 0.5, abs=0.01)
+    assert frame.frame_qpos[80, z] - frame.frame_qpos[0, z] < 0.01
+    # never a foot below the floor
+    assert _lowest_foot_corner_per_frame(model, contact).min() > -1e-9
+
+
+@pytest.mark.parametrize("name", SHARED_CLIPS)
+def test_contact_floor_equals_frame_floor_on_walks_and_idle(name):
+    motion = bvh.load(shared_clip(name))
+    model = _model(motion, "hinge", name)
+    ref = ReferenceMotion(model, motion)
+    assert ref.support.all()  # a foot supports the body in every frame of these clips
+    np.testing.assert_allclose(ref.grounding,
+                               ReferenceMotion(model, motion, floor="frame").grounding, atol=1e-12)
 
 
 def test_walk_contacts_alternate_and_idle_stands():

@@ -51,10 +51,14 @@ def _number(what: str, ok, expected: str):
     return parse
 
 
-def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "clip") -> None:
-    """``--floor clip|frame``: how the reference clip is placed on the floor (``default=None``
-    lets a command tell whether it was typed)."""
-    p.add_argument("--floor", choices=("clip", "frame"), default=default,
-                   help="place the clip on the floor by its lowest foot point over the whole "
-                        "clip (default), or every frame by its own lowest foot point (walks: "
-                        "mocap stance feet float centimetres above the floor otherwise)")
+def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "contact") -> None:
+    """``--floor contact|clip|frame``: how the reference clip is placed on the floor
+    (``default=None`` lets a command tell whether it was typed)."""
+    from bvh.reference import FLOOR_MODES
+
+    p.add_argument("--floor", choices=FLOOR_MODES, default=default,
+                   help="contact (default): every frame with a supporting foot puts its lowest "
+                        "foot point on the floor (mocap stance feet float centimetres above it "
+                        "otherwise), frames in flight are interpolated; clip: one shift for the "
+                        "whole clip, by its lowest foot point; frame: every frame, flight "
+                        "included")

@@ -36,7 +36,7 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     add(p)
 
 
-def load_reference(path: str, model, floor: str = "clip"):
+def load_reference(path: str, model, floor: str = "contact"):
     """``(character_model, ReferenceMotion)`` for a BVH clip on ``model`` (default: the bundled
     humanoid), placed on the floor per ``floor`` (see ``ReferenceMotion``); a clip the model
     cannot follow raises an ``MjcharError`` with the reason."""
