@@ -230,3 +230,12 @@ def test_every_registered_controller_runs_its_default_scenario(name, capsys):
     assert out["sim_time_s"] == pytest.approx(0.5, abs=0.02)
     if spec.default_scenario in spec.expected:
         assert not out["fell"]
+
+
+def test_reference_floor_by_controller():
+    """Only a controller with a root force follows a floating clip; the rest track it grounded."""
+    from controllers.core import registry
+
+    floors = {n: registry.get(n).floor for n in registry.names()}
+    assert floors["hand_of_god"] == "clip"
+    assert {f for n, f in floors.items() if n != "hand_of_god"} == {"contact"}

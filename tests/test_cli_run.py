@@ -94,6 +94,10 @@ def test_floor_modes_place_the_reference(capsys):
     assert max(r["tracking_error_m"] for r in runs.values()) < 0.05
     # a foot supports every frame of walk60: contact places it as frame does
     assert runs["contact"]["tracking_error_m"] == runs["frame"]["tracking_error_m"]
+    # hand-of-god, which has a root force, follows the clip as recorded by default
+    assert main(["run", "hand_of_god", "--motion", clip, "--json", "--duration", "1.0"]) == 0
+    assert json.loads(capsys.readouterr().out)["tracking_error_m"] == \
+        runs["clip"]["tracking_error_m"]
 
 
 def test_run_offers_every_registered_controller_and_scenario(capsys):

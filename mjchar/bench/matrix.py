@@ -190,7 +190,7 @@ class BenchContext:
         self.video_dir = video_dir
         self.log = log
         self.track_motion = default_track_motion()
-        self._refs: dict[str, object] = {}
+        self._refs: dict[tuple[str, str], object] = {}
         self._trajs: dict[str, object] = {}
         self.videos: list[dict] = []
 
@@ -199,14 +199,16 @@ class BenchContext:
 
         return Character(self.base_model, timestep=timestep)
 
-    def reference(self, path: Path):
-        key = str(path)
+    def reference(self, path: Path, floor: str = "contact"):
+        """The clip at ``path`` as a ReferenceMotion placed by ``floor`` (cached)."""
+        key = (str(path), floor)
         if key not in self._refs:
             import bvh
             from bvh.reference import ReferenceMotion
 
             ch = self.character()
-            self._refs[key] = ReferenceMotion(ch.model, bvh.load(path), info=ch.info)
+            self._refs[key] = ReferenceMotion(ch.model, bvh.load(path), info=ch.info,
+                                              floor=floor)
         return self._refs[key]
 
     def trajectory(self, name: str):
@@ -323,7 +325,7 @@ def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
         if spec.kind == "replay":
             runs.append(_replay_run(ctx, cell_video, name))
         else:
-            ref = ctx.reference(ctx.track_motion)
+            ref = ctx.reference(ctx.track_motion, spec.floor)
             ch, c = build_controller(ctx, name, scenario, ref)
             runs.append(_run_one(ctx, cell_video, ctx.track_motion.name, None, ref,
                                  lambda cb: S.track(ch, c, ref, duration=cfg.track_duration,

@@ -233,7 +233,8 @@ def _hand_of_god(rig, rec, cfg: SkeletonConfig) -> dict:
     from controllers.core import scenarios as S
 
     ch = _character(rec, "hand_of_god")
-    ref = ReferenceMotion(ch.model, bvh.load(rec["_paths"][0]), info=ch.info)
+    ref = ReferenceMotion(ch.model, bvh.load(rec["_paths"][0]), info=ch.info,
+                          floor=registry.get("hand_of_god").floor)
     c = registry.make_controller("hand_of_god", ch, ref)
     r = _run(S.track(ch, c, ref))
     ok = not r["fell"] and r["tracking_error_m"] < cfg.track_error

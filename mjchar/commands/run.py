@@ -198,7 +198,8 @@ def run(args: argparse.Namespace) -> int:
 
             motion = make_cyclic(motion)
         reference = ReferenceMotion(character.model, motion, info=character.info,
-                                    floor=args.floor, cyclic=True if args.loop else None)
+                                    floor=args.floor or spec.floor,
+                                    cyclic=True if args.loop else None)
     # trackers follow the reference in track/walk, and hold the standing pose otherwise
     target = reference if reference is not None else S.standing_pose(character)
     controller = registry.make_controller(spec.name, character, target,

@@ -87,7 +87,7 @@ OPTIONS: tuple[Option, ...] = (
            "the track scenario, and the walk scenario of the trackers (not walkers, replays)"),
     Option("loop", "--loop", False, _with_reference,
            "runs with a reference clip (--motion): track, and walk for the trackers"),
-    Option("floor", "--floor", "contact", _with_reference,
+    Option("floor", "--floor", None, _with_reference,
            "runs with a reference clip (--motion): track, and walk for the trackers"),
     Option("duration", "--duration", None, _scenarios("stand", "push", "random-push", "track",
                                                       "walk"),
