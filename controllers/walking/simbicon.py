@@ -395,7 +395,11 @@ class Simbicon:
                 hs = self._hinges(ch, sh)
                 if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
                     arm = pos(el) - pos(sh)
-                    base[hs["x"].act] = g.shoulder_down * sign(rest.xaxis[hs["x"].jnt], arm, -up)
+                    # less what the rest pose already lowers it (an A-pose rig's arm hangs
+                    # part of the way down at rest; a T-pose's drop is 0)
+                    drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
+                    base[hs["x"].act] = (g.shoulder_down - drop) * sign(
+                        rest.xaxis[hs["x"].jnt], arm, -up)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
                     self._arm_swing[side] = (hs["y"].act, sign(rest.xaxis[hs["y"].jnt], -up, fwd))
                 wr = ch.role(f"{side}_wrist", required=False)
