@@ -191,6 +191,48 @@ def test_speed_command(ch, speed):
     assert abs(r.extra["steady_speed_mps"] - speed) <= SPEED_TOLERANCE, r.extra
 
 
+def test_fast_command_ends_the_swing_state_when_the_foot_lands(ch):
+    """At a fast command the swing foot lands earlier in the swing state: the contact test's
+    phase falls with the command (an anchor field), so the swing state ends when the foot lands
+    instead of holding a loaded foot as a swing leg until phase 0.5."""
+    c = make_simbicon(gait="walk", speed=1.5)
+    r = walk(ch, c, duration=8.0, seed=0, steady_window=4.0)
+    assert not r.fell, r.fall_reason
+    assert c.gait.contact_phase < GAITS["walk"].contact_phase
+    times = np.array([t for t, _ in c.transitions])
+    states = np.array([s for _, s in c.transitions])
+    swing = np.diff(times)[states[:-1] % 2 == 1]
+    nominal = c.gait.states[1].duration
+    assert np.any(swing < GAITS["walk"].contact_phase * nominal - 2 * ch.timestep)
+    assert np.all(swing > c.gait.contact_phase * nominal)
+
+
+def test_arms_hang_the_same_from_an_a_pose(tmp_path):
+    """The arms are lowered from a T-pose: a rig whose rest pose already lowers them (an
+    A-pose) is lowered by the rest, so the standing arm ends where the T-pose rig's does."""
+    import bvh
+    from bvh.assets import motion_path
+    from bvh.mjcf import convert
+    from bvh.zoo import a_pose
+
+    t_pose = bvh.load(motion_path("walk"))
+    drops = []
+    for i, motion in enumerate((t_pose, a_pose(t_pose, ("lShoulder", "rShoulder"), 40.0))):
+        xml = tmp_path / f"rig{i}.xml"
+        convert(bvh.loads(bvh.dumps(motion)), total_mass=70.0).save(xml)
+        chr_ = Character(str(xml))
+        c = Simbicon()
+        c.reset(chr_)
+        d = mujoco.MjData(chr_.model)
+        d.qpos[:] = chr_.model.qpos0
+        d.qpos[c._act_qpos] = c._base
+        mujoco.mj_kinematics(chr_.model, d)
+        arm = d.xpos[chr_.body_id("lElbow")] - d.xpos[chr_.body_id("lShoulder")]
+        drops.append(np.arctan2(-arm[2], np.hypot(arm[0], arm[1])))
+    assert drops[0] == pytest.approx(GAITS["walk"].shoulder_down, abs=0.02)
+    assert drops[1] == pytest.approx(drops[0], abs=0.02)
+
+
 def test_speed_command_checked(capsys):
     lo, hi = registry.get("simbicon").limit("speed")
     assert lo <= SPEED_RANGE[0] and hi >= SPEED_RANGE[1]

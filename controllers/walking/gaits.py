@@ -40,7 +40,7 @@ GRAVITY = 9.81
 
 
 #: :class:`Gait` fields a speed anchor may set besides the per-state parameters
-ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist")
+ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase")
 
 
 class GaitError(MjcharError):
@@ -92,7 +92,8 @@ class Gait:
         states: ``(lift-off state 0/2, swing state 1/3)``.
         torso_pitch: forward lean of the pelvis, heading frame (rad).
         spine_pitch: flexion of each spine joint relative to its parent (rad; ``+`` forward).
-        shoulder_down: arms lowered from the rest pose's T-pose (rad, ``+`` down).
+        shoulder_down: arms lowered from a T-pose (rad, ``+`` down; a rest pose whose arms
+            already hang part of the way down, an A-pose, is lowered by the rest).
         elbow_flexion: rad.
         arm_swing: shoulder flexion (rad) of the arm opposite the swing leg (the other arm
             extends as much): arms swing against the legs, which cancels part of the legs' yaw.
@@ -364,7 +365,8 @@ WALK = Gait(
         (0.22, {"state0_swing_hip": 0.666, "state1_swing_hip": 0.221, "torso_pitch": 0.2,
                 "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
         (0.53, {"state0_swing_hip": 0.486, "state1_swing_hip": 0.041, "torso_pitch": 0.5,
-                "arm_swing": 0.6, "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8}),
+                "arm_swing": 0.6, "state0_cd_coronal": 0.8, "state1_cd_coronal": 0.8,
+                "contact_phase": 0.25}),
     ),
     gains={
         "torso": (873.399, 87.34),

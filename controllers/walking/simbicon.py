@@ -88,6 +88,13 @@ def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return ax * (math.atan2(s, float(u @ v)) / s)
 
 
+def _rest_angle(sine: float) -> float:
+    """``asin(sine)`` (rad), 0 below 1e-6 rad: a rest pose's offset from the pose a gait assumes
+    (numerical noise on a rig in that pose is no offset)."""
+    a = math.asin(min(max(sine, -1.0), 1.0))
+    return a if abs(a) > 1e-6 else 0.0
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array(
         [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
@@ -395,16 +402,34 @@ class Simbicon:
                 hs = self._hinges(ch, sh)
                 if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
                     arm = pos(el) - pos(sh)
-                    base[hs["x"].act] = g.shoulder_down * sign(rest.xaxis[hs["x"].jnt], arm, -up)
+                    # less what the rest pose already lowers it (an A-pose rig's arm hangs
+                    # part of the way down at rest; a T-pose's drop is 0)
+                    drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
+                    base[hs["x"].act] = (g.shoulder_down - drop) * sign(
+                        rest.xaxis[hs["x"].jnt], arm, -up)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    self._arm_swing[side] = (hs["y"].act, sign(rest.xaxis[hs["y"].jnt], -up, fwd))
+                    arm = pos(el) - pos(sh)
+                    s_y = sign(rest.xaxis[hs["y"].jnt], -up, fwd)
+                    self._arm_swing[side] = (hs["y"].act, s_y)
+                    # the swing is about the arm hanging in the coronal plane: a rest arm
+                    # that points forward or back is brought back to it first
+                    ahead = _rest_angle(float(arm @ fwd) / float(np.linalg.norm(arm)))
+                    if ahead:
+                        base[hs["y"].act] = -ahead * s_y
                 wr = ch.role(f"{side}_wrist", required=False)
                 he = self._hinges(ch, el)
                 if wr and he:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    base[h.act] = g.elbow_flexion * sign(rest.xaxis[h.jnt], fore, fwd)
+                    s_e = sign(rest.xaxis[h.jnt], fore, fwd)
+                    # less the rest pose's own flexion (a rig whose elbow is bent at rest)
+                    arm = pos(el) - pos(sh)
+                    ax = rest.xaxis[h.jnt]
+                    bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
+                    bent = _rest_angle(math.sin(bent))
+                    base[h.act] = (g.elbow_flexion - bent) * s_e if bent else \
+                        g.elbow_flexion * s_e
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
             if grp in ("hip",):
@@ -454,7 +479,7 @@ class Simbicon:
         for leg, sgn in ((st, 1.0), (sw, -1.0)):
             if leg["side"] in self._arm_swing:
                 a, s = self._arm_swing[leg["side"]]
-                q[a] = s * sgn * self.gait.arm_swing
+                q[a] = self._base[a] + s * sgn * self.gait.arm_swing
         return q
 
     # -- the finite-state machine ---------------------------------------------------------------
@@ -672,7 +697,8 @@ register(ControllerSpec(
     scenarios=("walk",), default_scenario="walk", options=("gait", "speed"),
     # the walk gait's speed command: 60 s with no fall at seeds 0-2 and a steady speed within
     # 0.15 m/s of the command from 0.7 to 1.5 m/s on the bundled humanoid and on its skeleton
-    # scaled to 1.5 m / 50 kg and 1.95 m / 100 kg (docs/simbicon.md); no --speed: the gait's own
+    # scaled to 1.5 m / 50 kg and 1.95 m / 100 kg, and at 0.7, 1.1 and 1.5 m/s on every rig of
+    # the skeleton zoo (docs/simbicon.md); no --speed: the gait's own
     limits=(("speed", 0.7, 1.5),),
     timestep=DEFAULT_TIMESTEP, push="walking",
     bench=("walk", "push-search", "slopes"), expected=("walk",)))
