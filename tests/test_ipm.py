@@ -157,6 +157,24 @@ def test_stands_without_command(character):
 
 
 # -- walking -------------------------------------------------------------------------------------
+def test_starts_from_a_foot_on_its_toes(character):
+    """A start with one foot on its toes (issue 12: perturbed starts on converted rigs): the
+    standing pose lowers the pelvis until both legs reach their flat-foot targets, so its IK
+    stays near the start (no wound-up hip or ankle angles) and the walk starts without a fall."""
+    q = standing_pose(character)
+    q[character.joint_qpos(character.role("right_ankle"))[0]] += 0.3  # toes down
+    q = character.on_floor(q)
+    c = make_ipm(character, speed=1.0)
+    character.reset(q, np.zeros(character.nv))
+    c.reset(character)
+    legs = np.concatenate([lg.leg for lg in c._legs])
+    m = character.model
+    assert np.abs(c._stand.pose[m.jnt_qposadr[m.dof_jntid[legs]]]).max() < 0.6
+    r = simulate(character, make_ipm(character, speed=1.0), duration=3.0, scenario="walk",
+                 qpos=q)
+    assert not r.fell, r.fall_reason
+
+
 @pytest.mark.parametrize("speed", [0.5, 1.0])
 def test_walks_at_commanded_speed(character, speed):
     c = make_ipm(character, speed=speed)
