@@ -309,8 +309,15 @@ def test_step_time_and_stance_knee_follow_the_commanded_speed():
     for v in (0.0, 0.5, p.slow_speed, -0.8):
         assert p.at_speed(v) == (p.step_time, p.knee_kp, p.stance_knee_ramp)
     for v in (p.fast_speed, 1.5, 3.0):
-        assert p.at_speed(v) == (p.fast_step_time, p.fast_stance_knee_kp,
-                                 p.fast_stance_knee_ramp)
+        assert p.at_speed(v)[1:] == (p.fast_stance_knee_kp, p.fast_stance_knee_ramp)
+    assert p.at_speed(p.fast_speed)[0] == pytest.approx(p.fast_step_time)
+    # above fast_speed the cadence keeps growing, and so does the step length
+    times = [p.at_speed(v)[0] for v in (1.1, 1.3, 1.5, 1.6)]
+    assert all(a > b for a, b in zip(times, times[1:], strict=False))
+    lengths = [v * p.at_speed(v)[0] for v in (1.1, 1.3, 1.5, 1.6)]
+    assert all(a < b for a, b in zip(lengths, lengths[1:], strict=False))
+    assert 1 / p.at_speed(1.5)[0] == pytest.approx(
+        1 / p.fast_step_time + p.cadence_gain * (1.5 - p.fast_speed))
     mid = p.at_speed(0.5 * (p.slow_speed + p.fast_speed))
     assert mid[0] == pytest.approx(0.5 * (p.step_time + p.fast_step_time))
     assert IPMParams(stance_knee_kp=250.0).at_speed(0.5)[1] == 250.0

@@ -65,8 +65,7 @@ the feet are (feet flat, the pelvis low enough that each leg reaches its foot wi
 centred between the feet, falls a little towards the swing side, which starts the lateral sway);
 a push starts stepping when the capture point ``c + v sqrt(h/g)`` leaves the support polygon. A
 zero command brings the character to a stop: a step ends in standing once the sagittal speed is
-low and the
-capture point is over both feet.
+low and the capture point is over both feet.
 
 Defaults differ from the paper where this humanoid and MuJoCo's contacts needed it (measured in
 docs/ipm.md): step time 0.5 s (paper ~0.6), scales ``s_s = s_c = 1.0`` (1.1 / 1.3), ``k_v = 0.1``
@@ -77,9 +76,12 @@ and no coronal virtual force (20 / 9): the stance ankle cannot apply the roll mo
 Speed dependence (:meth:`IPMParams.at_speed`, chosen at every step start from the ramped speed
 target): up to 1.0 m/s the step takes 0.5 s and the stance knee is a plain PD (kp 300) on
 ``stance_knee``; from 1.1 m/s the step takes 0.4 s and the stance knee (kp 200) eases from its
-landing flexion (at most 0.9 rad) to ``stance_knee`` over the step, linear in between. Long
-steps land on a bent knee; pulling it straight at once saturates the knee (200 N m) and, with
-0.4 s steps alone, 1.2 m/s fell at 16.5 s and 1.5 m/s at 6.8 s (docs/ipm.md, speed range).
+landing flexion (at most 0.9 rad) to ``stance_knee`` over the step, linear in between; above
+1.1 m/s the step rate keeps growing with speed (``cadence_gain`` steps/s per m/s), so cadence
+and step length both grow with speed. Long steps land on a bent knee; pulling it straight at
+once saturates the knee (200 N m) and, with 0.4 s steps alone, 1.2 m/s fell at 16.5 s and
+1.5 m/s at 6.8 s; with the eased knee, 0.4 s steps sank into a deepening crouch at 1.4 m/s and
+fell at 1.5 (docs/ipm.md, speed range).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
