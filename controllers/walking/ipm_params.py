@@ -30,9 +30,8 @@ _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "se
          "speed_offset", "speed_integral")
 _SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
-_RATE2 = ("vf_coronal_pos",)
-#: per metre (1/m): a rate per speed (``cadence_gain``) scales like a rate over a speed
-_PER_LENGTH = ("cadence_gain",)
+#: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
+_RATE2 = ("vf_coronal_pos", "cadence_gain")
 _TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp", "ankle_kp",
                 "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
 _DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
@@ -210,7 +209,7 @@ class IPMParams:
             return self
         f = similarity_factors(r, q)
         kinds = ((_LENGTH, "length"), (_TIME, "time"), (_SPEED, "speed"), (_RATE, "rate"),
-                 (_RATE2, "per_length"), (_PER_LENGTH, "per_length"), (_TORQUE_GAIN, "torque_gain"),
+                 (_RATE2, "per_length"), (_TORQUE_GAIN, "torque_gain"),
                  (_DAMPING_GAIN, "damping_gain"), (_FORCE, "force"), (_TORQUE, "torque"))
         factor = {name: f[kind] for names, kind in kinds for name in names}
         changes = {}
