@@ -258,8 +258,8 @@ def test_walks_60s_with_small_speed_error(character, speed):
     assert r.root_force_max_N == 0.0
 
 
-#: 60 s walks that fall with the defaults (docs/ipm.md, speed range)
-_FALLS_60S = {1.5: "falls at 25.9 s (60 s walk)", 1.6: "falls at 13.2 s"}
+#: 60 s walks that fall with the defaults (docs/ipm.md, speed range): none since cadence_gain
+_FALLS_60S: dict[float, str] = {}
 
 
 @pytest.mark.slow

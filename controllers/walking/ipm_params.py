@@ -140,7 +140,7 @@ class IPMParams:
     slow_speed: float = 1.0
     fast_speed: float = 1.1
     fast_step_time: float = 0.4
-    cadence_gain: float = 0.7
+    cadence_gain: float = 0.52
     min_phase: float = 0.5
     max_phase: float = 1.6
     sagittal_scale: float = 1.0
