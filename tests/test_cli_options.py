@@ -94,8 +94,8 @@ def test_refinements_need_their_option(argv, needle, capsys):
 
 
 @pytest.mark.parametrize("argv,needle", [
-    (["run", "ipm", "--speed", "1e9"], "ipm walks at 0 to 1.4 m/s"),
-    (["run", "ipm", "--speed", "-0.5"], "ipm walks at 0 to 1.4 m/s"),
+    (["run", "ipm", "--speed", "1e9"], "ipm walks at 0 to 1.6 m/s"),
+    (["run", "ipm", "--speed", "-0.5"], "ipm walks at 0 to 1.6 m/s"),
     (["run", "ipm", "--heading", "1e4"], "--heading 10000 is out of range"),
     (["run", "static_balance", "--scenario", "push", "--push", "1e6"], "body weights"),
     (["run", "static_balance", "--scenario", "push-search", "--max-force", "1e6"],
@@ -131,5 +131,5 @@ def test_nan_speed_is_an_argument_error(capsys):
 
 def test_speed_limits_come_from_the_registry():
     spec = registry.get("ipm")
-    assert spec.limit("speed") == (0.0, 1.4)
+    assert spec.limit("speed") == (0.0, 1.6)
     assert registry.get("static_balance").limit("speed") is None
