@@ -215,6 +215,14 @@ class ReferenceMotion:
         self.cyclic = bool(self._looks_cyclic(heading)) if cyclic is None else bool(cyclic)
         if self.cyclic and self.n_frames < 3:
             raise ReferenceMotionError("a cyclic clip needs at least 3 frames")
+        if self.cyclic and self.grounding.any():
+            # the last frame is the first of the next cycle: it takes frame 0's floor shift, so
+            # the loop has no vertical step at the seam
+            dz = self.grounding[0] - self.grounding[-1]
+            self.grounding[-1] += dz
+            qpos[-1, self._root.qadr[0] + 2] += dz
+            for arr in (*self._foot_pts.values(), self._joint_pos, self._end_sites):
+                arr[-1, :, 2] += dz
         dpsi = float(np.angle(np.exp(1j * (heading[-1] - heading[0]))))
         self.cycle_heading = dpsi if (self.cyclic and abs(dpsi) >= TURN_THRESHOLD) else 0.0
         self.cycle_displacement = (rxy[-1] - rxy[0]).copy() if self.cyclic else np.zeros(2)
