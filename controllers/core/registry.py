@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from bvh.errors import MjcharError
+from bvh.reference import FLOOR_MODES
 
 #: scenarios of ``mjchar run`` (see :mod:`controllers.core.scenarios`)
 SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
@@ -122,8 +123,8 @@ class ControllerSpec:
         for lim in self.limits:
             if len(lim) != 3 or lim[0] not in self.options or not lim[1] <= lim[2]:
                 raise bad(f"limits must be (option, low, high) of its own options, got {lim}")
-        if self.floor not in ("contact", "clip", "frame"):
-            raise bad(f"floor must be contact, clip or frame, got {self.floor!r}")
+        if self.floor not in FLOOR_MODES:
+            raise bad(f"floor must be one of {', '.join(FLOOR_MODES)}, got {self.floor!r}")
         if self.timestep is not None and not self.timestep > 0:
             raise bad(f"the time step must be positive, got {self.timestep}")
 

@@ -400,15 +400,14 @@ class Simbicon:
             el = ch.role(f"{side}_elbow", required=False)
             if sh and el:
                 hs = self._hinges(ch, sh)
+                arm = pos(el) - pos(sh)
                 if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
-                    arm = pos(el) - pos(sh)
                     # less what the rest pose already lowers it (an A-pose rig's arm hangs
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
                     base[hs["x"].act] = (g.shoulder_down - drop) * sign(
                         rest.xaxis[hs["x"].jnt], arm, -up)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    arm = pos(el) - pos(sh)
                     s_y = sign(rest.xaxis[hs["y"].jnt], -up, fwd)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
@@ -424,12 +423,9 @@ class Simbicon:
                     # flexion brings the forearm forward once the arm hangs down
                     s_e = sign(rest.xaxis[h.jnt], fore, fwd)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
-                    arm = pos(el) - pos(sh)
                     ax = rest.xaxis[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
-                    bent = _rest_angle(math.sin(bent))
-                    base[h.act] = (g.elbow_flexion - bent) * s_e if bent else \
-                        g.elbow_flexion * s_e
+                    base[h.act] = (g.elbow_flexion - _rest_angle(math.sin(bent))) * s_e
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
             if grp in ("hip",):

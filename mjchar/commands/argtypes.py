@@ -57,9 +57,9 @@ def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "contac
     from bvh.reference import FLOOR_MODES
 
     p.add_argument("--floor", choices=FLOOR_MODES, default=default,
-                   help="contact (default; hand_of_god, which has a root force, uses clip): every "
-                        "frame with a supporting foot puts its lowest "
-                        "foot point on the floor (mocap stance feet float centimetres above it "
-                        "otherwise), frames in flight are interpolated; clip: one shift for the "
-                        "whole clip, by its lowest foot point; frame: every frame, flight "
-                        "included")
+                   help="contact (default, but `run hand_of_god`, whose root force can follow "
+                        "the clip as recorded, uses clip): every frame with a supporting foot "
+                        "puts its lowest foot point on the floor (mocap stance feet float "
+                        "centimetres above it otherwise), frames in flight are interpolated; "
+                        "clip: one shift for the whole clip, by its lowest foot point; frame: "
+                        "every frame, flight included")
