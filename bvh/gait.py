@@ -44,7 +44,8 @@ import numpy as np
 from .errors import MjcharError
 from .foot_points import FOOT_SIDES, _FootPoints
 
-__all__ = ["GaitError", "GaitStats", "analyse", "analyse_clip", "table", "CONTACT_HEIGHT"]
+__all__ = ["GaitError", "GaitStats", "analyse", "analyse_clip", "clip_walk", "table",
+           "CONTACT_HEIGHT"]
 
 #: a foot within this height (m) of its floor may be in stance (loose: mocap stance feet float
 #: several centimetres above the placed floor, and by different amounts at strike and toe-off)
@@ -90,6 +91,8 @@ class GaitStats:
     #: name -> (CYCLE_SAMPLES,) standard deviation over strides
     cycle_std: dict = field(default_factory=dict, repr=False)
     strides: int = 0
+    #: times (s) of the left foot's strikes in the window (its strides run between them)
+    left_strikes: list = field(default_factory=list, repr=False)
 
     ROWS = (("speed_mps", "speed m/s", 2), ("cadence_spm", "cadence steps/min", 0),
             ("step_length_m", "step length m", 2), ("step_width_m", "step width m", 2),
@@ -294,14 +297,13 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         com_excursion_m=mean(excursions),
         cycle_mean={k: np.mean(v, axis=0) for k, v in cycles.items() if v},
         cycle_std={k: np.std(v, axis=0) for k, v in cycles.items() if v},
-        strides=len(excursions))
+        strides=len(excursions), left_strikes=[float(t[a]) for a in left])
 
 
-def analyse_clip(path: str | os.PathLike, *, model=None, start: float = 0.0,
-                 end: float | None = None, label: str | None = None) -> GaitStats:
-    """Gait statistics of a BVH clip: converted (default options, or onto ``model``, an
-    ``MjModel`` converted from the same skeleton) and read through
-    :class:`~bvh.reference.ReferenceMotion` (floor placement by the whole clip)."""
+def clip_walk(path: str | os.PathLike, *, model=None):
+    """A BVH clip as a walk to analyse: ``(model, info, times, qpos)``, the clip converted
+    (default options, or onto ``model``, an ``MjModel`` converted from the same skeleton) and
+    read through :class:`~bvh.reference.ReferenceMotion` (its default floor placement)."""
     from .io import load
     from .mjcf import ModelInfo, convert
     from .reference import ReferenceMotion
@@ -311,6 +313,12 @@ def analyse_clip(path: str | os.PathLike, *, model=None, start: float = 0.0,
         model = mujoco.MjModel.from_xml_string(convert(motion).xml)
     info = ModelInfo.from_model(model)
     ref = ReferenceMotion(model, motion, info=info)
-    times = np.arange(ref.n_frames) * motion.frame_time
+    return model, info, np.arange(ref.n_frames) * motion.frame_time, ref.frame_qpos
+
+
+def analyse_clip(path: str | os.PathLike, *, model=None, start: float = 0.0,
+                 end: float | None = None, label: str | None = None) -> GaitStats:
+    """Gait statistics of a BVH clip (:func:`clip_walk`)."""
+    model, info, times, qpos = clip_walk(path, model=model)
     name = label or os.path.splitext(os.path.basename(os.fspath(path)))[0]
-    return analyse(model, times, ref.frame_qpos, start=start, end=end, info=info, label=name)
+    return analyse(model, times, qpos, start=start, end=end, info=info, label=name)

@@ -46,3 +46,62 @@ def plot_cycles(stats: list, path: str | os.PathLike) -> None:
         raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
     finally:
         plt.close(fig)
+
+
+#: frames per row of :func:`plot_filmstrip`
+FILMSTRIP_FRAMES = 8
+
+
+def stride_window(stats, times) -> tuple[float, float]:
+    """``(t0, t1)``: the middle whole stride (left strike to left strike) of a walk, or, with
+    fewer than two left strikes, the last second of its window (a clip too short to stride)."""
+    strikes = list(getattr(stats, "left_strikes", []) or [])
+    if len(strikes) >= 2:
+        k = (len(strikes) - 2) // 2
+        return strikes[k], strikes[k + 1]
+    t1 = float(times[-1])
+    return max(float(times[0]), t1 - 1.0), t1
+
+
+def plot_filmstrip(walks: list, path: str | os.PathLike, frames: int = FILMSTRIP_FRAMES) -> None:
+    """One row per walk, ``frames`` side views evenly over one stride (:func:`stride_window`),
+    so a simulated walk can be set against the mocap's pose for pose.
+
+    ``walks``: ``(stats, model, times, qpos)`` tuples (a :class:`~bvh.gait.GaitStats` and the
+    trajectory it was measured on). Rendering needs OpenGL (``MUJOCO_GL=egl`` headless)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise MjcharError('plotting needs matplotlib: pip install "mjchar[bench]"') from None
+    from .render import render_poses
+
+    rows = []
+    for stats, model, times, qpos in walks:
+        times, qpos = np.asarray(times, dtype=float), np.asarray(qpos, dtype=float)
+        t0, t1 = stride_window(stats, times)
+        at = t0 + (t1 - t0) * np.arange(frames) / frames
+        idx = np.clip(np.searchsorted(times, at), 0, len(times) - 1)
+        travel = qpos[idx[-1], :2] - qpos[idx[0], :2]
+        heading = float(np.degrees(np.arctan2(travel[1], travel[0])))
+        images = render_poses(model, qpos[idx], azimuth=90.0 + heading)
+        rows.append((stats, at - t0, images))
+    fig, axes = plt.subplots(len(rows), frames, figsize=(1.25 * frames, 2.1 * len(rows)),
+                             squeeze=False)
+    for ax_row, (stats, rel, images) in zip(axes, rows, strict=True):
+        for ax, dt, img in zip(ax_row, rel, images, strict=True):
+            ax.imshow(img)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_xlabel(f"{dt:.2f} s", fontsize=7)
+        speed = f"{stats.speed_mps:.2f} m/s"
+        ax_row[0].set_ylabel(f"{stats.label}\n{speed}", fontsize=8)
+    fig.tight_layout()
+    try:
+        fig.savefig(path, dpi=100)
+    except OSError as e:
+        raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
+    finally:
+        plt.close(fig)

@@ -22,6 +22,52 @@ class RenderError(MjcharError):
     """Video output is unavailable (missing package, no OpenGL) or the path is unusable."""
 
 
+def _renderer(m: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """An offscreen renderer of at most the model's buffer size, shadows and reflections off;
+    :class:`RenderError` naming ``MUJOCO_GL`` when there is no OpenGL context."""
+    width = min(int(width), int(m.vis.global_.offwidth))
+    height = min(int(height), int(m.vis.global_.offheight))
+    try:
+        renderer = mujoco.Renderer(m, height, width)
+    except Exception as e:  # no OpenGL context available
+        raise RenderError(f"cannot create an OpenGL renderer (MUJOCO_GL="
+                          f"{os.environ.get('MUJOCO_GL')}; set it before MuJoCo is first "
+                          f"imported): {str(e).splitlines()[0]}") from None
+    renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
+    renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+    return renderer
+
+
+def render_poses(model: mujoco.MjModel, qpos, *, width: int = 200, height: int = 320,
+                 azimuth: float = 90.0, elevation: float = -5.0,
+                 distance: float | None = None) -> list[np.ndarray]:
+    """``(height, width, 3)`` images of ``model`` in each pose of ``qpos (F, nq)``, the camera
+    looking at the root body from ``azimuth`` degrees (world frame) at ``distance`` m (default:
+    2.3 x the root's height in the first pose, so every body size fills the frame alike)."""
+    qpos = np.atleast_2d(np.asarray(qpos, dtype=float))
+    data = mujoco.MjData(model)
+    renderer = _renderer(model, width, height)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.azimuth, camera.elevation = azimuth, elevation
+    root = int(model.jnt_bodyid[0]) if model.njnt else 0
+    images = []
+    try:
+        for k, q in enumerate(qpos):
+            data.qpos[:] = q
+            mujoco.mj_forward(model, data)
+            if k == 0:
+                h = float(data.xpos[root][2])
+                camera.distance = 2.3 * max(h, 0.3) if distance is None else distance
+                height_at = 0.9 * h
+            camera.lookat[:] = (data.xpos[root][0], data.xpos[root][1], height_at)
+            renderer.update_scene(data, camera)
+            images.append(np.asarray(renderer.render()).copy())
+    finally:
+        renderer.close()
+    return images
+
+
 class VideoRecorder:
     """Write frames of a character to an MP4 file at a fixed frame rate.
 
@@ -52,17 +98,7 @@ class VideoRecorder:
             raise RenderError(f"{path}: folder {parent} does not exist")
         if not (fps > 0):
             raise RenderError(f"fps must be positive, got {fps}")
-        m = character.model
-        width = min(int(width), int(m.vis.global_.offwidth))
-        height = min(int(height), int(m.vis.global_.offheight))
-        try:
-            self.renderer = mujoco.Renderer(m, height, width)
-        except Exception as e:  # no OpenGL context available
-            raise RenderError(f"cannot create an OpenGL renderer (MUJOCO_GL="
-                              f"{os.environ.get('MUJOCO_GL')}; set it before MuJoCo is first "
-                              f"imported): {str(e).splitlines()[0]}") from None
-        self.renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
-        self.renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+        self.renderer = _renderer(character.model, width, height)
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
         self.camera.trackbodyid = character.root_body

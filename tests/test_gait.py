@@ -86,6 +86,45 @@ def test_simulated_walk_is_measured_by_the_same_probe():
     assert "| step length m |" in table([stats])
 
 
+def test_filmstrip_shows_one_stride_of_a_walk_beside_the_clip(tmp_path):
+    """The filmstrip's frames span the middle whole stride (left strike to left strike, the
+    strikes the probe found), and the rendered poses differ from frame to frame."""
+    from mjchar.gait_plot import plot_filmstrip, stride_window
+    from mjchar.render import render_poses
+
+    ch = Character(None)
+    rec = MotionRecorder()
+    result = S.run_scenario("walk", ch, registry.make_controller("ipm", ch, None, speed=1.0),
+                            duration=6.0, frame_callback=rec)
+    stats = analyse(ch.model, rec.times, rec.qpos, start=2.0, info=ch.info, label="ipm")
+    assert not result.fell and len(stats.left_strikes) >= 3
+    t0, t1 = stride_window(stats, rec.times)
+    k = stats.left_strikes.index(t0)
+    assert stats.left_strikes[k + 1] == t1 and 0.6 < t1 - t0 < 1.6
+    q = np.asarray(rec.qpos)
+    i = int(np.searchsorted(rec.times, t0))
+    a, b = render_poses(ch.model, q[[i, i + 25]], width=64, height=96)
+    assert a.shape == (96, 64, 3) and np.abs(a.astype(int) - b).sum() > 0
+    again = render_poses(ch.model, q[[i]], width=64, height=96)[0]
+    assert np.array_equal(a, again)
+    out = tmp_path / "strip.png"
+    plot_filmstrip([(stats, ch.model, rec.times, rec.qpos)], out, frames=4)
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(out)
+    assert img.shape[1] > 1.5 * img.shape[0]  # one row of four portrait frames
+
+
+def test_cli_filmstrip_beside_the_mocap(tmp_path, capsys):
+    out = tmp_path / "strip.png"
+    clip = str(shared_clip("walk60.bvh"))
+    assert main(["gait", clip, "--reference", str(shared_clip("walk_forward.bvh")),
+                 "--filmstrip", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["filmstrip"] == str(out) and out.stat().st_size > 10_000
+    assert len(doc["source"]["left_strikes"]) >= 2
+
+
 def test_too_short_a_window_is_an_error():
     ch = Character(None)
     q = np.tile(ch.model.qpos0, (5, 1))
@@ -107,6 +146,7 @@ def test_cli_clip_json_and_plot(tmp_path, capsys):
     (["gait", "ipm", "--speed", "9"], "out of range"),
     (["gait", "hand_of_god"], "SOURCE must be a walker"),
     (["gait", "/no/such.bvh"], "no such file"),
+    (["gait", "ipm", "--filmstrip", "strip.gif"], "--filmstrip writes PNG"),
     (["gait", "x.bvh", "--duration", "3"], "--duration applies to walkers"),
     (["gait", "simbicon", "--duration", "2", "--from", "3"], "before the end"),
 ])

@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="OUT.png",
                    help="write the cycle curves (knee, hip flexion, trunk lean) as a PNG "
                         "(needs matplotlib: the bench extra)")
+    p.add_argument("--filmstrip", metavar="OUT.png",
+                   help="write side views over one stride of every walk (the source, then each "
+                        "reference) as a PNG (needs matplotlib and OpenGL: MUJOCO_GL=egl)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -74,7 +77,7 @@ def _walker_stats(args, spec):
     label = spec.name + (f" {options['speed']:g} m/s" if "speed" in options else "")
     stats = analyse(character.model, recorder.times, recorder.qpos, start=start,
                     end=result.fall_time_s, info=character.info, label=label)
-    return stats, result
+    return (stats, character.model, recorder.times, recorder.qpos), result
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     import os
 
     from bvh.errors import MjcharError
-    from bvh.gait import analyse_clip, table
+    from bvh.gait import table
     from controllers import registry
 
     result = None
@@ -94,35 +97,54 @@ def run(args: argparse.Namespace) -> int:
                 raise MjcharError(f"{flag} applies to walkers, not to a clip")
         if not os.path.isfile(args.source):
             raise MjcharError(f"{args.source}: no such file")
-        stats = analyse_clip(args.source, start=args.start or 0.0)
+        walk = _clip(args.source, start=args.start or 0.0)
     elif args.source in registry.names("walker"):
-        stats, result = _walker_stats(args, registry.get(args.source))
+        walk, result = _walker_stats(args, registry.get(args.source))
     else:
         raise MjcharError(f"SOURCE must be a walker ({', '.join(registry.names('walker'))}) or "
                           f"a .bvh clip, got {args.source!r}")
-    if args.plot and not args.plot.lower().endswith(".png"):
-        raise MjcharError(f"--plot writes PNG: give a .png path, got {args.plot!r}")
-    refs = []
+    for flag, value in (("--plot", args.plot), ("--filmstrip", args.filmstrip)):
+        if value and not value.lower().endswith(".png"):
+            raise MjcharError(f"{flag} writes PNG: give a .png path, got {value!r}")
+    walks = [walk]
     for path in args.reference:
         if not os.path.isfile(path):
             raise MjcharError(f"--reference {path}: no such file")
-        refs.append(analyse_clip(path))
+        walks.append(_clip(path))
+    stats, refs = walk[0], [w[0] for w in walks[1:]]
     everything = [stats, *refs]
     if args.plot:
         from ..gait_plot import plot_cycles
 
         plot_cycles(everything, args.plot)
+    if args.filmstrip:
+        from ..gait_plot import plot_filmstrip
+
+        plot_filmstrip(walks, args.filmstrip)
     if args.json:
         out = {"source": stats.to_dict(), "references": [r.to_dict() for r in refs]}
         if result is not None:
             out["run"] = result.to_dict()
-        if args.plot:
-            out["plot"] = args.plot
+        for key in ("plot", "filmstrip"):
+            if getattr(args, key):
+                out[key] = getattr(args, key)
         print(json.dumps(out))
         return 0
     if result is not None and result.fell:
         print(f"note: {args.source} fell at {result.fall_time_s:.2f} s; analysed up to the fall")
     print(table(everything))
-    if args.plot:
-        print(f"plot: {args.plot}")
+    for key in ("plot", "filmstrip"):
+        if getattr(args, key):
+            print(f"{key}: {getattr(args, key)}")
     return 0
+
+
+def _clip(path: str, start: float = 0.0):
+    """``(stats, model, times, qpos)`` of a BVH clip analysed from ``start`` s."""
+    import os
+
+    from bvh.gait import analyse, clip_walk
+
+    model, info, times, qpos = clip_walk(path)
+    label = os.path.splitext(os.path.basename(path))[0]
+    return analyse(model, times, qpos, start=start, info=info, label=label), model, times, qpos
