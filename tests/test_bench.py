@@ -347,6 +347,12 @@ def test_videos_give_stills_and_a_walk_strip(tmp_path):
     strip = imageio.imread(tmp_path / "walk_strip.png")
     assert strip.shape[0] > strip.shape[1] / 8  # two rows of frames, not an empty figure
     assert strip[..., :3].std() > 20  # it shows pictures
+    # the gait section's filmstrip: every analysed walk (walkers, mocap) over one stride
+    if doc["gait"]["walks"]:
+        assert doc["gait"]["filmstrip"] == "gait_filmstrip.png"
+        assert "gait_filmstrip.png" in doc["plots"]
+        film = imageio.imread(tmp_path / "gait_filmstrip.png")
+        assert film[..., :3].std() > 20
 
 
 def test_missing_matplotlib_is_a_clear_error(monkeypatch):

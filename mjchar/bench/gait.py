@@ -4,6 +4,7 @@ probe (:mod:`bvh.gait`), as a table and the gait-cycle plot (``gait_cycle.png``)
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 from .config import SHARED_BVH, BenchConfig
 
@@ -13,12 +14,15 @@ GAIT_START_S = 3.0
 MOCAP_WALKS = ("walk60.bvh", "walk_forward.bvh")
 
 
-def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None) -> dict:
+def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
+             filmstrip=None) -> dict:
     """Gait statistics of each walker among ``controllers`` (``config.walk_duration`` s, IPM at
     ``config.ipm_speed``, analysed from :data:`GAIT_START_S`, or a quarter of the run if that
     is shorter; a run too short or fallen too early to analyse is listed in ``skipped``) and
-    of the mocap walks."""
-    from bvh.gait import GaitError, analyse, analyse_clip
+    of the mocap walks. With ``filmstrip`` (a PNG path) every walk's middle stride is drawn
+    there too (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the
+    file, or says why there is none)."""
+    from bvh.gait import GaitError, analyse, clip_walk
     from controllers import registry
     from controllers.core import scenarios as S
     from controllers.core.character import Character
@@ -41,18 +45,32 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None) -> 
                                 frame_callback=rec)
         falls[name] = result.fall_time_s
         try:
-            walks.append(analyse(ch.model, rec.times, rec.qpos, start=start,
-                                 end=result.fall_time_s, info=ch.info, label=name))
+            walks.append((analyse(ch.model, rec.times, rec.qpos, start=start,
+                                  end=result.fall_time_s, info=ch.info, label=name),
+                          ch.model, rec.times, rec.qpos))
         except GaitError as e:
             skipped[name] = str(e)
             continue
         if progress:
-            progress(f"  gait {name}: {walks[-1].steps} steps")
+            progress(f"  gait {name}: {walks[-1][0].steps} steps")
     for clip in MOCAP_WALKS:
         if (SHARED_BVH / clip).is_file():
-            walks.append(analyse_clip(SHARED_BVH / clip))
-    return {"start_s": start, "duration_s": config.walk_duration, "falls": falls,
-            "skipped": skipped, "walks": [w.to_dict() for w in walks]}
+            model, info, times, qpos = clip_walk(SHARED_BVH / clip)
+            stats = analyse(model, times, qpos, info=info, label=clip.removesuffix(".bvh"))
+            walks.append((stats, model, times, qpos))
+    section = {"start_s": start, "duration_s": config.walk_duration, "falls": falls,
+               "skipped": skipped, "walks": [w[0].to_dict() for w in walks]}
+    if filmstrip is not None and walks:
+        from bvh.errors import MjcharError
+
+        from ..gait_plot import plot_filmstrip
+
+        try:
+            plot_filmstrip(walks, filmstrip)
+            section["filmstrip"] = Path(filmstrip).name
+        except MjcharError as e:  # no OpenGL or no matplotlib: the numbers still stand
+            section["filmstrip"] = f"not drawn: {e}"
+    return section
 
 
 def gait_markdown(section: dict | None) -> str:

@@ -142,8 +142,9 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         from .gait import run_gait
 
         t0 = time.perf_counter()
+        strip = out / "gait_filmstrip.png" if out is not None and plots and videos else None
         doc["gait"] = run_gait(config, list(doc["controllers"]),
-                               progress=print if progress else None)
+                               progress=print if progress else None, filmstrip=strip)
         timings["gait_s"] = time.perf_counter() - t0
     doc["skeletons"] = None
     if skeletons is not None:
@@ -176,6 +177,8 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
 
             if plot_gait(doc["gait"], out / "gait_cycle.png") is not None:
                 doc["plots"].append("gait_cycle.png")
+            if doc["gait"] and doc["gait"].get("filmstrip") == "gait_filmstrip.png":
+                doc["plots"].append("gait_filmstrip.png")
         from .gait import gait_markdown
 
         notes = TABLE_NOTES + tuple(protocol_notes(doc["table"]))
