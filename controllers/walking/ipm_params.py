@@ -77,8 +77,9 @@ class IPMParams:
             ``human_end`` (:meth:`IPMParams.human_weight`). Measured (60 s walks, issue 14):
             the human-like gait alone above 1.35 m/s settles too slow (1.6 m/s: steady 1.35 m/s;
             a larger speed bias or stepping closer fell at 5-13 s), while fading it out by 1.5
-            m/s (knee kp 400, swing 0.06 m) fell at 6.4-7.5 s at 1.4-1.6 m/s in the switch; the
-            defaults walk 1.4/1.5/1.6 m/s 60 s at 1.351/1.392/1.532 m/s.
+            m/s (knee kp 400, swing 0.06 m) fell at 6.4-7.5 s at 1.4-1.6 m/s in the switch; kp 300
+            with this fade walked 1.4/1.5/1.6 m/s 60 s at 1.351/1.392/1.532 m/s (0.08 m swing),
+            and the defaults pass the 60 s range 0.3-1.6 m/s (``test_speed_range_60s``).
         human_step_time: step time (s) at ``fast_speed`` in that band (the rate then grows by
             ``cadence_gain`` like the fast one's): 0.48 s, so 1.2 m/s takes 0.47 s nominal steps
             (~0.5 s as walked, 119 steps/min, 0.59 m; the fast band's 0.39 s gave 145 steps/min
