@@ -25,15 +25,16 @@ TUNED_LEG_LENGTH = 0.878
 TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
-           "coronal_offset", "stance_ankle_limit")
+           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
-         "speed_offset", "speed_integral")
-_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed")
+         "speed_offset", "speed_integral", "human_step_time", "human_speed_integral")
+_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 #: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
 _RATE2 = ("vf_coronal_pos", "cadence_gain")
-_TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp", "ankle_kp",
-                "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
+_TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp",
+                "human_stance_knee_kp",
+                "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
 _DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
                  "pelvis_yaw_kd")
 _FORCE = ("vf_max_sagittal", "vf_max_coronal")
@@ -41,7 +42,8 @@ _TORQUE = ("stance_yaw_limit",)
 #: parameters without a dimension (phases, scales, angles, switches), left as they are
 _DIMENSIONLESS = ("min_phase", "max_phase", "sagittal_scale", "coronal_scale", "clamp",
                   "swing_blend", "stance_knee", "stance_knee_ramp", "fast_stance_knee_ramp",
-                  "stance_knee_ramp_max", "upper_gain_scale", "acceleration",
+                  "stance_knee_ramp_max", "human_stance_knee_ramp",
+                  "human_coronal_scale", "push_off_phase", "upper_gain_scale", "acceleration",
                   "turn_acceleration", "gravity_compensation", "implicit_damping", "feedforward",
                   "heading_tolerance", "arm_abduction", "yaw_friction")
 
@@ -69,6 +71,40 @@ class IPMParams:
             Measured: at 1.4 m/s 0.4 s steps sank into a deepening crouch (landing knee 1.20 rad
             at 60 s, still growing), at 1.5 m/s 0.39 s steps fell at 30 s, 0.36 s steps held a
             steady gait (docs/ipm.md, speed range).
+        human_top, human_end: the human-like gait band (m/s of desired speed). The ``human_*``
+            values take over from the slow ones between ``slow_speed`` and ``fast_speed``, hold
+            up to ``human_top`` and give way to the fast ones (quick steps, soft knee) by
+            ``human_end`` (:meth:`IPMParams.human_weight`). Measured (60 s walks, issue 14):
+            the human-like gait alone above 1.35 m/s settles too slow (1.6 m/s: steady 1.35 m/s;
+            a larger speed bias or stepping closer fell at 5-13 s), while fading it out by 1.5
+            m/s (knee kp 400, swing 0.06 m) fell at 6.4-7.5 s at 1.4-1.6 m/s in the switch; kp 300
+            with this fade walked 1.4/1.5/1.6 m/s 60 s at 1.351/1.392/1.532 m/s (0.08 m swing),
+            and the defaults pass the 60 s range 0.3-1.6 m/s (``test_speed_range_60s``).
+        human_step_time: step time (s) at ``fast_speed`` in that band (the rate then grows by
+            ``cadence_gain`` like the fast one's): 0.48 s, so 1.2 m/s takes 0.47 s nominal steps
+            (~0.5 s as walked, 119 steps/min, 0.59 m; the fast band's 0.39 s gave 145 steps/min
+            and 0.48 m; people at 1.2 m/s: 100-128 steps/min, 0.55-0.72 m).
+        human_stance_knee_kp, human_stance_knee_ramp: the stance knee in that band: a plain PD
+            to ``stance_knee`` from landing (kp 300, no ramp). The fast band's soft knee (kp 200
+            easing from the landing flexion) sank into a crouch with longer steps (0.5 s steps
+            at 1.2 m/s: stance knee 68-70 deg, COM 0.78 m; mean knee flexion 73-78 deg); a stiff
+            knee from landing holds 23-27 deg with push-off (below). kp 400 gives 33-34 deg
+            knee flexion at 1.2 m/s but fell at 1.5 m/s in the switch to the fast band.
+        human_swing_height: mid-swing sole height (m) in that band (``swing_heights[1]``
+            otherwise): 0.05 m, foot clearance 0.06 m (the 0.15 m swing: 0.14 m, mocap 0.07-0.08
+            m) and 2-4 deg less mean knee flexion (34.0 at 0.05, 35.5 at 0.06, 37.5 at 0.08 m).
+        human_push_off, push_off_phase: in that band, from ``push_off_phase`` to the end of the
+            step a toes-down moment of ``human_push_off`` x body weight (m) on the stance foot
+            (smoothstep), and the forward ankle limit grows to the ball of the foot (its toe
+            joint) with it, so the heel lifts. Measured why: with a straight stance knee and
+            0.5 s steps the stance foot stayed flat to the end (pitch 0 deg at the next
+            landing), so the hip sank over it (0.83 -> 0.77 m in 6 s), every landing came
+            deeper (swing knee 0.57 -> 0.92 rad at contact) and the walk fell at 12.8 s; with
+            0.2 it holds (landing hip ~0.80 m).
+        human_coronal_scale: ``coronal_scale`` in that band: 0.8 (at 1.0 the longer steps
+            stepped 0.20-0.26 m wide; 0.9: 0.15 m, 0.8: 0.12 m; 0.7 fell at 6.2 s).
+        human_speed_integral: ``speed_integral`` in that band (s): 0.06; with 0.02 the
+            human-like gait took ~20 s to reach its speed (1.2 m/s: 1.10 m/s mean over 3-16 s).
         min_phase: swing-foot contact ends the step only after this phase.
         max_phase: the step is ended at this phase even without contact.
         sagittal_scale, coronal_scale: IPM offset scales ``s_s``, ``s_c`` (paper: 1.1, 1.3).
@@ -172,6 +208,16 @@ class IPMParams:
     fast_stance_knee_kp: float = 200.0
     fast_stance_knee_ramp: float = 1.0
     stance_knee_ramp_max: float = 0.9
+    human_top: float = 1.35
+    human_end: float = 1.6
+    human_step_time: float = 0.48
+    human_stance_knee_kp: float = 300.0
+    human_stance_knee_ramp: float = 0.0
+    human_swing_height: float = 0.05
+    human_push_off: float = 0.2
+    push_off_phase: float = 0.5
+    human_coronal_scale: float = 0.8
+    human_speed_integral: float = 0.06
     upper_gain_scale: float = 1.0
     vf_sagittal: float = 30.0
     vf_coronal_pos: float = 0.0
@@ -227,10 +273,41 @@ class IPMParams:
             return 0.0 if v <= self.slow_speed else 1.0
         return min((v - self.slow_speed) / (self.fast_speed - self.slow_speed), 1.0)
 
+    def human_weight(self, speed: float) -> float:
+        """Weight (0-1) of the ``human_*`` values at a desired speed (m/s): 0 up to
+        ``slow_speed``, 1 from ``fast_speed`` to ``human_top``, 0 again from ``human_end`` on
+        (linear in between)."""
+        v = abs(float(speed))
+        x = self.speed_blend(v)
+        if v > self.human_top:
+            x *= max(0.0, 1.0 - (v - self.human_top) / max(self.human_end - self.human_top, 1e-9))
+        return x
+
+    def human(self, name: str, speed: float) -> float:
+        """Parameter ``name`` at a desired speed: ``name`` blended towards ``human_<name>`` by
+        :meth:`human_weight`."""
+        w = self.human_weight(speed)
+        v = getattr(self, name)
+        return v if w <= 0 else v + w * (getattr(self, "human_" + name) - v)
+
     def at_speed(self, speed: float) -> tuple[float, float, float]:
         """``(step_time, stance_knee_kp, stance_knee_ramp)`` at a desired speed (m/s): the slow
         values up to ``slow_speed``, the ``fast_*`` ones from ``fast_speed``, linear between;
-        above ``fast_speed`` the step rate grows by ``cadence_gain`` per m/s."""
+        above ``fast_speed`` the step rate grows by ``cadence_gain`` per m/s; the ``human_*``
+        values blended in by :meth:`human_weight` (so they hold from ``fast_speed`` to
+        ``human_top``)."""
+        t, k, r = self._fast_at_speed(speed)
+        w = self.human_weight(speed)
+        if w <= 0:
+            return t, k, r
+        th = self.human_step_time
+        v = abs(float(speed))
+        if v > self.fast_speed:  # the human step rate grows with speed too
+            th = 1.0 / (1.0 / th + self.cadence_gain * (v - self.fast_speed))
+        return (t + w * (th - t), k + w * (self.human_stance_knee_kp - k),
+                r + w * (self.human_stance_knee_ramp - r))
+
+    def _fast_at_speed(self, speed: float) -> tuple[float, float, float]:
         x = self.speed_blend(speed)
         kp = self.knee_kp if self.stance_knee_kp is None else self.stance_knee_kp
         step_time = self.step_time + x * (self.fast_step_time - self.step_time)
@@ -260,6 +337,8 @@ class IPMParams:
         if self.step_time <= 0 or self.fast_step_time <= 0:
             raise IPMError(f"step_time and fast_step_time must be positive seconds, got "
                            f"{self.step_time}, {self.fast_step_time}")
+        if not (self.human_step_time > 0 and self.human_end > self.human_top >= self.fast_speed):
+            raise IPMError("need human_step_time > 0 and fast_speed <= human_top < human_end")
         if self.cadence_gain < 0:
             raise IPMError(f"cadence_gain must be >= 0 (steps/s per m/s), got {self.cadence_gain}")
         if self.stance_knee_ramp < 0 or self.fast_stance_knee_ramp < 0:
