@@ -40,7 +40,7 @@ GRAVITY = 9.81
 
 
 #: :class:`Gait` fields a speed anchor may set besides the per-state parameters
-ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase")
+ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase", "velocity_force")
 
 
 class GaitError(MjcharError):
@@ -127,6 +127,18 @@ class Gait:
             :data:`ANCHOR_FIELDS`.
         speed_acceleration: how fast a speed command moves from the gait's own speed to the
             commanded one, in g (0.02: 0.2 m/s^2; dimensionless, the same on every body).
+        swing_gravity: fraction of the swing leg's weight compensated by Jacobian-transpose
+            torques on its joints (Coros, Beaudoin and van de Panne 2010, "Generalized Biped
+            Walking Control"; 0: off). Its hip share reacts on the stance hip like the rest
+            of the swing hip's torque.
+        stance_support: fraction of the body's weight carried by a virtual upward force on
+            the centre of mass through the stance leg's ankle and knee (Jacobian transpose with
+            the stance foot fixed; 0: off).
+        velocity_force, velocity_force_coronal: Coros 2010's velocity tuning: a virtual
+            force on the centre of mass through the stance ankle and knee,
+            ``F = k m g (v_d - v) / sqrt(g L)`` per plane (``k`` dimensionless, ``m`` the
+            body's mass, ``L`` its leg length), ``v_d`` the speed target forward (none: no
+            sagittal force) and 0 sideways; 0: off.
     """
 
     name: str
@@ -150,6 +162,10 @@ class Gait:
     froude: float | None = None
     speed_anchors: tuple = ()
     speed_acceleration: float = 0.02
+    swing_gravity: float = 0.0
+    stance_support: float = 0.0
+    velocity_force: float = 0.0
+    velocity_force_coronal: float = 0.0
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:
