@@ -444,8 +444,66 @@ CROUCH = Gait(
     },
 )
 
+#: Natural walk (issue 14): human-like gait statistics at 1.2 m/s (cadence, step length and
+#: width, trunk lean, knee flexion; docs/simbicon.md). The walk's controller with Coros,
+#: Beaudoin and van de Panne 2010's swing-leg gravity compensation (``swing_gravity``) and
+#: velocity tuning (``velocity_force``), the pelvis pitched forward and the spine extended so
+#: the trunk (pelvis to head) stands nearly upright; tuned on the bundled humanoid by CMA-ES
+#: (21 numbers, cost = normalised violations of issue 14's bars + speed error + falls, 10 s
+#: walks at 1.2 m/s). Own speed 1.2 m/s (Froude 0.409); a speed command regulates towards the
+#: command with ``speed_gain`` and the virtual force (no anchors).
+NATURAL = Gait(
+    name="natural",
+    states=(
+        StateParams(
+            duration=0.1831,
+            ends_on_contact=False,
+            swing_hip=0.5795,
+            swing_hip_coronal=-0.0385,
+            swing_knee=1.4516,
+            swing_ankle=0.9036,
+            stance_knee=-0.0258,
+            stance_ankle=0.143,
+            cd=0.6671,
+            cv=0.1889,
+            cd_coronal=0.4473,
+            cv_coronal=0.1122,
+        ),
+        StateParams(
+            duration=0.1574,
+            ends_on_contact=True,
+            swing_hip=0.1533,
+            swing_hip_coronal=-0.0385,
+            swing_knee=0.083,
+            swing_ankle=-0.1738,
+            stance_knee=-0.0414,
+            stance_ankle=0.3215,
+            cd=0.6671,
+            cv=0.1889,
+            cd_coronal=0.4473,
+            cv_coronal=0.1122,
+        ),
+    ),
+    torso_pitch=0.3386,
+    spine_pitch=-0.195,
+    arm_swing=0.442,
+    max_twist=0.21,
+    speed_gain=0.0097,
+    swing_gravity=0.9763,
+    velocity_force=0.1705,
+    body_leg_length=BUNDLED_LEG_LENGTH,
+    body_mass=BUNDLED_MASS,
+    froude=0.409,
+    gains={
+        "torso": (873.399, 87.34),
+        "swing_hip": (260.881, 26.088),
+        "ankle": (363.157, 36.316),
+        "stance_twist": (600.0, 60.0),
+    },
+)
+
 #: The gaits by name.
-GAITS: dict[str, Gait] = {"walk": WALK, "crouch": CROUCH}
+GAITS: dict[str, Gait] = {"walk": WALK, "crouch": CROUCH, "natural": NATURAL}
 
 
 def get_gait(gait: str | Gait | dict, **overrides) -> Gait:
