@@ -286,6 +286,51 @@ def test_crouch_gait_walks(ch):
     assert c.gait.torso_pitch > 0.25  # leaning forward
 
 
+# -- the natural gait (issue 14) -----------------------------------------------------------------
+#: issue 14's bars for walking at 1.2 m/s (bvh.gait statistics): (low, high), None = open
+NATURAL_BARS = {
+    "trunk_lean_deg": (None, 8.0),
+    "step_width_m": (0.05, 0.15),
+    "step_length_m": (0.55, 0.80),
+    "cadence_spm": (95.0, 130.0),
+    "knee_flexion_deg": (15.0, 35.0),
+}
+
+
+def natural_stats(ch, speed, duration):
+    """The natural gait's run and statistics as ``mjchar gait simbicon --gait natural`` measures
+    them: the walk scenario (from the standing pose), analysed from 3 s on."""
+    from bvh.gait import analyse
+    from controllers.core.recording import MotionRecorder
+    from controllers.core.scenarios import run_scenario
+
+    rec = MotionRecorder()
+    r = run_scenario("walk", ch, make_simbicon(gait="natural", speed=speed), duration=duration,
+                     frame_callback=rec)
+    stats = None if r.fell else analyse(ch.model, rec.times, rec.qpos, start=3.0, info=ch.info)
+    return r, stats
+
+
+def test_new_options_off_leave_the_walk_alone():
+    """Coros 2010's terms are options, off (0) in the walk and crouch gaits."""
+    for name in ("walk", "crouch"):
+        g = GAITS[name]
+        assert g.swing_gravity == g.stance_support == 0.0
+        assert g.velocity_force == g.velocity_force_coronal == 0.0
+
+
+def test_natural_gait_bars_at_1_2(ch):
+    """The natural gait at 1.2 m/s, 11 s analysed from 3 s on: issue 14's bars (all but the
+    stance-foot slip, which it does not meet: ~3 cm per step against < 1 cm)."""
+    r, s = natural_stats(ch, 1.2, 11.0)
+    assert not r.fell, r.fall_reason
+    assert no_root_force(r)
+    assert abs(s.speed_mps - 1.2) <= SPEED_TOLERANCE, s.speed_mps
+    for key, (lo, hi) in NATURAL_BARS.items():
+        v = getattr(s, key)
+        assert v is not None and (lo is None or v >= lo) and (hi is None or v <= hi), (key, v)
+
+
 # -- terrain -----------------------------------------------------------------------------------
 def test_tilt_floor_and_place_on_floor(ch):
     tilt_floor(ch, 5.0, height=0.2)
@@ -394,4 +439,14 @@ def test_pushes_at_8_phases(ch, direction):
 def test_slope_20m(ch, degrees):
     r = slope_walk(ch, make_simbicon(gait="walk"), degrees=degrees, distance=20.0, duration=45.0)
     assert r.extra["reached"], (r.fall_reason, r.extra)
+    assert no_root_force(r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
+def test_natural_walks_60s(ch, seed):
+    """Issue 14's first robustness bar for the natural gait: 60 s at 1.2 m/s, no fall."""
+    r = walk(ch, make_simbicon(gait="natural", speed=1.2), duration=60.0, seed=seed)
+    assert not r.fell, r.fall_reason
+    assert abs(r.extra["steady_speed_mps"] - 1.2) <= SPEED_TOLERANCE, r.extra
     assert no_root_force(r)

@@ -40,7 +40,7 @@ GRAVITY = 9.81
 
 
 #: :class:`Gait` fields a speed anchor may set besides the per-state parameters
-ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase")
+ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase", "velocity_force")
 
 
 class GaitError(MjcharError):
@@ -127,6 +127,18 @@ class Gait:
             :data:`ANCHOR_FIELDS`.
         speed_acceleration: how fast a speed command moves from the gait's own speed to the
             commanded one, in g (0.02: 0.2 m/s^2; dimensionless, the same on every body).
+        swing_gravity: fraction of the swing leg's weight compensated by Jacobian-transpose
+            torques on its joints (Coros, Beaudoin and van de Panne 2010, "Generalized Biped
+            Walking Control"; 0: off). Its hip share reacts on the stance hip like the rest
+            of the swing hip's torque.
+        stance_support: fraction of the body's weight carried by a virtual upward force on
+            the centre of mass through the stance leg's ankle and knee (Jacobian transpose with
+            the stance foot fixed; 0: off).
+        velocity_force, velocity_force_coronal: Coros 2010's velocity tuning: a virtual
+            force on the centre of mass through the stance ankle and knee,
+            ``F = k m g (v_d - v) / sqrt(g L)`` per plane (``k`` dimensionless, ``m`` the
+            body's mass, ``L`` its leg length), ``v_d`` the speed target forward (none: no
+            sagittal force) and 0 sideways; 0: off.
     """
 
     name: str
@@ -150,6 +162,10 @@ class Gait:
     froude: float | None = None
     speed_anchors: tuple = ()
     speed_acceleration: float = 0.02
+    swing_gravity: float = 0.0
+    stance_support: float = 0.0
+    velocity_force: float = 0.0
+    velocity_force_coronal: float = 0.0
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -428,8 +444,66 @@ CROUCH = Gait(
     },
 )
 
+#: Natural walk (issue 14): human-like gait statistics at 1.2 m/s (cadence, step length and
+#: width, trunk lean, knee flexion; docs/simbicon.md). The walk's controller with Coros,
+#: Beaudoin and van de Panne 2010's swing-leg gravity compensation (``swing_gravity``) and
+#: velocity tuning (``velocity_force``), the pelvis pitched forward and the spine extended so
+#: the trunk (pelvis to head) stands nearly upright; tuned on the bundled humanoid by CMA-ES
+#: (21 numbers, cost = normalised violations of issue 14's bars + speed error + falls, 10 s
+#: walks at 1.2 m/s). Own speed 1.2 m/s (Froude 0.409); a speed command regulates towards the
+#: command with ``speed_gain`` and the virtual force (no anchors).
+NATURAL = Gait(
+    name="natural",
+    states=(
+        StateParams(
+            duration=0.1831,
+            ends_on_contact=False,
+            swing_hip=0.5795,
+            swing_hip_coronal=-0.0385,
+            swing_knee=1.4516,
+            swing_ankle=0.9036,
+            stance_knee=-0.0258,
+            stance_ankle=0.143,
+            cd=0.6671,
+            cv=0.1889,
+            cd_coronal=0.4473,
+            cv_coronal=0.1122,
+        ),
+        StateParams(
+            duration=0.1574,
+            ends_on_contact=True,
+            swing_hip=0.1533,
+            swing_hip_coronal=-0.0385,
+            swing_knee=0.083,
+            swing_ankle=-0.1738,
+            stance_knee=-0.0414,
+            stance_ankle=0.3215,
+            cd=0.6671,
+            cv=0.1889,
+            cd_coronal=0.4473,
+            cv_coronal=0.1122,
+        ),
+    ),
+    torso_pitch=0.3386,
+    spine_pitch=-0.195,
+    arm_swing=0.442,
+    max_twist=0.21,
+    speed_gain=0.0097,
+    swing_gravity=0.9763,
+    velocity_force=0.1705,
+    body_leg_length=BUNDLED_LEG_LENGTH,
+    body_mass=BUNDLED_MASS,
+    froude=0.409,
+    gains={
+        "torso": (873.399, 87.34),
+        "swing_hip": (260.881, 26.088),
+        "ankle": (363.157, 36.316),
+        "stance_twist": (600.0, 60.0),
+    },
+)
+
 #: The gaits by name.
-GAITS: dict[str, Gait] = {"walk": WALK, "crouch": CROUCH}
+GAITS: dict[str, Gait] = {"walk": WALK, "crouch": CROUCH, "natural": NATURAL}
 
 
 def get_gait(gait: str | Gait | dict, **overrides) -> Gait:

@@ -363,7 +363,18 @@ class Simbicon:
                 "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
                 "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
+            leg_hinges = [*H.values(), K["y"], *A.values()]
+            if toe:
+                leg_hinges += list(self._hinges(ch, toe).values())
+            leg["leg_acts"] = np.array([h.act for h in leg_hinges])
+            leg["leg_dofs"] = np.array([h.dof for h in leg_hinges])
+            leg["leg_mass"] = float(m.body_subtreemass[leg["hip_body"]])
+            # the stance leg's chain for virtual forces (foot fixed): ankle hinges and knee
+            support = [*A.values(), K["y"]]
+            leg["support_joints"] = np.array([h.jnt for h in support])
+            leg["support_acts"] = np.array([h.act for h in support])
             self._legs.append(leg)
+        self._jac = np.zeros((3, m.nv))
         self._feet = (self._legs[0]["foot_bodies"], self._legs[1]["foot_bodies"])
 
         # the rest of the body: spine, head, arms, toes
@@ -570,6 +581,12 @@ class Simbicon:
             err = math.remainder(self.desired_heading - heading, 2 * math.pi)
             want = sw["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
             tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
+        if g.swing_gravity:
+            # the swing leg's weight by Jacobian transpose (Coros et al. 2010)
+            m = character.model
+            mujoco.mj_jacSubtreeCom(m, d, self._jac, sw["hip_body"])
+            tau[sw["leg_acts"]] += (g.swing_gravity * GRAVITY * sw["leg_mass"]
+                                    * self._jac[2, sw["leg_dofs"]])
         tau[acts] = np.minimum(np.maximum(tau[acts], -lim[acts]), lim[acts])
         tau_sw = _world_torque(d.xaxis[sw["hip_joints"]], tau[acts])
 
@@ -598,6 +615,8 @@ class Simbicon:
         else:
             tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
 
+        if g.stance_support or g.velocity_force or g.velocity_force_coronal:
+            tau[st["support_acts"]] += self._virtual_force(character, st, H)
         if g.swing_ankle_world:
             # swing foot pitched by swing_ankle (toes up) in the desired-heading frame
             Rfd = _rot_z(self.desired_heading) @ _rot_y(sw["foot_pitch_sign"] * p.swing_ankle)
@@ -606,6 +625,24 @@ class Simbicon:
             tau_f = kpa * _log(Rfd @ Rf.T) - kda * d.cvel[sw["ankle_body"], :3]
             tau[sw["ankle_acts"]] = d.xaxis[sw["ankle_joints"]] @ tau_f
         return np.minimum(np.maximum(tau, -lim), lim)
+
+    def _virtual_force(self, character: Character, st: dict, H: np.ndarray) -> np.ndarray:
+        """Torques of the stance ankle and knee that put a virtual force on the centre of mass
+        with the stance foot fixed (``tau_j = -a_j . ((c - x_j) x F)``): a share of the weight
+        (``stance_support``) and Coros 2010's velocity tuning (``velocity_force``)."""
+        g, d = self.gait, character.data
+        weight = self._mass * GRAVITY
+        unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
+        v = character.com_velocity()
+        lat = -st["out"][1] * H[:, 1]
+        F = np.array([0.0, 0.0, g.stance_support * weight])
+        if g.velocity_force and g.speed_target is not None:
+            F += g.velocity_force * weight * (g.speed_target - v @ H[:, 0]) / unit * H[:, 0]
+        if g.velocity_force_coronal:
+            F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
+        js = st["support_joints"]
+        r = character.com() - d.xanchor[js]
+        return -np.einsum("ij,ij->i", d.xaxis[js], np.cross(r, F))
 
     def _feedback_terms(
         self, character: Character, st: dict, H: np.ndarray
