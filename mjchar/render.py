@@ -43,24 +43,24 @@ def render_poses(model: mujoco.MjModel, qpos, *, width: int = 200, height: int =
                  distance: float | None = None) -> list[np.ndarray]:
     """``(height, width, 3)`` images of ``model`` in each pose of ``qpos (F, nq)``, the camera
     looking at the root body from ``azimuth`` degrees (world frame) at ``distance`` m (default:
-    2.3 x the root's height in the first pose, so every body size fills the frame alike)."""
+    2.6 x the root's height over the lowest body in the model's rest pose, so every body size
+    fills the frame alike and a crouched pose looks crouched)."""
     qpos = np.atleast_2d(np.asarray(qpos, dtype=float))
     data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)  # the rest pose (qpos0)
+    root = int(model.jnt_bodyid[0]) if model.njnt else 0
+    h = max(float(data.xpos[root][2] - data.xpos[1:, 2].min()), 0.3)
     renderer = _renderer(model, width, height)
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.azimuth, camera.elevation = azimuth, elevation
-    root = int(model.jnt_bodyid[0]) if model.njnt else 0
+    camera.distance = 2.6 * h if distance is None else distance
     images = []
     try:
-        for k, q in enumerate(qpos):
+        for q in qpos:
             data.qpos[:] = q
             mujoco.mj_forward(model, data)
-            if k == 0:
-                h = float(data.xpos[root][2])
-                camera.distance = 2.3 * max(h, 0.3) if distance is None else distance
-                height_at = 0.9 * h
-            camera.lookat[:] = (data.xpos[root][0], data.xpos[root][1], height_at)
+            camera.lookat[:] = (data.xpos[root][0], data.xpos[root][1], 0.95 * h)
             renderer.update_scene(data, camera)
             images.append(np.asarray(renderer.render()).copy())
     finally:

@@ -74,7 +74,8 @@ def _walker_stats(args, spec):
     kw = {} if args.seed is None else {"seed": args.seed}
     result = S.run_scenario("walk", character, controller, duration=duration,
                             frame_callback=recorder, **kw)
-    label = spec.name + (f" {options['speed']:g} m/s" if "speed" in options else "")
+    label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])
+                     + ([f"{options['speed']:g} m/s"] if "speed" in options else []))
     stats = analyse(character.model, recorder.times, recorder.qpos, start=start,
                     end=result.fall_time_s, info=character.info, label=label)
     return (stats, character.model, recorder.times, recorder.qpos), result
