@@ -14,10 +14,8 @@ PANELS = (("left_knee_flexion", "knee flexion (deg)"), ("left_hip_flexion", "hip
           ("trunk_lean", "trunk lean (deg)"))
 
 
-def plot_cycles(stats: list, path: str | os.PathLike) -> None:
-    """One panel per curve of :data:`PANELS`: each walk's mean over its strides (a band of one
-    standard deviation) against 0-100 % of the gait cycle (left foot strike to left foot
-    strike)."""
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend, or a clear error naming the extra."""
     try:
         import matplotlib
 
@@ -25,6 +23,24 @@ def plot_cycles(stats: list, path: str | os.PathLike) -> None:
         import matplotlib.pyplot as plt
     except ImportError:
         raise MjcharError('plotting needs matplotlib: pip install "mjchar[bench]"') from None
+    return plt
+
+
+def _save(plt, fig, path, dpi: int) -> None:
+    fig.tight_layout()
+    try:
+        fig.savefig(path, dpi=dpi)
+    except OSError as e:
+        raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
+    finally:
+        plt.close(fig)
+
+
+def plot_cycles(stats: list, path: str | os.PathLike) -> None:
+    """One panel per curve of :data:`PANELS`: each walk's mean over its strides (a band of one
+    standard deviation) against 0-100 % of the gait cycle (left foot strike to left foot
+    strike)."""
+    plt = _pyplot()
     fig, axes = plt.subplots(1, len(PANELS), figsize=(4.2 * len(PANELS), 3.4))
     for ax, (key, label) in zip(axes, PANELS, strict=True):
         for s in stats:
@@ -39,13 +55,7 @@ def plot_cycles(stats: list, path: str | os.PathLike) -> None:
         ax.grid(alpha=0.3)
     if axes[0].get_legend_handles_labels()[0]:
         axes[0].legend(fontsize=7)
-    fig.tight_layout()
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as e:
-        raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
-    finally:
-        plt.close(fig)
+    _save(plt, fig, path, dpi=110)
 
 
 #: frames per row of :func:`plot_filmstrip`
@@ -69,13 +79,7 @@ def plot_filmstrip(walks: list, path: str | os.PathLike, frames: int = FILMSTRIP
 
     ``walks``: ``(stats, model, times, qpos)`` tuples (a :class:`~bvh.gait.GaitStats` and the
     trajectory it was measured on). Rendering needs OpenGL (``MUJOCO_GL=egl`` headless)."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise MjcharError('plotting needs matplotlib: pip install "mjchar[bench]"') from None
+    plt = _pyplot()
     from .render import render_poses
 
     rows = []
@@ -98,10 +102,4 @@ def plot_filmstrip(walks: list, path: str | os.PathLike, frames: int = FILMSTRIP
             ax.set_xlabel(f"{dt:.2f} s", fontsize=7)
         speed = f"{stats.speed_mps:.2f} m/s"
         ax_row[0].set_ylabel(f"{stats.label}\n{speed}", fontsize=8)
-    fig.tight_layout()
-    try:
-        fig.savefig(path, dpi=100)
-    except OSError as e:
-        raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
-    finally:
-        plt.close(fig)
+    _save(plt, fig, path, dpi=100)
