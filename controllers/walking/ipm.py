@@ -179,9 +179,13 @@ class IPMController:
         self._trajectory = self.trajectory
         # the ball of each foot (its toe joint) ahead of the ankle (m): how far forward the
         # pressure can go once the heel is up in push-off (the forward ankle limit without toes)
+        # (horizontal, in the rest pose: a rig's foot frame need not be level)
         fwd = self.params.stance_ankle_limit[0] if self.params.stance_ankle_limit else 0.0
-        self._ball = [float(np.linalg.norm(m.body_pos[ch.body_id(lg.toe_name)][:2]))
-                      if lg.toe_name else fwd for lg in self._legs]
+        rest = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, rest)
+        self._ball = {lg.side: float(np.linalg.norm(
+            (rest.xpos[ch.body_id(lg.toe_name)] - rest.xpos[lg.foot])[:2]))
+            if lg.toe_name else fwd for lg in self._legs}
         self._human = self._push_w = 0.0
         # joints acting directly on the pelvis other than the hips (the spine)
         leg_jnts = {int(j) for lg in self._legs for j in lg.hip_jnt}
@@ -716,7 +720,7 @@ class IPMController:
         Tl = R_foot.T @ T
         # the moment on the foot about +y (toes down) shifts the pressure forward
         if self._push_w > 0:  # heel lifting: the pressure may move up to the ball of the foot
-            fwd += self._push_w * max(self._ball[0 if st is self._legs[0] else 1] - fwd, 0.0)
+            fwd += self._push_w * max(self._ball[st.side] - fwd, 0.0)
         Tl[1] = min(max(Tl[1], -back * W), fwd * W)
         Tl[0] = min(max(Tl[0], -roll * W), roll * W)
         tau[st.ankle] = A.T @ (R_foot @ Tl)
