@@ -44,6 +44,9 @@ def _track(character, reference, duration, **options):
     ({"replan": 0.5, "horizon": 0.3}, "replan .* cannot exceed horizon"),
     ({"noise": -1.0}, "noise must be a positive number"),
     ({"threads": 0}, "threads"),
+    ({"plan_timestep": 0.003}, "control_dt 0.02 s is not a whole number of plan_timestep"),
+    ({"plan_timestep": -0.004}, "plan_timestep must be a positive number or None"),
+    ({"plan_timestep": 0.05}, "not a whole number of plan_timestep"),
     ({"smoothness": float("nan")}, "smoothness"),
     ({"colour": "red"}, "unknown MPC option.*colour.*valid: samples"),
     ({"weights": {"pose": -1.0}}, "cost weight pose"),
@@ -59,6 +62,24 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
     c = make_mpc(character, walk_ref, control_dt=0.015, horizon=0.3, replan=0.03)
     with pytest.raises(MpcError, match="whole number of .* physics steps"):
         c.reset(character)
+
+
+def test_the_planning_model_has_its_own_time_step(character, walk_ref):
+    """plan_timestep changes the rollout model's step only: the character keeps its own, the
+    rest of the physics is checked to be the character's."""
+    from controllers.sampling.trajectory import model_fingerprint
+
+    c = make_mpc(character, walk_ref, progress=False, plan_timestep=0.004, **FAST)
+    c.reset(character)
+    assert c._rmodel.model.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
+    assert (c.k, c.k_plan) == (10, 5)
+    assert model_fingerprint(c._rmodel.model) == model_fingerprint(character.model)
+    c.act(character, 0.0)  # one replanning step: rollouts of k_plan steps per control
+    assert c.stats["physics_steps"] == 8 * 10 * 5
+    c.options.plan_timestep = None  # the character's own step again: a new rollout model
+    c.reset(character)
+    assert c._rmodel.model.opt.timestep == 0.002 and c.k_plan == 10
+    c.close()
 
 
 def test_a_model_without_a_file_is_refused(walk_ref):
@@ -131,11 +152,19 @@ def test_same_seed_same_trajectory_bit_for_bit_whatever_the_threads(walk_ref):
     assert not np.array_equal(a, d)
 
 
+@pytest.mark.parametrize("plan_timestep", [None, 0.004])
+def test_deterministic_with_either_planning_step(walk_ref, plan_timestep):
+    o = {"seed": 3, "plan_timestep": plan_timestep}
+    _, a, _ = _track(Character(), walk_ref, 0.2, **o)
+    _, b, _ = _track(Character(), walk_ref, 0.2, **o, threads=1)
+    assert np.array_equal(a, b)
+
+
 def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
     """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
     at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, progress=False, plan_timestep=None, **FAST)  # the same step
     ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
     c.reset(ch)
     c.act(ch, 0.0)

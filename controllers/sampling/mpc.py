@@ -25,7 +25,9 @@ The plan, with MJPC's symbols:
   the nominal is candidate 0. ``b``, in ``[1, max_boost]``, is the last plan's cost over its
   running mean: the search widens after a disturbance (a push) raises the cost. All ``N`` are
   simulated from the current state in one batch (:mod:`controllers.sampling.rollout`, every
-  core, deterministic).
+  core, deterministic) on the *planning model*: the character's physics (checked by
+  :func:`~controllers.sampling.trajectory.model_fingerprint`) at the time step
+  ``plan_timestep``, which may be coarser than the character's (cheaper rollouts).
 - **Cost** of a candidate: the SAMCON tracking cost
   (:class:`~controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance, COM,
   joint positions) averaged over the control ends of the horizon, plus
@@ -37,9 +39,12 @@ The plan, with MJPC's symbols:
   temperature * (median(c) - c_min)`` (scale-free); ``"cem"`` moves the mean to the elite
   average and refits a per-knot, per-actuator ``sigma`` to the elites (smoothed, kept within
   ``[0.2, 2] x noise``).
-- **Execution.** The new plan's first ``replan`` seconds are applied, then it replans. The
-  constraint solver's warm start is cleared at each replanning, as every rollout starts, so
-  without a disturbance the character follows the chosen candidate's rollout bit for bit.
+- **Execution.** The new plan's first ``replan`` seconds are applied, at the character's own
+  time step, then it replans. The constraint solver's warm start is cleared at each
+  replanning, as every rollout starts. With ``plan_timestep`` equal to the character's step
+  (``None``), without a disturbance the character follows the chosen candidate's rollout bit
+  for bit; with a coarser planning step (the default) the rollouts only approximate what the
+  character then does, and the replanning corrects the difference like any disturbance.
 
 Deterministic: the same options (seed) and the same model give the same trajectory, whatever the
 thread count (each rollout is independent). The reference and base targets are computed on
@@ -102,6 +107,9 @@ class MpcOptions:
         knots: spline knots over the horizon ``K`` (>= 2; knot spacing ``H / (K - 1)``).
         replan: seconds between replanning steps (a whole number of controls, <= horizon).
         control_dt: seconds per PD-target control (a whole number of physics steps).
+        plan_timestep: the time step of the planning model the rollouts run on (``None``: the
+            character's own); ``control_dt`` must be a whole number of it. A coarser step makes
+            each rollout cheaper; the character itself still steps at its own time step.
         update: ``"sampling"``, ``"mppi"`` or ``"cem"``.
         noise: standard deviation of the knot perturbations, in units of the role widths.
         widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`);
@@ -122,6 +130,7 @@ class MpcOptions:
     knots: int = 3
     replan: float = 0.04
     control_dt: float = 0.02
+    plan_timestep: float | None = None
     update: str = "mppi"
     noise: float = 0.5
     widths: dict = field(default_factory=lambda: dict(MPC_WIDTHS))
@@ -173,6 +182,15 @@ class MpcOptions:
             if abs(c - round(c)) > 1e-6 or round(c) < 1:
                 raise MpcError(f"{k} ({getattr(self, k)} s) must be a whole number of controls "
                                f"of {self.control_dt} s")
+        if self.plan_timestep is not None:
+            v = self.plan_timestep
+            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
+                                           and v > 0):
+                raise MpcError(f"plan_timestep must be a positive number or None, got {v!r}")
+            k = self.control_dt / v
+            if abs(k - round(k)) > 1e-6 or round(k) < 1:
+                raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
+                               f"plan_timestep {v} s planning steps")
         if self.replan > self.horizon + 1e-9:
             raise MpcError(f"replan ({self.replan} s) cannot exceed horizon ({self.horizon} s)")
         if timestep is not None:
@@ -289,7 +307,8 @@ class MpcController:
     # -- setup -------------------------------------------------------------------------------
     def reset(self, character: Character) -> None:
         """Bind to ``character``: native PD with the model's own gains, the rollout model (same
-        physics and time step), the reference grid, a fresh plan and random stream."""
+        physics; the time step ``plan_timestep``, by default the character's), the reference
+        grid, a fresh plan and random stream."""
         o, ch = self.options, character
         o.check(ch.timestep)
         if not np.all(ch.position_actuators):
@@ -298,10 +317,11 @@ class MpcController:
         kp, kd = ch.default_gains()
         ch.set_native_gains(kp, kd)
         source = _model_file(ch)
-        key = (source, ch.timestep)
+        plan_dt = float(o.plan_timestep or ch.timestep)
+        key = (source, plan_dt)
         if self._rm_key != key:
             rm = tracking_rollout_model(source, ch)
-            rm.model.opt.timestep = ch.timestep
+            rm.model.opt.timestep = plan_dt  # the fingerprint leaves the time step out
             if model_fingerprint(rm.model) != model_fingerprint(ch.model):
                 raise MpcError(f"the character's physics differs from its model file "
                                f"{source} (edited gains or options?)")
@@ -318,7 +338,8 @@ class MpcController:
         elif getattr(getattr(ref, "model", None), "nq", ch.nq) != ch.nq:
             raise MpcError("the reference motion was built for another model")
         self.reference = ref
-        self.k = int(round(o.control_dt / ch.timestep))
+        self.k = int(round(o.control_dt / ch.timestep))  # physics steps per control
+        self.k_plan = int(round(o.control_dt / plan_dt))  # planning-model steps per control
         self.T = int(round(o.horizon / o.control_dt))
         self.R = int(round(o.replan / o.control_dt))
         self.widths = sampling_widths(ch, o.widths, o.width_scale)
@@ -392,7 +413,7 @@ class MpcController:
         off = self.spline.offsets(Xs)  # (N, T, nu), radians
         base = self.grid.base(n0, n0 + self.T)
         state = get_state(ch.model, ch.data)
-        req = RolloutRequest(self._rmodel, state, base[None] + off, self.k)
+        req = RolloutRequest(self._rmodel, state, base[None] + off, self.k_plan)
         res = self._executor.evaluate(req)
         c = self._costs(res, off, applied, n0)
         X, sigma, best = self._update(Xs, c, X, sigma)
@@ -404,7 +425,7 @@ class MpcController:
         st = self.stats
         st["replans"] += 1
         st["rollouts"] += N
-        st["physics_steps"] += N * self.T * self.k
+        st["physics_steps"] += N * self.T * self.k_plan  # of the planning model
         st["costs"].append(float(best))
         st["planning_s"] += time.perf_counter() - t0
         self._show(n0 * cdt, best)
