@@ -43,7 +43,7 @@ The plan, with MJPC's symbols:
   time step, then it replans. The constraint solver's warm start is cleared at each
   replanning, as every rollout starts. With ``plan_timestep`` equal to the character's step
   (``None``), without a disturbance the character follows the chosen candidate's rollout bit
-  for bit; with a coarser planning step (the default) the rollouts only approximate what the
+  for bit; with a coarser planning step the rollouts only approximate what the
   character then does, and the replanning corrects the difference like any disturbance.
 
 Deterministic: the same options (seed) and the same model give the same trajectory, whatever the
@@ -286,8 +286,8 @@ class MpcController:
             is a terminal; ``False``: never).
 
     Attributes:
-        stats: replanning steps, rollouts and physics steps simulated, seconds spent planning,
-            and the chosen cost of every replanning step.
+        stats: replanning steps, rollouts and planning-model physics steps simulated, seconds
+            spent planning, and the chosen cost of every replanning step.
     """
 
     name = "mpc"
