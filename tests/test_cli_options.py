@@ -18,7 +18,7 @@ VALUES = {
     "direction": "left", "push_duration": "0.2", "push_time": "0.5", "allow_steps": None,
     "max_force": "100", "tolerance": "50", "phases": "2", "seeds": "1", "seed": "1",
     "timestep": "0.001", "control_dt": "0.002", "render": "x.mp4", "export_bvh": "x.bvh",
-    "loop": None,
+    "loop": None, "param": "samples=8",
 }
 
 

@@ -58,7 +58,8 @@ class ControllerSpec:
             take ``trajectory=`` (a saved trajectory or its path).
         scenarios: the ``mjchar run`` scenarios it supports (a subset of :data:`SCENARIOS`).
         default_scenario: the scenario ``mjchar run NAME`` runs when none is given.
-        options: the factory keyword options the CLI may pass (e.g. ``speed``, ``gait``).
+        options: the factory keyword options the CLI may pass (e.g. ``speed``, ``gait``;
+            ``params``: it takes its tunables as keywords, from ``mjchar run --param``).
         timestep: its default physics time step in s (``None``: the model's own).
         steps: recovers from pushes by stepping (a push then counts as survived with a step).
         push: how the bench's push-search pushes it (:data:`PUSH_MODES`).

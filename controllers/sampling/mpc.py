@@ -519,4 +519,4 @@ def make_mpc(character: Character | None = None, target=None, **options) -> MpcC
 register(ControllerSpec(
     name="mpc", label="sampling MPC tracker (closed loop)", kind="balance", factory=make_mpc,
     scenarios=("track", "walk", "stand", "push"), default_scenario="track",
-    bench=("track",), expected=("track",)))
+    options=("params",), bench=("track",), expected=("track",)))

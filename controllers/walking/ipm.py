@@ -747,7 +747,7 @@ register(ControllerSpec(
     factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
                                                                            **options),
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
-    options=("speed", "heading"), steps=True,
+    options=("speed", "heading", "params"), steps=True,
     # walks 60 s with no fall from 0.3 to 1.6 m/s, steady speed within 0.15 m/s of the command
     # (bundled humanoid, docs/ipm.md speed range and human-like band); 0 stops and stands
     limits=(("speed", 0.0, 1.6),),

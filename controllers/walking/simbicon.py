@@ -727,7 +727,7 @@ def make_simbicon(
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
-    scenarios=("walk",), default_scenario="walk", options=("gait", "speed"),
+    scenarios=("walk",), default_scenario="walk", options=("gait", "speed", "params"),
     # the walk gait's speed command: 60 s with no fall at seeds 0-2 and a steady speed within
     # 0.15 m/s of the command from 0.7 to 1.5 m/s on the bundled humanoid and on its skeleton
     # scaled to 1.5 m / 50 kg and 1.95 m / 100 kg, and at 0.7, 1.1 and 1.5 m/s on every rig of

@@ -63,3 +63,23 @@ def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "contac
                         "centimetres above it otherwise), frames in flight are interpolated; "
                         "clip: one shift for the whole clip, by its lowest foot point; frame: "
                         "every frame, flight included")
+
+
+def assignment(what: str):
+    """A parser of ``NAME=VALUE``: ``(name, value)``, the value read as JSON (numbers, true,
+    lists, objects) and otherwise kept as text (``update=cem``)."""
+    import json
+
+    def parse(text: str) -> tuple[str, object]:
+        name, sep, raw = text.partition("=")
+        name = name.strip()
+        if not sep or not name.isidentifier() or not raw.strip():
+            raise argparse.ArgumentTypeError(f"{what} must be NAME=VALUE, got {text!r}")
+        try:
+            value = json.loads(raw)
+        except ValueError:
+            value = raw.strip()
+        return name, value
+
+    parse.__name__ = what
+    return parse

@@ -6,7 +6,7 @@ import argparse
 import math
 import textwrap
 
-from .argtypes import add_floor_argument, integer, non_negative, number, positive
+from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
 from .run_options import check_applicable, check_export_path, check_ranges, fill_defaults
 
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
@@ -54,6 +54,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
     p.add_argument("--gait", metavar="NAME",
                    help="simbicon: gait parameter set (default walk)")
+    p.add_argument("--param", type=assignment("--param"), action="append", metavar="NAME=VALUE",
+                   help="a tunable of the controller (repeatable; "
+                        f"{', '.join(s.name for s in registry.specs() if 'params' in s.options)}):"
+                        " mpc's MpcOptions (samples=96, horizon=0.5, update=cem), ipm's "
+                        "IPMParams (step_time=0.5), simbicon's gait fields (torso_pitch=0.2); "
+                        "VALUE is read as JSON, else as text; an unknown NAME lists the valid "
+                        "ones")
     p.add_argument("--scenario", choices=registry.SCENARIOS, metavar="S",
                    help="one of: " + ", ".join(registry.SCENARIOS)
                         + " (default: the controller's own, see above)")
@@ -120,8 +127,15 @@ def _scenario_list(spec) -> str:
                      + [s for s in spec.scenarios if s != spec.default_scenario])
 
 
+#: factory options that have their own flag (``--param`` refuses them)
+_FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
+            "tracker": "--tracker", "height": "--squat", "progress": "(set by the command)"}
+
+
 def _controller_options(spec, args: argparse.Namespace, scenario: str) -> dict:
     """The factory options ``spec`` takes, from the command line (one rule per option name)."""
+    from bvh.errors import MjcharError
+
     options = {}
     if "tracker" in spec.options:
         options["tracker"] = args.tracker
@@ -138,6 +152,13 @@ def _controller_options(spec, args: argparse.Namespace, scenario: str) -> dict:
             options["speed"] = args.speed
     if "heading" in spec.options:
         options["heading"] = args.heading
+    for name, value in args.param or ():
+        flag = _FLAG_OF.get(name)
+        if flag is not None:
+            raise MjcharError(f"--param {name}: give it as {flag}")
+        if name in options and options[name] != value:
+            raise MjcharError(f"--param {name} is given twice with different values")
+        options[name] = value
     return options
 
 

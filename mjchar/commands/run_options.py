@@ -83,6 +83,7 @@ OPTIONS: tuple[Option, ...] = (
     Option("gait", "--gait", "walk", _option("gait"), "{names}"),
     Option("tracker", "--tracker", "spd", _option("tracker"), "{names}"),
     Option("squat", "--squat", None, _option("height"), "{names}"),
+    Option("param", "--param", (), _option("params"), "{names}"),
     Option("motion", "--motion", None, _with_reference,
            "the track scenario, and the walk scenario of the trackers (not walkers, replays)"),
     Option("loop", "--loop", False, _with_reference,
@@ -138,7 +139,7 @@ def _names_with(option: str) -> str:
 
 
 def _where(opt: Option) -> str:
-    key = {"squat": "height"}.get(opt.dest, opt.dest)
+    key = {"squat": "height", "param": "params"}.get(opt.dest, opt.dest)
     return opt.where.format(names=_names_with(key))
 
 
