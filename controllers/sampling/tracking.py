@@ -32,7 +32,7 @@ from .rollout import RolloutModel, RolloutResult
 __all__ = ["FALL_COST", "JOINT_SITE_PREFIX", "ROLE_WIDTHS", "CostWeights", "PoseReference",
            "ReferenceFeatures", "TrackingCost", "TrackingError", "actuator_roles",
            "fall_penalty", "inverse_dynamics_targets", "reference_features", "sampling_widths",
-           "tracking_rollout_model"]
+           "stance_labels", "tracking_rollout_model"]
 
 
 class TrackingError(MjcharError):
@@ -162,8 +162,27 @@ class PoseReference:
     def qvel(self, t) -> np.ndarray:
         return np.zeros(np.shape(t) + (self.nv,))
 
-    def foot_contacts(self, t) -> np.ndarray:
+    def foot_contacts(self, t, height: float | None = None,
+                      speed: float | None = None) -> np.ndarray:
         return np.ones(np.shape(t) + (2,), dtype=bool)
+
+
+def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``, by the rule the
+    contact floor uses (:func:`bvh.foot_points.contact_grounding`): a foot point lower than
+    :data:`~bvh.foot_points.CONTACT_HEIGHT` x the clip's mean root height and slower than
+    :data:`~bvh.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)`` (Froude-scaled, so a
+    2 m figure walking at 1.6 m/s gets the labels a 1.6 m one gets at 1.2 m/s; fixed
+    0.1 m / 0.5 m/s thresholds leave a tall rig without a stance foot in 13 % of its walk)."""
+    from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
+
+    times = np.asarray(times, dtype=float).reshape(-1)
+    clip_t = getattr(reference, "times", None)
+    q = reference.qpos(times if clip_t is None else clip_t)
+    h = max(float(np.mean(q[..., character.root_qpos[2]])), 1e-3)
+    labels = reference.foot_contacts(times, height=CONTACT_HEIGHT * h,
+                                     speed=CONTACT_SPEED * math.sqrt(9.81 * h))
+    return np.asarray(labels, dtype=bool).reshape(len(times), 2)
 
 
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
@@ -175,9 +194,10 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
     ``qvel`` (step ``fd_dt``, default the clip's frame time); ``mj_inverse`` (constraints off)
     gives ``tau`` ``(nv,)``. Its root rows ``w`` (6) must come from the ground: the stance feet
-    (``reference.foot_contacts``; both feet when the clip labels none) get wrenches ``x`` at their
-    sole sites with ``A x = w`` (``A`` = root rows of the contact Jacobians' transpose), minimum
-    norm with moments weighted ``moment_weight`` times more than forces. Then
+    (:func:`stance_labels`, body-scaled; the foot whose sole site is lowest when none is
+    labelled) get wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
+    contact Jacobians' transpose), minimum norm with moments weighted ``moment_weight`` times
+    more than forces. Then
     ``tau_act = tau - J^T x`` and, per actuator with gains ``kp, kd``::
 
         q_hat = q + (tau_act + kd qdot) / kp
@@ -201,7 +221,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     q = reference.qpos(times)
     v = reference.qvel(times)
     a = (reference.qvel(times + h) - reference.qvel(times - h)) / (2 * h)
-    contacts = np.asarray(reference.foot_contacts(times), dtype=bool).reshape(len(times), 2)
+    contacts = stance_labels(character, reference, times)
     mi = copy.deepcopy(m)
     mi.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     d = mujoco.MjData(mi)
@@ -216,7 +236,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         d.qpos[:], d.qvel[:], d.qacc[:] = q[n], v[n], a[n]
         mujoco.mj_inverse(mi, d)
         tau = d.qfrc_inverse.copy()
-        stance = [s for s, c in zip(feet, contacts[n], strict=True) if c] or feet
+        stance = ([s for s, c in zip(feet, contacts[n], strict=True) if c]
+                  or [min(feet, key=lambda s: d.site_xpos[s, 2])])
         cols = []
         for s in stance:
             mujoco.mj_jacSite(mi, d, jacp, jacr, s)
