@@ -302,10 +302,11 @@ def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
                  "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
                  "--weight", "root=20", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["replay"]["fell"] is False and info["samples_simulated"] == 96
+    # the default sliding window of 2: slices 1 and 2 simulate two slices per sample, the last one
+    assert info["replay"]["fell"] is False and info["samples_simulated"] == 32 * (2 + 2 + 1)
     assert not replay(out).fell
     saved = load_trajectory(out).metadata["options"]
-    assert saved["weights"]["root"] == 20.0 and saved["adapt"] is True
+    assert saved["weights"]["root"] == 20.0 and saved["adapt"] is True and saved["window"] == 2
 
 
 def test_cli_errors_are_one_line(tmp_path):
