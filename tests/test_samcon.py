@@ -135,6 +135,21 @@ def test_inverse_dynamics_without_labels_loads_the_lowest_foot(character, walk_r
     low = inverse_dynamics_targets(
         character, _Labelled(walk_ref, lambda x: lowest[np.searchsorted(t, x)]), t)
     np.testing.assert_allclose(none, low, atol=1e-9)
+    # unlabelled="both" (the MPC's choice) is the same as labelling both feet, and differs
+    both = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: np.zeros(x.shape + (2,), bool)), t,
+        unlabelled="both")
+    two = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: np.ones(x.shape + (2,), bool)), t)
+    np.testing.assert_allclose(both, two, atol=1e-9)
+    assert np.abs(both - low).max() > 0.01
+
+
+def test_inverse_dynamics_refuses_an_unknown_fallback(character, walk_ref):
+    from controllers.sampling.tracking import TrackingError, inverse_dynamics_targets
+
+    with pytest.raises(TrackingError, match="unlabelled must be 'lowest' or 'both', not 'none'"):
+        inverse_dynamics_targets(character, walk_ref, np.array([0.1]), unlabelled="none")
 
 
 def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):

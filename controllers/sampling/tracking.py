@@ -188,14 +188,15 @@ def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndar
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
-                             fd_dt: float | None = None) -> np.ndarray:
+                             fd_dt: float | None = None,
+                             unlabelled: str = "lowest") -> np.ndarray:
     """PD targets that make the native actuators produce inverse-dynamics torques on the clip.
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
     ``qvel`` (step ``fd_dt``, default the clip's frame time); ``mj_inverse`` (constraints off)
     gives ``tau`` ``(nv,)``. Its root rows ``w`` (6) must come from the ground: the stance feet
-    (:func:`stance_labels`, body-scaled; the foot whose sole site is lowest when none is
-    labelled) get wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
+    (:func:`stance_labels`, body-scaled; when none is labelled, ``unlabelled`` decides) get
+    wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
     contact Jacobians' transpose), minimum norm with moments weighted ``moment_weight`` times
     more than forces. Then
     ``tau_act = tau - J^T x`` and, per actuator with gains ``kp, kd``::
@@ -209,12 +210,19 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         character: the character (model, gains, sites ``left_foot``/``right_foot``).
         reference: a ``ReferenceMotion`` for ``character.model``.
         times: ``(N,)`` seconds, increasing and evenly spaced when ``smoothing`` > 0.
+        unlabelled: the feet that carry the root wrench in a frame with no stance label (on
+            the shared walks: heel strikes, the landing foot still fast, the trailing one on its
+            toes): ``"lowest"``, the foot whose sole site is lowest (what keeps the open-loop
+            reconstructions of tall or fast rigs standing), or ``"both"`` (what the closed-loop
+            MPC tracks best with; docs/sampling.md, "Zoo rigs").
 
     Returns:
         ``(N, nu)`` targets (rad) for the actuators.
     """
     from scipy.ndimage import gaussian_filter1d
 
+    if unlabelled not in ("lowest", "both"):
+        raise TrackingError(f"unlabelled must be 'lowest' or 'both', not {unlabelled!r}")
     m = character.model
     times = np.asarray(times, dtype=float).reshape(-1)
     h = float(fd_dt if fd_dt is not None else getattr(reference, "frame_time", 0.01))
@@ -236,8 +244,9 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         d.qpos[:], d.qvel[:], d.qacc[:] = q[n], v[n], a[n]
         mujoco.mj_inverse(mi, d)
         tau = d.qfrc_inverse.copy()
-        stance = ([s for s, c in zip(feet, contacts[n], strict=True) if c]
-                  or [min(feet, key=lambda s: d.site_xpos[s, 2])])
+        stance = [s for s, c in zip(feet, contacts[n], strict=True) if c]
+        if not stance:
+            stance = feet if unlabelled == "both" else [min(feet, key=lambda s: d.site_xpos[s, 2])]
         cols = []
         for s in stance:
             mujoco.mj_jacSite(mi, d, jacp, jacr, s)
