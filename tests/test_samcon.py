@@ -80,6 +80,78 @@ def test_slice_layout_covers_the_clip():
     assert all(b > a for a, b in s) and all(s[i][1] == s[i + 1][0] for i in range(len(s) - 1))
 
 
+class _Labelled:
+    """``walk_ref`` with its contact labels replaced (records the thresholds asked for)."""
+
+    def __init__(self, ref, labels=None):
+        self.ref, self.labels, self.asked = ref, labels, []
+        self.frame_time, self.times = ref.frame_time, ref.times
+
+    def qpos(self, t):
+        return self.ref.qpos(t)
+
+    def qvel(self, t):
+        return self.ref.qvel(t)
+
+    def foot_contacts(self, t, height=0.1, speed=0.5):
+        self.asked.append((height, speed))
+        if self.labels is None:
+            return self.ref.foot_contacts(t, height, speed)
+        return self.labels(np.asarray(t))
+
+
+def test_stance_labels_scale_with_the_body(character, walk_ref):
+    """The stance feet of the inverse dynamics use the contact floor's Froude-scaled thresholds
+    (a fraction of the clip's mean root height, and of sqrt(g x that height))."""
+    from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
+    from controllers.sampling.tracking import stance_labels
+
+    ref = _Labelled(walk_ref)
+    t = np.arange(0.0, 0.5, 0.02)
+    labels = stance_labels(character, ref, t)
+    h = float(np.mean(walk_ref.qpos(walk_ref.times)[:, character.root_qpos[2]]))
+    assert ref.asked == [(pytest.approx(CONTACT_HEIGHT * h),
+                          pytest.approx(CONTACT_SPEED * np.sqrt(9.81 * h)))]
+    assert labels.shape == (len(t), 2) and labels.any(axis=1).all()
+
+
+def test_inverse_dynamics_without_labels_loads_the_lowest_foot(character, walk_ref):
+    """Where no foot is labelled, the root wrench goes to the foot whose sole is lowest (not
+    half to a swing foot in the air): the same targets as labelling that foot."""
+    import mujoco
+
+    from controllers.sampling.tracking import inverse_dynamics_targets
+
+    t = np.arange(0.0, 0.6, 0.02) + 0.01
+    m, d = character.model, mujoco.MjData(character.model)
+    feet = [character.site_id("left_foot"), character.site_id("right_foot")]
+    lowest = np.zeros((len(t), 2), dtype=bool)
+    for n, q in enumerate(walk_ref.qpos(t)):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        lowest[n, int(d.site_xpos[feet[1], 2] < d.site_xpos[feet[0], 2])] = True
+    none = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: np.zeros(x.shape + (2,), bool)), t)
+    low = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: lowest[np.searchsorted(t, x)]), t)
+    np.testing.assert_allclose(none, low, atol=1e-9)
+    # unlabelled="both" (the MPC's choice) is the same as labelling both feet, and differs
+    both = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: np.zeros(x.shape + (2,), bool)), t,
+        unlabelled="both")
+    two = inverse_dynamics_targets(
+        character, _Labelled(walk_ref, lambda x: np.ones(x.shape + (2,), bool)), t)
+    np.testing.assert_allclose(both, two, atol=1e-9)
+    assert np.abs(both - low).max() > 0.01
+
+
+def test_inverse_dynamics_refuses_an_unknown_fallback(character, walk_ref):
+    from controllers.sampling.tracking import TrackingError, inverse_dynamics_targets
+
+    with pytest.raises(TrackingError, match="unlabelled must be 'lowest' or 'both', not 'none'"):
+        inverse_dynamics_targets(character, walk_ref, np.array([0.1]), unlabelled="none")
+
+
 def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):
     """Static inverse dynamics adds the gravity compensation plain PD lacks: held open loop
     (no root force), the joints stay much closer to the pose (arms out in the T-pose sag)."""
@@ -245,10 +317,11 @@ def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
                  "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
                  "--weight", "root=20", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["replay"]["fell"] is False and info["samples_simulated"] == 96
+    # the default sliding window of 2: slices 1 and 2 simulate two slices per sample, the last one
+    assert info["replay"]["fell"] is False and info["samples_simulated"] == 32 * (2 + 2 + 1)
     assert not replay(out).fell
     saved = load_trajectory(out).metadata["options"]
-    assert saved["weights"]["root"] == 20.0 and saved["adapt"] is True
+    assert saved["weights"]["root"] == 20.0 and saved["adapt"] is True and saved["window"] == 2
 
 
 def test_cli_errors_are_one_line(tmp_path):

@@ -265,8 +265,11 @@ class SamconOptions:
 
 
 #: the options ``mjchar samcon`` and the benchmark reconstruct clips with: the 2010 scheme plus
-#: the 2015 per-slice distribution update over two passes (docs/sampling.md, "Tuning trials")
-RECONSTRUCTION_OPTIONS = {"samples": 1000, "saved": 200, "adapt": True, "iterations": 2}
+#: the 2015 per-slice distribution update over two passes and the 2015 sliding window of two
+#: slices (a slice's offsets are judged by how the next slice goes too: a foot placed wrong
+#: costs the rest of its stance; docs/sampling.md, "Tuning trials" and "Zoo rigs")
+RECONSTRUCTION_OPTIONS = {"samples": 1000, "saved": 200, "adapt": True, "iterations": 2,
+                          "window": 2}
 
 
 @dataclass

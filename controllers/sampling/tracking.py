@@ -32,7 +32,7 @@ from .rollout import RolloutModel, RolloutResult
 __all__ = ["FALL_COST", "JOINT_SITE_PREFIX", "ROLE_WIDTHS", "CostWeights", "PoseReference",
            "ReferenceFeatures", "TrackingCost", "TrackingError", "actuator_roles",
            "fall_penalty", "inverse_dynamics_targets", "reference_features", "sampling_widths",
-           "tracking_rollout_model"]
+           "stance_labels", "tracking_rollout_model"]
 
 
 class TrackingError(MjcharError):
@@ -162,22 +162,43 @@ class PoseReference:
     def qvel(self, t) -> np.ndarray:
         return np.zeros(np.shape(t) + (self.nv,))
 
-    def foot_contacts(self, t) -> np.ndarray:
+    def foot_contacts(self, t, height: float | None = None,
+                      speed: float | None = None) -> np.ndarray:
         return np.ones(np.shape(t) + (2,), dtype=bool)
+
+
+def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``, by the rule the
+    contact floor uses (:func:`bvh.foot_points.contact_grounding`): a foot point lower than
+    :data:`~bvh.foot_points.CONTACT_HEIGHT` x the clip's mean root height and slower than
+    :data:`~bvh.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)`` (Froude-scaled, so a
+    2 m figure walking at 1.6 m/s gets the labels a 1.6 m one gets at 1.2 m/s; fixed
+    0.1 m / 0.5 m/s thresholds leave a tall rig without a stance foot in 13 % of its walk)."""
+    from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
+
+    times = np.asarray(times, dtype=float).reshape(-1)
+    clip_t = getattr(reference, "times", None)
+    q = reference.qpos(times if clip_t is None else clip_t)
+    h = max(float(np.mean(q[..., character.root_qpos[2]])), 1e-3)
+    labels = reference.foot_contacts(times, height=CONTACT_HEIGHT * h,
+                                     speed=CONTACT_SPEED * math.sqrt(9.81 * h))
+    return np.asarray(labels, dtype=bool).reshape(len(times), 2)
 
 
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
-                             fd_dt: float | None = None) -> np.ndarray:
+                             fd_dt: float | None = None,
+                             unlabelled: str = "lowest") -> np.ndarray:
     """PD targets that make the native actuators produce inverse-dynamics torques on the clip.
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
     ``qvel`` (step ``fd_dt``, default the clip's frame time); ``mj_inverse`` (constraints off)
     gives ``tau`` ``(nv,)``. Its root rows ``w`` (6) must come from the ground: the stance feet
-    (``reference.foot_contacts``; both feet when the clip labels none) get wrenches ``x`` at their
-    sole sites with ``A x = w`` (``A`` = root rows of the contact Jacobians' transpose), minimum
-    norm with moments weighted ``moment_weight`` times more than forces. Then
+    (:func:`stance_labels`, body-scaled; when none is labelled, ``unlabelled`` decides) get
+    wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
+    contact Jacobians' transpose), minimum norm with moments weighted ``moment_weight`` times
+    more than forces. Then
     ``tau_act = tau - J^T x`` and, per actuator with gains ``kp, kd``::
 
         q_hat = q + (tau_act + kd qdot) / kp
@@ -189,19 +210,26 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         character: the character (model, gains, sites ``left_foot``/``right_foot``).
         reference: a ``ReferenceMotion`` for ``character.model``.
         times: ``(N,)`` seconds, increasing and evenly spaced when ``smoothing`` > 0.
+        unlabelled: the feet that carry the root wrench in a frame with no stance label (on
+            the shared walks: heel strikes, the landing foot still fast, the trailing one on its
+            toes): ``"lowest"``, the foot whose sole site is lowest (what keeps the open-loop
+            reconstructions of tall or fast rigs standing), or ``"both"`` (what the closed-loop
+            MPC tracks best with; docs/sampling.md, "Zoo rigs").
 
     Returns:
         ``(N, nu)`` targets (rad) for the actuators.
     """
     from scipy.ndimage import gaussian_filter1d
 
+    if unlabelled not in ("lowest", "both"):
+        raise TrackingError(f"unlabelled must be 'lowest' or 'both', not {unlabelled!r}")
     m = character.model
     times = np.asarray(times, dtype=float).reshape(-1)
     h = float(fd_dt if fd_dt is not None else getattr(reference, "frame_time", 0.01))
     q = reference.qpos(times)
     v = reference.qvel(times)
     a = (reference.qvel(times + h) - reference.qvel(times - h)) / (2 * h)
-    contacts = np.asarray(reference.foot_contacts(times), dtype=bool).reshape(len(times), 2)
+    contacts = stance_labels(character, reference, times)
     mi = copy.deepcopy(m)
     mi.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     d = mujoco.MjData(mi)
@@ -216,7 +244,9 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         d.qpos[:], d.qvel[:], d.qacc[:] = q[n], v[n], a[n]
         mujoco.mj_inverse(mi, d)
         tau = d.qfrc_inverse.copy()
-        stance = [s for s, c in zip(feet, contacts[n], strict=True) if c] or feet
+        stance = [s for s, c in zip(feet, contacts[n], strict=True) if c]
+        if not stance:
+            stance = feet if unlabelled == "both" else [min(feet, key=lambda s: d.site_xpos[s, 2])]
         cols = []
         for s in stance:
             mujoco.mj_jacSite(mi, d, jacp, jacr, s)

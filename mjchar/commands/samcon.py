@@ -93,7 +93,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--width-scale", type=non_negative("width scale"), default=None,
                    metavar="F", help="factor on the per-joint sampling widths")
     p.add_argument("--window", type=integer("window", 1), default=None, metavar="N",
-                   help="sliding window of slices scored together (2015; default 1)")
+                   help="sliding window of slices scored together (2015; default 2)")
     p.add_argument("--iterations", type=integer("iterations", 1), default=None,
                    metavar="N", help="passes over the clip (default 2)")
     p.add_argument("--adapt", action=argparse.BooleanOptionalAction, default=True,
