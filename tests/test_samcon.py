@@ -145,6 +145,29 @@ def test_inverse_dynamics_without_labels_loads_the_lowest_foot(character, walk_r
     assert np.abs(both - low).max() > 0.01
 
 
+def test_inverse_dynamics_does_not_read_a_clip_start_as_a_jump_from_rest(character):
+    """Near the ends of a non-cyclic clip the accelerations are one-sided differences inside the
+    clip: differencing across the start (where the reference's velocity is zero) would read the
+    walk's 1.05 m/s as a 30 m/s^2 forward acceleration of the root."""
+    import bvh
+    from bvh.assets import motion_path
+    from controllers.sampling.tracking import _reference_acceleration
+
+    ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info,
+                          cyclic=False)
+    h, T = ref.frame_time, ref.duration
+    inner = _reference_acceleration(ref, np.arange(0.1, T - 0.1, 0.01), h)
+    ends = _reference_acceleration(ref, np.array([0.0, 0.01, T - 0.01, T]), h)
+    limit = np.abs(inner[:, :3]).max(axis=0) + 1e-6
+    assert (np.abs(ends[:, :3]) <= limit).all(), (ends[:, :3], limit)
+    assert np.abs(_reference_acceleration(ref, np.array([-0.5, T + 0.5]), h)).max() == 0.0
+    # a cyclic clip differences across its seam, as before
+    loop = ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
+    t = np.array([0.0, 0.01, T - 0.01])
+    np.testing.assert_allclose(_reference_acceleration(loop, t, h),
+                               (loop.qvel(t + h) - loop.qvel(t - h)) / (2 * h))
+
+
 def test_inverse_dynamics_refuses_an_unknown_fallback(character, walk_ref):
     from controllers.sampling.tracking import TrackingError, inverse_dynamics_targets
 

@@ -185,6 +185,23 @@ def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndar
     return np.asarray(labels, dtype=bool).reshape(len(times), 2)
 
 
+def _reference_acceleration(reference, times: np.ndarray, h: float) -> np.ndarray:
+    """``(N, nv)`` generalised accelerations of ``reference`` at ``times`` by central differences
+    of ``qvel`` with step ``h``, one-sided where a non-cyclic clip's start or end is closer than
+    ``h`` (outside the clip, where it holds its first or last pose, zero): the reference's
+    velocity is zero outside the clip, and differencing across the ends would read its
+    forward speed as an acceleration of ``v / 2h`` (20 m/s^2 at a walk's first frame)."""
+    duration = getattr(reference, "duration", None)
+    if getattr(reference, "cyclic", True) or duration is None:
+        return (reference.qvel(times + h) - reference.qvel(times - h)) / (2 * h)
+    lo = np.clip(times - h, 0.0, duration)
+    hi = np.clip(times + h, 0.0, duration)
+    span = hi - lo
+    a = (reference.qvel(hi) - reference.qvel(lo)) / np.where(span > 0, span, 1.0)[:, None]
+    a[span <= 0] = 0.0
+    return a
+
+
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
@@ -193,7 +210,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     """PD targets that make the native actuators produce inverse-dynamics torques on the clip.
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
-    ``qvel`` (step ``fd_dt``, default the clip's frame time); ``mj_inverse`` (constraints off)
+    ``qvel`` (step ``fd_dt``, default the clip's frame time; one-sided at the ends of a non-cyclic
+    clip); ``mj_inverse`` (constraints off)
     gives ``tau`` ``(nv,)``. Its root rows ``w`` (6) must come from the ground: the stance feet
     (:func:`stance_labels`, body-scaled; when none is labelled, ``unlabelled`` decides) get
     wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
@@ -228,7 +246,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     h = float(fd_dt if fd_dt is not None else getattr(reference, "frame_time", 0.01))
     q = reference.qpos(times)
     v = reference.qvel(times)
-    a = (reference.qvel(times + h) - reference.qvel(times - h)) / (2 * h)
+    a = _reference_acceleration(reference, times, h)
     contacts = stance_labels(character, reference, times)
     mi = copy.deepcopy(m)
     mi.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
