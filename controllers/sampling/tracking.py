@@ -176,7 +176,8 @@ class PoseReference:
 GROUNDED_STANCE_HEIGHT = 0.02
 
 
-def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndarray:
+def stance_labels(character: Character, reference, times: np.ndarray, *,
+                  height: float | None = None) -> np.ndarray:
     """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``: a foot point
     lower than a fraction of the clip's mean root height and slower than
     :data:`~bvh.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)`` (Froude-scaled, so a
@@ -185,15 +186,23 @@ def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndar
     The height fraction is :data:`GROUNDED_STANCE_HEIGHT` on a contact-floor reference, whose
     supporting feet are on the floor, and otherwise the contact floor's own
     :data:`~bvh.foot_points.CONTACT_HEIGHT` (:func:`bvh.foot_points.contact_grounding`), which
-    allows for the floating feet of raw mocap."""
+    allows for the floating feet of raw mocap. ``height`` (a fraction of the root height)
+    overrides the choice."""
     from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
 
     times = np.asarray(times, dtype=float).reshape(-1)
     clip_t = getattr(reference, "times", None)
     q = reference.qpos(times if clip_t is None else clip_t)
     h = max(float(np.mean(q[..., character.root_qpos[2]])), 1e-3)
-    frac = GROUNDED_STANCE_HEIGHT if getattr(reference, "floor", None) == "contact" \
-        else CONTACT_HEIGHT
+    if height is not None:
+        if not (isinstance(height, int | float) and math.isfinite(height) and height > 0):
+            raise TrackingError(f"the stance height must be a positive fraction of the root "
+                                f"height, not {height!r}")
+        frac = float(height)
+    elif getattr(reference, "floor", None) == "contact":
+        frac = GROUNDED_STANCE_HEIGHT
+    else:
+        frac = CONTACT_HEIGHT
     labels = reference.foot_contacts(times, height=frac * h,
                                      speed=CONTACT_SPEED * math.sqrt(9.81 * h))
     return np.asarray(labels, dtype=bool).reshape(len(times), 2)
@@ -220,7 +229,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
                              fd_dt: float | None = None,
-                             unlabelled: str = "lowest") -> np.ndarray:
+                             unlabelled: str = "lowest",
+                             stance_height: float | None = None) -> np.ndarray:
     """PD targets that make the native actuators produce inverse-dynamics torques on the clip.
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
@@ -247,6 +257,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
             toes): ``"lowest"``, the foot whose sole site is lowest (what keeps the open-loop
             reconstructions of tall or fast rigs standing), or ``"both"`` (what the closed-loop
             MPC tracks best with; docs/sampling.md, "Zoo rigs").
+        stance_height: the stance labels' height fraction (:func:`stance_labels`; default:
+            by the reference's floor).
 
     Returns:
         ``(N, nu)`` targets (rad) for the actuators.
@@ -261,7 +273,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     q = reference.qpos(times)
     v = reference.qvel(times)
     a = _reference_acceleration(reference, times, h)
-    contacts = stance_labels(character, reference, times)
+    contacts = stance_labels(character, reference, times, height=stance_height)
     mi = copy.deepcopy(m)
     mi.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     d = mujoco.MjData(mi)
