@@ -107,6 +107,7 @@ def test_shift_matrix_moves_the_knots_and_holds_the_last():
 
 def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
     """Base targets computed in blocks (with a smoothing margin) match a one-shot computation."""
+    from bvh.foot_points import CONTACT_HEIGHT
     from controllers.sampling.mpc import ReferenceGrid
     from controllers.sampling.tracking import inverse_dynamics_targets, tracking_rollout_model
 
@@ -114,7 +115,8 @@ def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
     grid = ReferenceGrid(character, walk_ref, rm, 0.02, 0.03, block=20)
     base = grid.base(0, 60)
     n = np.arange(-10, 70)
-    whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03)
+    whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03,
+                                     unlabelled="both", stance_height=CONTACT_HEIGHT)
     np.testing.assert_allclose(base, whole[10:70], atol=1e-6)
     assert grid.features.qpos.shape[0] == 60
     np.testing.assert_allclose(grid.features.times, (np.arange(60) + 1) * 0.02)

@@ -115,6 +115,35 @@ def test_stance_labels_scale_with_the_body(character, walk_ref):
     assert labels.shape == (len(t), 2) and labels.any(axis=1).all()
 
 
+def test_stance_labels_on_the_contact_floor_are_feet_on_the_floor(character):
+    """On a contact-floor reference of real mocap, a labelled foot touches the floor (within
+    GROUNDED_STANCE_HEIGHT of the root height); the raw-mocap height would label feet that
+    are centimetres up (walk60: a descending swing foot up to 5 cm above the floor)."""
+    from controllers.sampling.tracking import GROUNDED_STANCE_HEIGHT, stance_labels
+
+    ref = ReferenceMotion(character.model, bvh.load(shared_clip("walk60.bvh")),
+                          info=character.info)
+    assert ref.floor == "contact"
+    t = np.arange(0.0, ref.duration, 0.01)
+    frame = np.minimum(np.round(t / ref.frame_time).astype(int), ref.n_frames - 1)
+    sole = np.stack([ref._foot_pts[side][frame][..., 2].min(axis=1)
+                     for side in ("left", "right")], axis=1)  # (N, 2) lowest foot point
+    h = float(np.mean(ref.qpos(ref.times)[:, character.root_qpos[2]]))
+    grounded = stance_labels(character, ref, t)
+    assert grounded.any(axis=1).mean() > 0.9
+    assert sole[grounded].max() <= GROUNDED_STANCE_HEIGHT * h
+    raw = stance_labels(character, ref, t, height=0.12)
+    assert sole[raw].max() > 0.03
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, float("nan"), "low"])
+def test_stance_labels_refuse_a_bad_height(character, walk_ref, bad):
+    from controllers.sampling.tracking import stance_labels
+
+    with pytest.raises(TrackingError, match="stance height"):
+        stance_labels(character, walk_ref, np.zeros(1), height=bad)
+
+
 def test_inverse_dynamics_without_labels_loads_the_lowest_foot(character, walk_ref):
     """Where no foot is labelled, the root wrench goes to the foot whose sole is lowest (not
     half to a swing foot in the air): the same targets as labelling that foot."""

@@ -62,6 +62,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from bvh.errors import MjcharError
+from bvh.foot_points import CONTACT_HEIGHT
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
@@ -258,11 +259,12 @@ class ReferenceGrid:
             a = self.size
             b = a + self.block
             n = np.arange(a - self.pad, b + self.pad)
-            # both feet where no foot is labelled: measured better closed loop than the lowest
-            # foot SAMCON uses (walk60 3.7 against 4.4 cm, the 60 s loop standing against a
-            # fall at 36 s; docs/mpc.md, "Stance feet of the base targets")
+            # the raw-mocap stance labels, and both feet where no foot is labelled: measured
+            # better closed loop than SAMCON's grounded labels and lowest foot (docs/mpc.md,
+            # "Stance feet of the base targets")
             base = inverse_dynamics_targets(self.character, self.reference, (n + 0.5) * self.dt,
                                             smoothing=self.smoothing, unlabelled="both",
+                                            stance_height=CONTACT_HEIGHT,
                                             )[self.pad:len(n) - self.pad]
             f = reference_features(self.rmodel, self.reference, (np.arange(a, b) + 1) * self.dt)
             self._base = np.concatenate([self._base, base])

@@ -167,20 +167,43 @@ class PoseReference:
         return np.ones(np.shape(t) + (2,), dtype=bool)
 
 
-def stance_labels(character: Character, reference, times: np.ndarray) -> np.ndarray:
-    """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``, by the rule the
-    contact floor uses (:func:`bvh.foot_points.contact_grounding`): a foot point lower than
-    :data:`~bvh.foot_points.CONTACT_HEIGHT` x the clip's mean root height and slower than
+#: on a contact-floor reference (``floor="contact"``, where every supporting foot has been put
+#: on the floor), a foot carries load when one of its points is within this fraction of the
+#: clip's mean root height of the floor (2 cm for a 1 m root height). The contact floor's own
+#: CONTACT_HEIGHT (12 %) is for raw mocap, whose stance feet float; on the grounded clip it
+#: labels a swing foot descending 6-9 cm above the floor as a stance foot, and the inverse
+#: dynamics hands it half the body's weight (docs/sampling.md, "Stance labels").
+GROUNDED_STANCE_HEIGHT = 0.02
+
+
+def stance_labels(character: Character, reference, times: np.ndarray, *,
+                  height: float | None = None) -> np.ndarray:
+    """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``: a foot point
+    lower than a fraction of the clip's mean root height and slower than
     :data:`~bvh.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)`` (Froude-scaled, so a
     2 m figure walking at 1.6 m/s gets the labels a 1.6 m one gets at 1.2 m/s; fixed
-    0.1 m / 0.5 m/s thresholds leave a tall rig without a stance foot in 13 % of its walk)."""
+    0.1 m / 0.5 m/s thresholds leave a tall rig without a stance foot in 13 % of its walk).
+    The height fraction is :data:`GROUNDED_STANCE_HEIGHT` on a contact-floor reference, whose
+    supporting feet are on the floor, and otherwise the contact floor's own
+    :data:`~bvh.foot_points.CONTACT_HEIGHT` (:func:`bvh.foot_points.contact_grounding`), which
+    allows for the floating feet of raw mocap. ``height`` (a fraction of the root height)
+    overrides the choice."""
     from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
 
     times = np.asarray(times, dtype=float).reshape(-1)
     clip_t = getattr(reference, "times", None)
     q = reference.qpos(times if clip_t is None else clip_t)
     h = max(float(np.mean(q[..., character.root_qpos[2]])), 1e-3)
-    labels = reference.foot_contacts(times, height=CONTACT_HEIGHT * h,
+    if height is not None:
+        if not (isinstance(height, int | float) and math.isfinite(height) and height > 0):
+            raise TrackingError(f"the stance height must be a positive fraction of the root "
+                                f"height, not {height!r}")
+        frac = float(height)
+    elif getattr(reference, "floor", None) == "contact":
+        frac = GROUNDED_STANCE_HEIGHT
+    else:
+        frac = CONTACT_HEIGHT
+    labels = reference.foot_contacts(times, height=frac * h,
                                      speed=CONTACT_SPEED * math.sqrt(9.81 * h))
     return np.asarray(labels, dtype=bool).reshape(len(times), 2)
 
@@ -206,7 +229,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
                              fd_dt: float | None = None,
-                             unlabelled: str = "lowest") -> np.ndarray:
+                             unlabelled: str = "lowest",
+                             stance_height: float | None = None) -> np.ndarray:
     """PD targets that make the native actuators produce inverse-dynamics torques on the clip.
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
@@ -233,6 +257,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
             toes): ``"lowest"``, the foot whose sole site is lowest (what keeps the open-loop
             reconstructions of tall or fast rigs standing), or ``"both"`` (what the closed-loop
             MPC tracks best with; docs/sampling.md, "Zoo rigs").
+        stance_height: the stance labels' height fraction (:func:`stance_labels`; default:
+            by the reference's floor).
 
     Returns:
         ``(N, nu)`` targets (rad) for the actuators.
@@ -247,7 +273,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     q = reference.qpos(times)
     v = reference.qvel(times)
     a = _reference_acceleration(reference, times, h)
-    contacts = stance_labels(character, reference, times)
+    contacts = stance_labels(character, reference, times, height=stance_height)
     mi = copy.deepcopy(m)
     mi.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     d = mujoco.MjData(mi)
