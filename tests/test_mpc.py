@@ -300,14 +300,7 @@ def test_slow_loops_walk60_for_a_minute():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("moment", [
-    pytest.param(0, marks=pytest.mark.xfail(reason="measured: no fall, but after the left push "
-                                                   "the error hovers at 8-16 cm")),
-    1,
-    pytest.param(2, marks=pytest.mark.xfail(reason="measured: no fall, the error above 8 cm "
-                                                   "until 3.4 s after the right push")),
-    pytest.param(3, marks=pytest.mark.xfail(reason="measured: no fall, 11 cm 4 s after the "
-                                                   "right push"))])
+@pytest.mark.parametrize("moment", [0, 1, 2, 3])
 def test_slow_recovers_from_pushes_while_walking(moment):
     """100 N x 0.2 s on the pelvis at 4 moments of the gait cycle x 4 directions: no fall, and
     the mean joint error back below 8 cm within 2 s of the push's end (and staying there for
