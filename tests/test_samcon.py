@@ -178,8 +178,6 @@ def test_inverse_dynamics_does_not_read_a_clip_start_as_a_jump_from_rest(charact
     """Near the ends of a non-cyclic clip the accelerations are one-sided differences inside the
     clip: differencing across the start (where the reference's velocity is zero) would read the
     walk's 1.05 m/s as a 30 m/s^2 forward acceleration of the root."""
-    import bvh
-    from bvh.assets import motion_path
     from controllers.sampling.tracking import _reference_acceleration
 
     ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info,

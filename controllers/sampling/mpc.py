@@ -261,7 +261,7 @@ class ReferenceGrid:
             n = np.arange(a - self.pad, b + self.pad)
             # the raw-mocap stance labels, and both feet where no foot is labelled: measured
             # better closed loop than SAMCON's grounded labels and lowest foot (docs/mpc.md,
-            # "Stance feet of the base targets")
+            # "The clip's start and grounded stance labels")
             base = inverse_dynamics_targets(self.character, self.reference, (n + 0.5) * self.dt,
                                             smoothing=self.smoothing, unlabelled="both",
                                             stance_height=CONTACT_HEIGHT,

@@ -172,7 +172,8 @@ class PoseReference:
 #: clip's mean root height of the floor (2 cm for a 1 m root height). The contact floor's own
 #: CONTACT_HEIGHT (12 %) is for raw mocap, whose stance feet float; on the grounded clip it
 #: labels a swing foot descending 6-9 cm above the floor as a stance foot, and the inverse
-#: dynamics hands it half the body's weight (docs/sampling.md, "Stance labels").
+#: dynamics hands it half the body's weight (docs/sampling.md, "Stance labels and the clip's
+#: start").
 GROUNDED_STANCE_HEIGHT = 0.02
 
 
@@ -213,7 +214,7 @@ def _reference_acceleration(reference, times: np.ndarray, h: float) -> np.ndarra
     of ``qvel`` with step ``h``, one-sided where a non-cyclic clip's start or end is closer than
     ``h`` (outside the clip, where it holds its first or last pose, zero): the reference's
     velocity is zero outside the clip, and differencing across the ends would read its
-    forward speed as an acceleration of ``v / 2h`` (20 m/s^2 at a walk's first frame)."""
+    forward speed as an acceleration of ``v / 2h`` (31.5 m/s^2 at walk60's first control)."""
     duration = getattr(reference, "duration", None)
     if getattr(reference, "cyclic", True) or duration is None:
         return (reference.qvel(times + h) - reference.qvel(times - h)) / (2 * h)
@@ -235,8 +236,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
 
     For each time ``t``: ``q, qdot`` from the reference, ``qddot`` by central differences of
     ``qvel`` (step ``fd_dt``, default the clip's frame time; one-sided at the ends of a non-cyclic
-    clip); ``mj_inverse`` (constraints off)
-    gives ``tau`` ``(nv,)``. Its root rows ``w`` (6) must come from the ground: the stance feet
+    clip); ``mj_inverse`` (constraints off) gives ``tau`` ``(nv,)``. Its root rows ``w`` (6)
+    must come from the ground: the stance feet
     (:func:`stance_labels`, body-scaled; when none is labelled, ``unlabelled`` decides) get
     wrenches ``x`` at their sole sites with ``A x = w`` (``A`` = root rows of the
     contact Jacobians' transpose), minimum norm with moments weighted ``moment_weight`` times
