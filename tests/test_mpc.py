@@ -48,6 +48,8 @@ def _track(character, reference, duration, **options):
     ({"plan_timestep": -0.004}, "plan_timestep must be a positive number or None"),
     ({"plan_timestep": 0.05}, "not a whole number of plan_timestep"),
     ({"smoothness": float("nan")}, "smoothness"),
+    ({"stance_height": 0.0}, "stance_height must be a positive fraction"),
+    ({"stance_height": "low"}, "stance_height must be a positive fraction"),
     ({"colour": "red"}, "unknown MPC option.*colour.*valid: samples"),
     ({"weights": {"pose": -1.0}}, "cost weight pose"),
     ({"widths": {"tail": 0.1}}, "unknown joint role 'tail'"),
@@ -108,18 +110,38 @@ def test_shift_matrix_moves_the_knots_and_holds_the_last():
 def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
     """Base targets computed in blocks (with a smoothing margin) match a one-shot computation."""
     from bvh.foot_points import CONTACT_HEIGHT
-    from controllers.sampling.mpc import ReferenceGrid
+    from controllers.sampling.mpc import MPC_STANCE_HEIGHT, ReferenceGrid
     from controllers.sampling.tracking import inverse_dynamics_targets, tracking_rollout_model
 
     rm = tracking_rollout_model(character.source, character)
-    grid = ReferenceGrid(character, walk_ref, rm, 0.02, 0.03, block=20)
-    base = grid.base(0, 60)
     n = np.arange(-10, 70)
-    whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03,
-                                     unlabelled="both", stance_height=CONTACT_HEIGHT)
-    np.testing.assert_allclose(base, whole[10:70], atol=1e-6)
+    for height in (MPC_STANCE_HEIGHT, CONTACT_HEIGHT):
+        grid = ReferenceGrid(character, walk_ref, rm, 0.02, 0.03, block=20, stance_height=height)
+        base = grid.base(0, 60)
+        whole = inverse_dynamics_targets(character, walk_ref, (n + 0.5) * 0.02, smoothing=0.03,
+                                         unlabelled="both", stance_height=height)
+        np.testing.assert_allclose(base, whole[10:70], atol=1e-6)
     assert grid.features.qpos.shape[0] == 60
     np.testing.assert_allclose(grid.features.times, (np.arange(60) + 1) * 0.02)
+
+
+def test_stance_height_default_follows_the_reference_floor(character, walk_ref):
+    """Grounded labels on a contact-floor reference, the raw-mocap rule on a floating clip."""
+    import bvh
+    from bvh.assets import motion_path
+    from bvh.foot_points import CONTACT_HEIGHT
+    from bvh.reference import ReferenceMotion
+    from controllers.sampling.mpc import MPC_STANCE_HEIGHT, stance_height
+
+    clip_ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")),
+                               info=character.info, floor="clip")
+    assert stance_height(MpcOptions(), walk_ref) == MPC_STANCE_HEIGHT
+    assert stance_height(MpcOptions(), clip_ref) == CONTACT_HEIGHT
+    assert stance_height(MpcOptions(stance_height=0.05), clip_ref) == 0.05
+    c = make_mpc(character, walk_ref, progress=False, **FAST)
+    c.reset(character)
+    assert c.grid.stance_height == MPC_STANCE_HEIGHT
+    c.close()
 
 
 def test_tracks_the_bundled_walk_without_falling(walk_ref):

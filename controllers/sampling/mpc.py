@@ -83,11 +83,16 @@ from .tracking import (
 from .trajectory import model_fingerprint
 from .trajopt import KnotSpline
 
-__all__ = ["MPC_WIDTHS", "UPDATES", "MpcController", "MpcError", "MpcOptions", "ReferenceGrid",
-           "make_mpc", "shift_matrix"]
+__all__ = ["MPC_STANCE_HEIGHT", "MPC_WIDTHS", "UPDATES", "MpcController", "MpcError",
+           "MpcOptions", "ReferenceGrid", "make_mpc", "shift_matrix", "stance_height"]
 
 #: plan updates: predictive sampling, MPPI, cross-entropy
 UPDATES = ("sampling", "mppi", "cem")
+#: the stance labels' height (fraction of the root height) on a contact-floor reference, whose
+#: supporting feet are on the floor: 3 % labels walk60's landing foot only once it is down
+#: (the raw-mocap 12 % labels it 5 cm up and gives it half the weight); measured closed loop
+#: on walk60, walk_forward and walk_and_turn_right at 2, 3, 6 and 12 % (docs/mpc.md)
+MPC_STANCE_HEIGHT = 0.03
 #: the MPC's default noise widths: the arms and head are not sampled (their PD tracks them;
 #: halving the dimension of the search tracked walk60 better, docs/mpc.md); the legs and
 #: spine use the shared ``ROLE_WIDTHS``
@@ -123,6 +128,10 @@ class MpcOptions:
             (time constant ``boost_time`` s), e.g. after a push; 1 turns it off.
         weights: the tracking cost weights (:class:`CostWeights`).
         smoothing: seconds of Gaussian smoothing of the inverse-dynamics targets.
+        stance_height: a foot carries the body in the base targets' inverse dynamics when its
+            lowest point is within this fraction of the root height of the floor (and it is
+            slow); ``None``: :data:`MPC_STANCE_HEIGHT` on a contact-floor reference, else the
+            raw-mocap :data:`~bvh.foot_points.CONTACT_HEIGHT`.
         seed: random seed; threads: rollout threads (``None``: every core).
     """
 
@@ -145,6 +154,7 @@ class MpcOptions:
     boost_time: float = 1.0
     weights: CostWeights = field(default_factory=CostWeights)
     smoothing: float = 0.03
+    stance_height: float | None = None
     seed: int = 0
     threads: int | None = None
 
@@ -164,6 +174,12 @@ class MpcOptions:
             if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
                                            and v > 0):
                 raise MpcError(f"{k} must be a positive number, got {v!r}")
+        if self.stance_height is not None and (
+                isinstance(self.stance_height, bool)
+                or not isinstance(self.stance_height, int | float)
+                or not math.isfinite(self.stance_height) or self.stance_height <= 0):
+            raise MpcError(f"stance_height must be a positive fraction of the root height or "
+                           f"None, got {self.stance_height!r}")
         for k in ("smoothness", "smoothing"):
             v = getattr(self, k)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
@@ -232,6 +248,13 @@ def shift_matrix(n_knots: int, knot_dt: float, shift: float) -> np.ndarray:
     return S
 
 
+def stance_height(options: MpcOptions, reference) -> float:
+    """The stance labels' height fraction the base targets of ``reference`` take."""
+    if options.stance_height is not None:
+        return float(options.stance_height)
+    return MPC_STANCE_HEIGHT if getattr(reference, "floor", None) == "contact" else CONTACT_HEIGHT
+
+
 class ReferenceGrid:
     """Base targets at control midpoints and reference features at control ends on the grid
     ``n control_dt`` (``n = 0, 1, ...``), computed in blocks of ``block`` controls on demand
@@ -242,8 +265,9 @@ class ReferenceGrid:
     """
 
     def __init__(self, character: Character, reference, rmodel, control_dt: float,
-                 smoothing: float, block: int = 50):
+                 smoothing: float, block: int = 50, stance_height: float = CONTACT_HEIGHT):
         self.character, self.reference, self.rmodel = character, reference, rmodel
+        self.stance_height = float(stance_height)
         self.dt, self.smoothing, self.block = float(control_dt), float(smoothing), int(block)
         self.pad = int(math.ceil(4 * smoothing / control_dt)) + 1 if smoothing > 0 else 0
         self._base = np.zeros((0, character.nu))
@@ -259,12 +283,11 @@ class ReferenceGrid:
             a = self.size
             b = a + self.block
             n = np.arange(a - self.pad, b + self.pad)
-            # the raw-mocap stance labels, and both feet where no foot is labelled: measured
-            # better closed loop than SAMCON's grounded labels and lowest foot (docs/mpc.md,
-            # "The clip's start and grounded stance labels")
+            # both feet where no foot is labelled: measured better closed loop than SAMCON's
+            # lowest foot (docs/mpc.md, "The clip's start and grounded stance labels")
             base = inverse_dynamics_targets(self.character, self.reference, (n + 0.5) * self.dt,
                                             smoothing=self.smoothing, unlabelled="both",
-                                            stance_height=CONTACT_HEIGHT,
+                                            stance_height=self.stance_height,
                                             )[self.pad:len(n) - self.pad]
             f = reference_features(self.rmodel, self.reference, (np.arange(a, b) + 1) * self.dt)
             self._base = np.concatenate([self._base, base])
@@ -354,7 +377,8 @@ class MpcController:
         if self.spline.n_knots != o.knots:
             raise MpcError(f"internal: {self.spline.n_knots} knots instead of {o.knots}")
         self.cost = TrackingCost(ch, o.weights, site_names=self._rmodel.site_names)
-        self.grid = ReferenceGrid(ch, ref, self._rmodel, o.control_dt, o.smoothing)
+        self.grid = ReferenceGrid(ch, ref, self._rmodel, o.control_dt, o.smoothing,
+                                  stance_height=stance_height(o, ref))
         threads = o.threads or os.cpu_count() or 1
         if self._executor is None or self._executor.threads != threads:
             if self._executor is not None:
