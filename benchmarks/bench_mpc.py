@@ -13,6 +13,10 @@ with every part; the real-time factor is simulated seconds per wall second of th
 - ``--perturbed``: starts with 0.1 rad joint noise and 0.2 m/s root velocity noise, 5 seeds.
 - ``--curve``: tracking error and real-time factor against samples x horizon on walk60.
 - ``--determinism``: the same seed twice, and with 1 and 2 threads: bit-identical trajectories.
+- ``--speed``: the real-time factor on walk60 with every core (the options' ``threads``
+  otherwise), beside bare ``mj_step`` throughput measured in the same run: the physics steps the
+  settings simulate per simulated second give the factor the cores could reach if rollouts
+  were all the work (``bound``), and ``efficiency`` = factor / bound.
 
     python benchmarks/bench_mpc.py --all          # everything (about half an hour)
     python benchmarks/bench_mpc.py --clips        # one part
@@ -38,7 +42,7 @@ from bvh.reference import ReferenceMotion  # noqa: E402
 from controllers.core import scenarios as S  # noqa: E402
 from controllers.core.character import Character  # noqa: E402
 from controllers.core.registry import make_controller  # noqa: E402
-from controllers.sampling.mpc import make_mpc  # noqa: E402
+from controllers.sampling.mpc import MpcOptions, make_mpc  # noqa: E402
 from controllers.sampling.trajectory import (  # noqa: E402
     ReplayController,
     StoredReference,
@@ -216,9 +220,32 @@ def determinism(options: dict) -> dict:
     return out
 
 
+def speed(options: dict) -> dict:
+    """Real-time factor on walk60, against bare ``mj_step`` throughput on this machine now."""
+    from mjchar.perf import raw_step_rate
+
+    ch = Character()
+    ref = reference(ch, "walk60")
+    before = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
+    r, wall, st = run_mpc(ref, options=options)
+    after = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
+    o = MpcOptions(**options)
+    threads = o.threads or os.cpu_count() or 1
+    plan_dt = o.plan_timestep or float(ch.model.opt.timestep)
+    # physics steps per simulated second: the rollouts, plus the character's own steps
+    steps = o.samples * o.horizon / o.replan / plan_dt + 1.0 / float(ch.model.opt.timestep)
+    rate = (before + after) / 2
+    bound = threads * rate / steps
+    out = {**summary(r, wall, st), "threads": threads, "raw_steps_per_s": rate,
+           "raw_steps_per_s_before_after": [before, after], "steps_per_sim_s": steps,
+           "bound": bound, "efficiency": (r.sim_time_s / wall) / bound}
+    print("speed", json.dumps(out), flush=True)
+    return out
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    for part in ("clips", "loop", "pushes", "perturbed", "curve", "determinism", "all"):
+    for part in ("clips", "loop", "pushes", "perturbed", "curve", "determinism", "speed", "all"):
         p.add_argument(f"--{part}", action="store_true")
     p.add_argument("--loop-duration", type=float, default=60.0)
     p.add_argument("--push-controllers", nargs="+", default=["mpc", "hand_of_god",
@@ -248,6 +275,8 @@ def main(argv=None) -> int:
         results["loop"] = loop(args.loop_duration, options)
     if a or args.curve:
         results["curve"] = curve(options)
+    if a or args.speed:
+        results["speed"] = speed(options)
     Path(args.out).write_text(json.dumps(results, indent=1))
     print(f"wrote {args.out}")
     return 0

@@ -310,8 +310,6 @@ def test_slow_tracks_the_shared_clips(clip, bound):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="measured: no fall, but 6.1 cm at seed 0, 7.1 cm at seed 1 "
-                          "(docs/mpc.md)")
 def test_slow_loops_walk60_for_a_minute():
     ch = Character()
     ref = _shared_ref(ch, "walk60", cyclic=True)
