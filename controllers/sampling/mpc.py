@@ -265,7 +265,7 @@ class ReferenceGrid:
     """
 
     def __init__(self, character: Character, reference, rmodel, control_dt: float,
-                 smoothing: float, block: int = 50, stance_height: float = CONTACT_HEIGHT):
+                 smoothing: float, block: int = 50, *, stance_height: float):
         self.character, self.reference, self.rmodel = character, reference, rmodel
         self.stance_height = float(stance_height)
         self.dt, self.smoothing, self.block = float(control_dt), float(smoothing), int(block)
