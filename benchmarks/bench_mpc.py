@@ -42,7 +42,7 @@ from bvh.reference import ReferenceMotion  # noqa: E402
 from controllers.core import scenarios as S  # noqa: E402
 from controllers.core.character import Character  # noqa: E402
 from controllers.core.registry import make_controller  # noqa: E402
-from controllers.sampling.mpc import MpcOptions, make_mpc  # noqa: E402
+from controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep  # noqa: E402
 from controllers.sampling.trajectory import (  # noqa: E402
     ReplayController,
     StoredReference,
@@ -192,7 +192,7 @@ def perturbed(options: dict, seeds=range(5)) -> dict:
     return out
 
 
-def curve(options: dict, samples=(16, 48, 96), horizons=(0.3, 0.5)) -> dict:
+def curve(options: dict, samples=(16, 48, 96), horizons=(0.3, 0.5, 0.7)) -> dict:
     out = {}
     ref = reference(Character(), "walk60")
     for n in samples:
@@ -231,7 +231,7 @@ def speed(options: dict) -> dict:
     after = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
     o = MpcOptions(**options)
     threads = o.threads or os.cpu_count() or 1
-    plan_dt = o.plan_timestep or float(ch.model.opt.timestep)
+    plan_dt = plan_timestep(o, float(ch.model.opt.timestep))
     # physics steps per simulated second: the rollouts, plus the character's own steps
     steps = o.samples * o.horizon / o.replan / plan_dt + 1.0 / float(ch.model.opt.timestep)
     rate = (before + after) / 2

@@ -68,20 +68,36 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
 
 def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     """plan_timestep changes the rollout model's step only: the character keeps its own, the
-    rest of the physics is checked to be the character's."""
+    rest of the physics is checked to be the character's. By default it is twice the
+    character's; the character's own step makes the rollouts exact."""
     from controllers.sampling.trajectory import model_fingerprint
 
-    c = make_mpc(character, walk_ref, progress=False, plan_timestep=0.004, **FAST)
+    c = make_mpc(character, walk_ref, progress=False, **FAST)
     c.reset(character)
     assert c._rmodel.model.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
     assert (c.k, c.k_plan) == (10, 5)
     assert model_fingerprint(c._rmodel.model) == model_fingerprint(character.model)
     c.act(character, 0.0)  # one replanning step: rollouts of k_plan steps per control
     assert c.stats["physics_steps"] == 8 * 10 * 5
-    c.options.plan_timestep = None  # the character's own step again: a new rollout model
+    c.options.plan_timestep = 0.002  # the character's own step: a new rollout model
     c.reset(character)
     assert c._rmodel.model.opt.timestep == 0.002 and c.k_plan == 10
     c.close()
+
+
+@pytest.mark.parametrize(("timestep", "control_dt", "expected"), [
+    (0.002, 0.02, 0.004),  # twice the character's step
+    (0.005, 0.02, 0.01),  # another model's step: twice it as well
+    (0.004, 0.02, 0.004),  # 0.008 does not divide the control: the character's own
+    (0.002, 0.002, 0.002),  # one physics step per control: the character's own
+])
+def test_default_planning_step_follows_the_model(timestep, control_dt, expected):
+    from controllers.sampling.mpc import plan_timestep
+
+    o = MpcOptions(control_dt=control_dt, horizon=10 * control_dt, replan=control_dt)
+    assert plan_timestep(o, timestep) == pytest.approx(expected)
+    o.plan_timestep = 0.001
+    assert plan_timestep(o, timestep) == 0.001  # given: taken as it is
 
 
 def test_a_model_without_a_file_is_refused(walk_ref):
@@ -176,7 +192,7 @@ def test_same_seed_same_trajectory_bit_for_bit_whatever_the_threads(walk_ref):
     assert not np.array_equal(a, d)
 
 
-@pytest.mark.parametrize("plan_timestep", [None, 0.004])
+@pytest.mark.parametrize("plan_timestep", [None, 0.002])
 def test_deterministic_with_either_planning_step(walk_ref, plan_timestep):
     o = {"seed": 3, "plan_timestep": plan_timestep}
     _, a, _ = _track(Character(), walk_ref, 0.2, **o)
@@ -188,7 +204,7 @@ def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
     """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
     at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, plan_timestep=None, **FAST)  # the same step
+    c = make_mpc(ch, walk_ref, progress=False, plan_timestep=0.002, **FAST)  # the same step
     ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
     c.reset(ch)
     c.act(ch, 0.0)

@@ -27,7 +27,7 @@ The plan, with MJPC's symbols:
   simulated from the current state in one batch (:mod:`controllers.sampling.rollout`, every
   core, deterministic) on the *planning model*: the character's physics (checked by
   :func:`~controllers.sampling.trajectory.model_fingerprint`) at the time step
-  ``plan_timestep``, which may be coarser than the character's (cheaper rollouts).
+  ``plan_timestep``, by default twice the character's (half the rollout physics).
 - **Cost** of a candidate: the SAMCON tracking cost
   (:class:`~controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance, COM,
   joint positions) averaged over the control ends of the horizon, plus
@@ -41,10 +41,10 @@ The plan, with MJPC's symbols:
   ``[0.2, 2] x noise``).
 - **Execution.** The new plan's first ``replan`` seconds are applied, at the character's own
   time step, then it replans. The constraint solver's warm start is cleared at each
-  replanning, as every rollout starts. With ``plan_timestep`` equal to the character's step
-  (``None``), without a disturbance the character follows the chosen candidate's rollout bit
-  for bit; with a coarser planning step the rollouts only approximate what the
-  character then does, and the replanning corrects the difference like any disturbance.
+  replanning, as every rollout starts. With ``plan_timestep`` equal to the character's own
+  step, without a disturbance the character follows the chosen candidate's rollout bit for bit;
+  with a coarser planning step (the default) the rollouts only approximate what the character
+  then does, and the replanning corrects the difference like any disturbance.
 
 Deterministic: the same options (seed) and the same model give the same trajectory, whatever the
 thread count (each rollout is independent). The reference and base targets are computed on
@@ -97,6 +97,11 @@ MPC_STANCE_HEIGHT = 0.03
 #: halving the dimension of the search tracked walk60 better, docs/mpc.md); the legs and
 #: spine use the shared ``ROLE_WIDTHS``
 MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "head": 0.0}
+#: the planning model's default time step in character time steps: 2 halves the rollout physics
+#: (1.7x the real-time factor) and met every bar of docs/mpc.md on the bundled humanoid (0.004 s;
+#: 16/16 pushes, the 60 s loop, the clips, the perturbed starts); used when ``control_dt`` is a
+#: whole number of it, else the character's own step
+PLAN_STEP_RATIO = 2
 
 
 class MpcError(MjcharError):
@@ -113,9 +118,11 @@ class MpcOptions:
         knots: spline knots over the horizon ``K`` (>= 2; knot spacing ``H / (K - 1)``).
         replan: seconds between replanning steps (a whole number of controls, <= horizon).
         control_dt: seconds per PD-target control (a whole number of physics steps).
-        plan_timestep: the time step of the planning model the rollouts run on (``None``: the
-            character's own); ``control_dt`` must be a whole number of it. A coarser step makes
-            each rollout cheaper; the character itself still steps at its own time step.
+        plan_timestep: the time step of the planning model the rollouts run on (``None``:
+            :data:`PLAN_STEP_RATIO` times the character's own, see :func:`plan_timestep`);
+            ``control_dt`` must be a whole number of it. A coarser step makes each rollout
+            cheaper; the character itself still steps at its own time step, and giving that
+            step here makes the rollouts exact.
         update: ``"sampling"``, ``"mppi"`` or ``"cem"``.
         noise: standard deviation of the knot perturbations, in units of the role widths.
         widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`);
@@ -248,6 +255,17 @@ def shift_matrix(n_knots: int, knot_dt: float, shift: float) -> np.ndarray:
     return S
 
 
+def plan_timestep(options: MpcOptions, timestep: float) -> float:
+    """The planning model's time step for a character stepping at ``timestep``: the option, or
+    :data:`PLAN_STEP_RATIO` ``x timestep`` where ``control_dt`` is a whole number of that, else
+    ``timestep``."""
+    if options.plan_timestep is not None:
+        return float(options.plan_timestep)
+    coarse = PLAN_STEP_RATIO * float(timestep)
+    k = options.control_dt / coarse
+    return coarse if abs(k - round(k)) <= 1e-6 and round(k) >= 1 else float(timestep)
+
+
 def stance_height(options: MpcOptions, reference) -> float:
     """The stance labels' height fraction the base targets of ``reference`` take."""
     if options.stance_height is not None:
@@ -336,7 +354,7 @@ class MpcController:
     # -- setup -------------------------------------------------------------------------------
     def reset(self, character: Character) -> None:
         """Bind to ``character``: native PD with the model's own gains, the rollout model (same
-        physics; the time step ``plan_timestep``, by default the character's), the reference
+        physics; the time step :func:`plan_timestep`), the reference
         grid, a fresh plan and random stream."""
         o, ch = self.options, character
         o.check(ch.timestep)
@@ -346,7 +364,7 @@ class MpcController:
         kp, kd = ch.default_gains()
         ch.set_native_gains(kp, kd)
         source = _model_file(ch)
-        plan_dt = float(o.plan_timestep or ch.timestep)
+        plan_dt = plan_timestep(o, ch.timestep)
         key = (source, plan_dt)
         if self._rm_key != key:
             rm = tracking_rollout_model(source, ch)
