@@ -451,7 +451,8 @@ CROUCH = Gait(
 #: the trunk (pelvis to head) stands nearly upright; tuned on the bundled humanoid by CMA-ES
 #: (21 numbers, cost = normalised violations of issue 14's bars + speed error + falls, 10 s
 #: walks at 1.2 m/s). Own speed 1.2 m/s (Froude 0.409); a speed command regulates towards the
-#: command with ``speed_gain`` and the virtual force (no anchors).
+#: command with ``speed_gain`` and the virtual force, and below 1.2 m/s interpolates towards a
+#: slow anchor at Froude 0.22 (walk's slow legs, tuned by hand; docs/simbicon.md).
 NATURAL = Gait(
     name="natural",
     states=(
@@ -494,6 +495,25 @@ NATURAL = Gait(
     body_leg_length=BUNDLED_LEG_LENGTH,
     body_mass=BUNDLED_MASS,
     froude=0.409,
+    speed_anchors=(
+        # walk's legs at its slow anchor (WALK.for_speed(0.22): per-state targets and feedback,
+        # lean 0.2), the natural gait's own state durations and velocity force: without it the
+        # natural gait drifts sideways below ~1.1 m/s (0.75 m/s sideways at 0.6)
+        (0.22, {"state0_swing_hip": 0.666, "state0_swing_hip_coronal": -0.023,
+                "state0_swing_knee": 1.583, "state0_swing_ankle": 0.739,
+                "state0_stance_knee": -0.009, "state0_stance_ankle": 0.003,
+                "state0_cd": 0.534, "state0_cv": 0.208,
+                "state0_cd_coronal": 0.8, "state0_cv_coronal": 0.188,
+                "state1_swing_hip": 0.221, "state1_swing_hip_coronal": -0.023,
+                "state1_swing_knee": 0.083, "state1_swing_ankle": 0.087,
+                "state1_stance_knee": 0.146, "state1_stance_ankle": 0.163,
+                "state1_cd": 0.534, "state1_cv": 0.208,
+                "state1_cd_coronal": 0.8, "state1_cv_coronal": 0.188,
+                "torso_pitch": 0.2}),
+        # the gait's own values from Froude 0.40 up: 1.2 m/s on the bundled humanoid is Froude
+        # 0.4089, just below 0.409, and walks exactly as the gait does without anchors
+        (0.40, {}),
+    ),
     gains={
         "torso": (873.399, 87.34),
         "swing_hip": (260.881, 26.088),
