@@ -334,7 +334,6 @@ def test_natural_gait_bars_at_1_2(ch):
         assert v is not None and (lo is None or v >= lo) and (hi is None or v <= hi), (key, v)
 
 
-
 def test_natural_speed_command_slow(ch):
     """The natural gait commanded 0.6 m/s (issue 14's slowest point): its slow speed anchor
     keeps it from drifting sideways (without it: 1.12 m/s steady here, mostly sideways; 30 s
