@@ -306,8 +306,14 @@ def test_speed_schedule_slow_fast_slow(character):
 
 
 @pytest.mark.slow
-def test_turns_at_1mps(character):
-    c = make_ipm(character, speed=1.0, heading=lambda t: 0.0 if t < 3.0 else 90.0)
+@pytest.mark.parametrize("speed", [
+    1.0,
+    pytest.param(1.2, marks=pytest.mark.xfail(
+        strict=True, reason="the human band's turn falls at 5-9 s (yaw jumps 10-40 deg ahead of "
+        "the heading target; docs/ipm.md, issue 14's IPM points)")),
+])
+def test_turns_90_degrees(character, speed):
+    c = make_ipm(character, speed=speed, heading=lambda t: 0.0 if t < 3.0 else 90.0)
     r, times, com, yaw = run_walk(character, c, 14.0)
     assert not r.fell, r.fall_reason
     assert abs(math.degrees(yaw[-1]) - 90.0) < 15.0
