@@ -451,10 +451,11 @@ CROUCH = Gait(
 #: the trunk (pelvis to head) stands nearly upright; tuned on the bundled humanoid by CMA-ES
 #: (21 numbers, cost = normalised violations of issue 14's bars + speed error + falls, 10 s
 #: walks at 1.2 m/s), then, for forward pushes and the downhill walk (issue 14's robustness),
-#: weaker sagittal feedback (cd 0.667 -> 0.55, cv 0.189 -> 0.15) with the swing hip raised by
-#: what cv gave up at 1.2 m/s and a longer lift-off state (hand-tuned). Own speed 1.2 m/s
-#: (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and the
-#: virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
+#: weaker sagittal feedback (cd 0.667 -> 0.58, cv 0.189 -> 0.14) with the swing hip raised by
+#: what cv gave up at 1.2 m/s and a longer lift-off state (by hand, then a small CMA-ES on the
+#: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md). Own speed
+#: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
+#: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
 #: slow legs, tuned by hand; docs/simbicon.md).
 NATURAL = Gait(
     name="natural",
