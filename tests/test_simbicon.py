@@ -337,7 +337,7 @@ def test_natural_gait_bars_at_1_2(ch):
 def test_natural_speed_command_slow(ch):
     """The natural gait commanded 0.6 m/s (issue 14's slowest point): its slow speed anchor
     keeps it from drifting sideways (without it: 1.12 m/s steady here, mostly sideways; 30 s
-    figures in docs/simbicon.md). It is still settling at 20 s (0.56 m/s over the last 6 s)."""
+    figures in docs/simbicon.md). It is still settling at 20 s (0.55 m/s over the last 6 s)."""
     c = make_simbicon(gait="natural", speed=0.6)
     r = walk(ch, c, duration=20.0, seed=0, steady_window=6.0)
     assert not r.fell, r.fall_reason
