@@ -349,6 +349,40 @@ def test_trajectory_for_another_model_or_time_step_is_refused(short_run):
         ReplayController(res.trajectory).reset(ch)
 
 
+def test_fingerprint_covers_contact_and_solver_settings():
+    """Version 2 of the fingerprint sees what the first left out (the foot contacts' condim, the
+    friction cone's impratio, the solver's iterations), and the time step still not."""
+    from controllers.sampling.trajectory import model_fingerprint
+
+    base = Character().model
+    fp, fp1 = model_fingerprint(base), model_fingerprint(base, version=1)
+    for edit in (lambda m: m.geom_condim.__setitem__(0, 4),
+                 lambda m: setattr(m.opt, "impratio", 10.0),
+                 lambda m: setattr(m.opt, "iterations", 50),
+                 lambda m: m.jnt_stiffness.__setitem__(1, 5.0)):
+        m = copy.deepcopy(base)
+        edit(m)
+        assert model_fingerprint(m) != fp
+        assert model_fingerprint(m, version=1) == fp1  # what version 1 missed
+    m = copy.deepcopy(base)
+    m.opt.timestep = 0.001
+    assert model_fingerprint(m) == fp
+    with pytest.raises(ValueError, match="unknown version"):
+        model_fingerprint(base, version=3)
+
+
+def test_trajectory_saved_with_the_first_fingerprint_still_replays(short_run):
+    """A file saved before version 2 carries the version-1 digest: accepted on a model whose
+    version-1 physics match, with a warning to save it again."""
+    from controllers.sampling.trajectory import model_fingerprint
+
+    _, res = short_run
+    tr = copy.deepcopy(res.trajectory)
+    tr.model_hash = model_fingerprint(Character().model, version=1)
+    with pytest.warns(UserWarning, match="earlier mjchar.*Save it again"):
+        ReplayController(tr).reset(Character())
+
+
 def test_cli_run_replay_plays_a_saved_trajectory(short_run, tmp_path, capsys):
     _, res = short_run
     path = res.trajectory.save(tmp_path / "t.npz")

@@ -41,6 +41,7 @@ import io
 import json
 import math
 import os
+import warnings
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -82,20 +83,41 @@ _FINGERPRINT_FIELDS = (
     "actuator_biasprm", "actuator_forcerange", "actuator_forcelimited", "actuator_ctrlrange",
     "actuator_ctrllimited",
 )
+#: what the first fingerprint left out (version 2, 2026-11-27): contact dimensions and mixing,
+#: joint springs and limit softness, actuator types, and the solver's options below
+_FINGERPRINT_FIELDS_V2 = (
+    "geom_condim", "geom_priority", "geom_solmix", "geom_margin", "geom_gap", "jnt_stiffness",
+    "jnt_solref", "jnt_solimp", "jnt_margin", "dof_solref", "dof_solimp", "qpos_spring",
+    "actuator_dyntype", "actuator_gaintype", "actuator_biastype", "actuator_dynprm",
+)
+_FINGERPRINT_OPTIONS_V2 = ("impratio", "tolerance", "ls_tolerance", "noslip_tolerance",
+                           "density", "viscosity", "wind", "solver", "iterations",
+                           "ls_iterations", "noslip_iterations", "jacobian", "enableflags")
+FINGERPRINT_VERSION = 2
 
 
-def model_fingerprint(model: mujoco.MjModel) -> str:
-    """A SHA-256 hex digest of the model's physics (bodies, joints, geoms, actuators, gravity,
-    integrator), independent of sensors and of the time step. Two models with the same
-    fingerprint simulate a PD-target sequence identically at the same time step."""
+def model_fingerprint(model: mujoco.MjModel, version: int = FINGERPRINT_VERSION) -> str:
+    """A SHA-256 hex digest of the model's physics (bodies, joints, geoms and their contact
+    settings, actuators, gravity, integrator, constraint solver options), independent of
+    sensors and of the time step. Two models with the same fingerprint simulate a PD-target
+    sequence identically at the same time step. ``version=1`` is the digest of mjchar before
+    2026-11-27, which left out the contact dimensions, the friction cone's ``impratio`` and
+    the solver options (kept to read trajectories saved then)."""
+    if version not in (1, 2):
+        raise ValueError(f"model_fingerprint: unknown version {version!r}")
     h = hashlib.sha256()
     h.update(np.array([model.nq, model.nv, model.nu, model.nbody, model.ngeom,
                        int(model.opt.integrator), int(model.opt.cone),
                        int(model.opt.disableflags)], dtype=np.int64).tobytes())
     h.update(np.asarray(model.opt.gravity, dtype=np.float64).tobytes())
-    for name in _FINGERPRINT_FIELDS:
+    fields = _FINGERPRINT_FIELDS if version == 1 else _FINGERPRINT_FIELDS + _FINGERPRINT_FIELDS_V2
+    for name in fields:
         h.update(name.encode())
         h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
+    if version >= 2:
+        for name in _FINGERPRINT_OPTIONS_V2:
+            h.update(name.encode())
+            h.update(np.asarray(getattr(model.opt, name), dtype=np.float64).tobytes())
     return h.hexdigest()
 
 
@@ -218,10 +240,17 @@ class Trajectory:
         if list(self.actuator_names) != names:
             raise TrajectoryError(f"{where}: actuators differ from the model's (first saved: "
                                   f"{self.actuator_names[:3]}, model: {names[:3]})")
-        if model_fingerprint(model) != self.model_hash:
-            raise TrajectoryError(f"{where}: it was optimised for another model "
-                                  f"({self.model_name!r}, fingerprint {self.model_hash[:12]}; "
-                                  f"this model: {model_fingerprint(model)[:12]})")
+        if model_fingerprint(model) == self.model_hash:
+            return
+        if model_fingerprint(model, version=1) == self.model_hash:
+            warnings.warn(f"{where}: saved by an earlier mjchar, whose model fingerprint did not "
+                          f"cover contact dimensions or solver options; it matches this model's "
+                          f"other physics. Save it again to refresh the fingerprint.",
+                          stacklevel=3)
+            return
+        raise TrajectoryError(f"{where}: it was optimised for another model "
+                              f"({self.model_name!r}, fingerprint {self.model_hash[:12]}; "
+                              f"this model: {model_fingerprint(model)[:12]})")
 
     # -- I/O -----------------------------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:
