@@ -104,6 +104,12 @@ MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "hea
 PLAN_STEP_RATIO = 2
 
 
+def _whole_multiple(span: float, step: float) -> bool:
+    """Whether ``span`` is a whole number (>= 1) of ``step`` (to 1e-6 of a step)."""
+    n = span / step
+    return abs(n - round(n)) <= 1e-6 and round(n) >= 1
+
+
 class MpcError(MjcharError):
     """The MPC was given settings it cannot use (sizes, times, an unknown update)."""
 
@@ -202,8 +208,7 @@ class MpcOptions:
         if not isinstance(self.weights, CostWeights):
             raise MpcError("weights must be a CostWeights")
         for k in ("horizon", "replan"):
-            c = getattr(self, k) / self.control_dt
-            if abs(c - round(c)) > 1e-6 or round(c) < 1:
+            if not _whole_multiple(getattr(self, k), self.control_dt):
                 raise MpcError(f"{k} ({getattr(self, k)} s) must be a whole number of controls "
                                f"of {self.control_dt} s")
         if self.plan_timestep is not None:
@@ -211,15 +216,13 @@ class MpcOptions:
             if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
                                            and v > 0):
                 raise MpcError(f"plan_timestep must be a positive number or None, got {v!r}")
-            k = self.control_dt / v
-            if abs(k - round(k)) > 1e-6 or round(k) < 1:
+            if not _whole_multiple(self.control_dt, v):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"plan_timestep {v} s planning steps")
         if self.replan > self.horizon + 1e-9:
             raise MpcError(f"replan ({self.replan} s) cannot exceed horizon ({self.horizon} s)")
         if timestep is not None:
-            k = self.control_dt / timestep
-            if abs(k - round(k)) > 1e-6 or round(k) < 1:
+            if not _whole_multiple(self.control_dt, timestep):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"{timestep} s physics steps")
 
@@ -262,8 +265,7 @@ def plan_timestep(options: MpcOptions, timestep: float) -> float:
     if options.plan_timestep is not None:
         return float(options.plan_timestep)
     coarse = PLAN_STEP_RATIO * float(timestep)
-    k = options.control_dt / coarse
-    return coarse if abs(k - round(k)) <= 1e-6 and round(k) >= 1 else float(timestep)
+    return coarse if _whole_multiple(options.control_dt, coarse) else float(timestep)
 
 
 def stance_height(options: MpcOptions, reference) -> float:

@@ -114,7 +114,7 @@ def model_fingerprint(model: mujoco.MjModel, version: int = FINGERPRINT_VERSION)
     for name in fields:
         h.update(name.encode())
         h.update(np.ascontiguousarray(getattr(model, name)).tobytes())
-    if version >= 2:
+    if version == 2:
         for name in _FINGERPRINT_OPTIONS_V2:
             h.update(name.encode())
             h.update(np.asarray(getattr(model.opt, name), dtype=np.float64).tobytes())
@@ -240,7 +240,8 @@ class Trajectory:
         if list(self.actuator_names) != names:
             raise TrajectoryError(f"{where}: actuators differ from the model's (first saved: "
                                   f"{self.actuator_names[:3]}, model: {names[:3]})")
-        if model_fingerprint(model) == self.model_hash:
+        fingerprint = model_fingerprint(model)
+        if fingerprint == self.model_hash:
             return
         if model_fingerprint(model, version=1) == self.model_hash:
             warnings.warn(f"{where}: saved by an earlier mjchar, whose model fingerprint did not "
@@ -250,7 +251,7 @@ class Trajectory:
             return
         raise TrajectoryError(f"{where}: it was optimised for another model "
                               f"({self.model_name!r}, fingerprint {self.model_hash[:12]}; "
-                              f"this model: {model_fingerprint(model)[:12]})")
+                              f"this model: {fingerprint[:12]})")
 
     # -- I/O -----------------------------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:

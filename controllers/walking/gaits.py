@@ -392,6 +392,19 @@ WALK = Gait(
     },
 )
 
+#: the per-state fields a speed anchor takes from another gait's legs (:func:`_legs_at`)
+_LEG_FIELDS = ("swing_hip", "swing_hip_coronal", "swing_knee", "swing_ankle", "stance_knee",
+               "stance_ankle", "cd", "cv", "cd_coronal", "cv_coronal")
+
+
+def _legs_at(gait: Gait, froude: float) -> dict:
+    """Speed-anchor values: ``gait``'s per-state targets and feedback (states 0 and 1, which
+    states 2 and 3 mirror) and lean at the Froude speed ``froude``."""
+    g = gait.for_speed(froude)
+    legs = {f"state{i}_{k}": getattr(g.states[i], k) for i in (0, 1) for k in _LEG_FIELDS}
+    return {**legs, "torso_pitch": g.torso_pitch}
+
+
 #: Crouch walk: the same controller with bent stance knees (0.5 rad, 29 degrees, in both
 #: states), a 0.283 rad forward lean and dorsiflexed stance ankles; derived from an earlier walk
 #: (its gains) and re-tuned by CMA-ES for 0.9 m/s at 4 seeds (docs/simbicon.md). Level ground
@@ -503,17 +516,7 @@ NATURAL = Gait(
         # walk's legs at its slow anchor (WALK.for_speed(0.22): per-state targets and feedback,
         # lean 0.2), the natural gait's own state durations and velocity force: without it the
         # natural gait drifts sideways below ~1.1 m/s (0.75 m/s sideways at 0.6)
-        (0.22, {"state0_swing_hip": 0.666, "state0_swing_hip_coronal": -0.023,
-                "state0_swing_knee": 1.583, "state0_swing_ankle": 0.739,
-                "state0_stance_knee": -0.009, "state0_stance_ankle": 0.003,
-                "state0_cd": 0.534, "state0_cv": 0.208,
-                "state0_cd_coronal": 0.8, "state0_cv_coronal": 0.188,
-                "state1_swing_hip": 0.221, "state1_swing_hip_coronal": -0.023,
-                "state1_swing_knee": 0.083, "state1_swing_ankle": 0.087,
-                "state1_stance_knee": 0.146, "state1_stance_ankle": 0.163,
-                "state1_cd": 0.534, "state1_cv": 0.208,
-                "state1_cd_coronal": 0.8, "state1_cv_coronal": 0.188,
-                "torso_pitch": 0.2}),
+        (0.22, _legs_at(WALK, 0.22)),
         # the gait's own values from Froude 0.40 up: 1.2 m/s on the bundled humanoid is Froude
         # 0.4089, just below 0.409, and walks exactly as the gait does without anchors
         (0.40, {}),
