@@ -255,6 +255,20 @@ def test_survives_150N_push_by_stepping(character, direction):
     assert r.root_force_max_N == 0.0
 
 
+def test_recovery_step_is_not_widened_while_the_com_moves_sideways():
+    """The push protocol's one 150 N failure before the fix (backward, moment 1.625 s, seed 2):
+    the recovery steps drift sideways, a step of the zero command was widened to the standing
+    width across the COM's motion, and the COM fell over the far side of the new stance foot."""
+    from controllers.core.push_protocol import PushProtocol, PushTask, simulate_push
+
+    protocol = PushProtocol(forces=(150.0,), phases=8, seeds=(2,)).check()
+    task = PushTask("ipm", "backward", 150.0, protocol.phase_values()[5], 2, protocol, None,
+                    (("speed", 0.0),))
+    r, ok = simulate_push(task)
+    assert ok, r.fall_reason
+    assert r.stepped and r.root_force_max_N == 0.0
+
+
 def test_push_static_balance_cannot_survive_but_ipm_can(character):
     """The same 200 N, 0.2 s push on the pelvis from behind: static balance falls, IPM steps."""
     sb = make_controller("static_balance", character)

@@ -16,7 +16,9 @@ ends when the swing foot touches the ground after half the step):
        d_coronal  = s_c d(v_c) +- w                 w towards the swing side
 
    relative to the COM, at least ``min_width`` beside the stance foot (no crossed legs; the hip
-   width when coming to a stop), each axis clamped to +-0.4 leg length.
+   width when coming to a stop with the COM's sideways speed under ``stop_speed``: a step
+   widened across a sideways drift puts the COM outside the new stance foot), each axis
+   clamped to +-0.4 leg length.
 2. **Swing foot** (:class:`~controllers.walking.swing.SwingTrajectory`): sole height through
    ``swing_heights`` at phases 0, 0.5, 1 (then sinking until contact); the horizontal offset from
    the COM blends from the lift-off offset to the IPM point. Hip and knee come from analytic
@@ -436,7 +438,8 @@ class IPMController:
             swing: 0 (left foot swings) or 1 (right).
             v_desired: desired forward speed (m/s).
             stance_lateral: coronal offset (m) of the stance foot from the COM; when given the
-                swing foot lands at least ``min_width`` beside it (no crossed legs).
+                swing foot lands at least ``min_width`` beside it (no crossed legs), or the
+                standing width when stopping with a sideways speed under ``stop_speed``.
         """
         p = self.params
         d = np.asarray(ipm_step_offset(np.asarray(v_heading, float), h))
@@ -446,7 +449,8 @@ class IPMController:
         out = np.array([p.sagittal_scale * d[0] - p.speed_offset * v_desired - self.speed_bias,
                         cs * d[1] + side * p.step_width])
         if stance_lateral is not None:
-            width = self.stand_width if self._stopping else p.min_width
+            stopping = self._stopping and abs(float(v_heading[1])) < p.stop_speed
+            width = self.stand_width if stopping else p.min_width
             out[1] = stance_lateral + side * max(side * (out[1] - stance_lateral), width)
         lim = p.clamp * self.leg_length
         return np.clip(out, -lim, lim)
