@@ -320,6 +320,7 @@ def test_new_options_off_leave_the_walk_alone():
         g = GAITS[name]
         assert g.swing_gravity == g.stance_support == 0.0
         assert g.velocity_force == g.velocity_force_coronal == 0.0
+        assert g.stance_foot_flat == 0.0
 
 
 def test_natural_gait_bars_at_1_2(ch):

@@ -50,6 +50,7 @@ DEFAULT_GAINS = {
     "stance_twist": (300.0, 30.0),
     "swing_hip": (600.0, 60.0),
     "swing_ankle_world": (100.0, 10.0),
+    "stance_ankle_world": (300.0, 30.0),
 }
 
 
@@ -361,6 +362,8 @@ class Simbicon:
                 "thigh_dir": thigh / np.linalg.norm(thigh),
                 # + rotation about the heading frame's lateral axis lifts the toes?
                 "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
+                # the world's up in the foot's frame at rest (the rest pose's sole is level)
+                "sole_up": rest.xmat[ch.body_id(ankle)].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]),
                 "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
@@ -451,6 +454,7 @@ class Simbicon:
         self._torso_kd = np.array([kdt, kdt, kdy])
         self._swing_gains = g.gains["swing_hip"]
         self._ankle_world_gains = g.gains["swing_ankle_world"]
+        self._stance_ankle_gains = g.gains["stance_ankle_world"]
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -615,6 +619,17 @@ class Simbicon:
         else:
             tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
 
+        if g.stance_foot_flat:
+            # the stance foot's sole towards level (pitch and roll only; its yaw is left to
+            # the floor's friction), blended with the local PD
+            Rf = d.xmat[st["ankle_body"]].reshape(3, 3)
+            kpa, kda = self._stance_ankle_gains
+            w = d.cvel[st["ankle_body"], :3]
+            tau_f = kpa * _angle_between(Rf @ st["sole_up"], np.array([0.0, 0.0, 1.0])) \
+                - kda * np.array([w[0], w[1], 0.0])
+            a = st["ankle_acts"]
+            flat = d.xaxis[st["ankle_joints"]] @ tau_f
+            tau[a] = (1.0 - g.stance_foot_flat) * tau[a] + g.stance_foot_flat * flat
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
             tau[st["support_acts"]] += self._virtual_force(character, st, H)
         if g.swing_ankle_world:
