@@ -115,6 +115,32 @@ def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(axes, tau, rcond=None)[0]
 
 
+def _extent(m: mujoco.MjModel, data: mujoco.MjData, bodies: np.ndarray, origin: np.ndarray,
+            fwd: np.ndarray, out: np.ndarray) -> tuple[float, float, float, float]:
+    """``(back, front, inner, outer)`` (m): how far the geoms of ``bodies`` reach from
+    ``origin`` backwards, forwards, inwards (``-out``) and outwards (``out``) at ``data``'s pose
+    (boxes by their corners, capsules and spheres by their ends and radius, other shapes by
+    their bounding sphere)."""
+    ext = np.zeros(4)
+    for gid in np.flatnonzero(np.isin(m.geom_bodyid, bodies)):
+        c, R, size = data.geom_xpos[gid], data.geom_xmat[gid].reshape(3, 3), m.geom_size[gid]
+        t = m.geom_type[gid]
+        if t == mujoco.mjtGeom.mjGEOM_BOX:
+            pts = c + (np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
+                       * size) @ R.T
+            r = 0.0
+        elif t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            pts, r = c + np.outer([-1.0, 1.0], R[:, 2] * size[1]), size[0]
+        elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
+            pts, r = c[None], size[0]
+        else:
+            pts, r = c[None], m.geom_rbound[gid]
+        rel = pts - origin
+        ext = np.maximum(ext, [(-rel @ fwd).max() + r, (rel @ fwd).max() + r,
+                               (-rel @ out).max() + r, (rel @ out).max() + r])
+    return tuple(float(e) for e in ext)
+
+
 def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """``(2,)`` total floor normal force (N) on the bodies ``feet[0]`` and ``feet[1]``
     (left, right).
@@ -366,6 +392,11 @@ class Simbicon:
                 "sole_up": rest.xmat[ch.body_id(ankle)].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]),
                 "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
+            # the sole's extent about the ankle at rest (m): heel and toe along forward, the
+            # inner and outer edges across (the box, capsule and sphere geoms of the foot)
+            ext = _extent(m, rest, leg["foot_bodies"], pos(ankle), fwd, out)
+            leg["sole"] = {"heel": ext[0], "toe": ext[1], "inner": ext[2], "outer": ext[3]}
+            leg["roll_sign"] = sign(rest.xaxis[A["x"].jnt], out, up) if "x" in A else 0.0
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
                 leg_hinges += list(self._hinges(ch, toe).values())
@@ -639,7 +670,28 @@ class Simbicon:
             kpa, kda = self._ankle_world_gains
             tau_f = kpa * _log(Rfd @ Rf.T) - kda * d.cvel[sw["ankle_body"], :3]
             tau[sw["ankle_acts"]] = d.xaxis[sw["ankle_joints"]] @ tau_f
+        if g.stance_ankle_cop:
+            self._cop_clamp(character, tau, si)
         return np.minimum(np.maximum(tau, -lim), lim)
+
+    def _cop_clamp(self, character: Character, tau: np.ndarray, si: int) -> None:
+        """Bound the stance ankle's pitch and roll torques (in place) by what the floor can
+        take under the sole: the centre of pressure within ``stance_ankle_cop`` of the sole's
+        extent about the ankle (the heel for toes-up torque, the toes for toes-down, the edges
+        for roll), for the foot's floor normal force now; a foot off the floor is left alone."""
+        fn = foot_normal_forces(character, self._feet)[si]
+        if fn <= 0.0:
+            return
+        st = self._legs[si]
+        c = self.gait.stance_ankle_cop * fn
+        sole = st["sole"]
+        y = st["ankle"]["y"].act
+        s = st["ankle_dorsi"]  # toes-up torque = s * hinge torque
+        tau[y] = s * min(max(s * tau[y], -c * sole["toe"]), c * sole["heel"])
+        if st["roll_sign"]:
+            x = st["ankle"]["x"].act
+            r = st["roll_sign"]  # outer-edge-up torque = r * hinge torque
+            tau[x] = r * min(max(r * tau[x], -c * sole["outer"]), c * sole["inner"])
 
     def _virtual_force(self, character: Character, st: dict, H: np.ndarray) -> np.ndarray:
         """Torques of the stance ankle and knee that put a virtual force on the centre of mass
