@@ -324,9 +324,10 @@ class IPMController:
         step_time, self._knee_kp, self._knee_ramp = p.at_speed(self.speed_target)
         self._human = w = p.human_weight(self.speed_target)
         self.trajectory = self._trajectory
-        if w > 0:  # a lower swing at human-like speeds
+        if w > 0:  # a lower swing, lifted off at once, at human-like speeds
             h0, h1, h2 = p.swing_heights
-            self.trajectory = SwingTrajectory((h0, h1 + w * (p.human_swing_height - h1), h2),
+            self.trajectory = SwingTrajectory((h0 + w * (p.human_liftoff_height - h0),
+                                               h1 + w * (p.human_swing_height - h1), h2),
                                               p.descent_speed, blend=p.swing_blend)
         self._T = step_time if duration is None else duration
         self.phase = 0.0
@@ -613,6 +614,9 @@ class IPMController:
             A = d.xaxis[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
+            if leg is st and p.stance_ankle_yaw_kd is not None:
+                n = A.T @ R_foot[:, 2]
+                D[np.ix_(leg.ankle, leg.ankle)] += (p.stance_ankle_yaw_kd - kd) * np.outer(n, n)
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0
@@ -713,6 +717,7 @@ class IPMController:
         without rolling: limits are metres x body weight."""
         d = ch.data
         fwd, back, roll = self.params.stance_ankle_limit
+        back += self._human * (self.params.human_ankle_back - back)
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]

@@ -25,7 +25,8 @@ TUNED_LEG_LENGTH = 0.878
 TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
-           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off")
+           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off",
+           "human_liftoff_height", "human_ankle_back")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
          "speed_offset", "speed_integral", "human_step_time", "human_speed_integral")
 _SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
@@ -35,7 +36,8 @@ _RATE2 = ("vf_coronal_pos", "cadence_gain")
 _TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp",
                 "human_stance_knee_kp",
                 "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
-_DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
+_DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "stance_ankle_yaw_kd", "swing_ankle_kd",
+                 "pelvis_kd",
                  "pelvis_yaw_kd")
 _FORCE = ("vf_max_sagittal", "vf_max_coronal")
 _TORQUE = ("stance_yaw_limit",)
@@ -196,6 +198,7 @@ class IPMParams:
     knee_kd: float = 35.0
     ankle_kp: float = 50.0
     ankle_kd: float = 15.0
+    stance_ankle_yaw_kd: float | None = 60.0
     swing_ankle_kp: float = 200.0
     swing_ankle_kd: float = 20.0
     pelvis_kp: float = 1000.0
@@ -214,7 +217,9 @@ class IPMParams:
     human_stance_knee_kp: float = 300.0
     human_stance_knee_ramp: float = 0.0
     human_swing_height: float = 0.05
+    human_liftoff_height: float = 0.12
     human_push_off: float = 0.2
+    human_ankle_back: float = 0.01
     push_off_phase: float = 0.5
     human_coronal_scale: float = 0.8
     human_speed_integral: float = 0.06
