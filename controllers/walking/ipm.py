@@ -89,9 +89,9 @@ over a flat trailing foot), a 5 cm swing that starts with its target 0.12 m up
 (``human_liftoff_height``: the trailing foot comes straight off the floor instead of being
 dragged along it by the COM-relative target), a stance ankle that pushes the toes up with at
 most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
-heel in mid stance) and narrower lateral steps (``human_coronal_scale``). Those two and a
-stronger damping of the stance leg's twist over the foot (``stance_ankle_yaw_kd``) keep the
-stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md).
+heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
+and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
+twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
@@ -620,10 +620,11 @@ class IPMController:
             A = d.xaxis[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
-            if leg is st and p.stance_ankle_yaw_kd is not None:
+            if leg is st and self._human > 0:
                 # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
                 n = A.T @ R_foot[:, 2]                    # the foot's vertical on the hinges
-                D[np.ix_(leg.ankle, leg.ankle)] += (p.stance_ankle_yaw_kd - kd) * np.outer(n, n)
+                extra = self._human * (p.human_ankle_yaw_kd - kd)
+                D[np.ix_(leg.ankle, leg.ankle)] += extra * np.outer(n, n)
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0

@@ -36,9 +36,8 @@ _RATE2 = ("vf_coronal_pos", "cadence_gain")
 _TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp",
                 "human_stance_knee_kp",
                 "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
-_DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "stance_ankle_yaw_kd", "swing_ankle_kd",
-                 "pelvis_kd",
-                 "pelvis_yaw_kd")
+_DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
+                 "pelvis_yaw_kd", "human_ankle_yaw_kd")
 _FORCE = ("vf_max_sagittal", "vf_max_coronal")
 _TORQUE = ("stance_yaw_limit",)
 #: parameters without a dimension (phases, scales, angles, switches), left as they are
@@ -108,6 +107,13 @@ class IPMParams:
             cm/step slip at 1.2 m/s; 0.01 m: the foot stays flat (1.2 m/s walks 1.140 m/s
             instead of 1.167, 1.5 m/s 60 s steady 1.363 instead of 1.387); 0 m: 0.93 cm but a
             60 s walk at 1.6 m/s fell (7.2 s, with a 0.10 m lift-off).
+        human_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical
+            axis in that band (``ankle_kd`` otherwise, and about the other two axes). The stance
+            foot keeps its own yaw (no stiffness about the vertical), so this damping is all that
+            couples the leg's twist to the planted foot: 60 (with the lift-off and ankle limit
+            above, 1.2 m/s) gives a stance slip of 0.95 cm/step against 1.01 with 15; 120: no
+            better; 5: 2.8 cm, 2: fell (the leg twists freely, the pelvis loses its yaw anchor).
+            Applied at every speed it cost a 150 N backward standing push (38/40 against 39/40).
         human_push_off, push_off_phase: in that band, from ``push_off_phase`` to the end of the
             step a toes-down moment of ``human_push_off`` x body weight (m) on the stance foot
             (smoothstep), and the forward ankle limit grows to the ball of the foot (its toe
@@ -139,12 +145,6 @@ class IPMParams:
         swing_ankle_kp, swing_ankle_kd: the swing foot's (world frame) gains, so it lands flat.
         hip_kp, hip_kd, knee_kp, knee_kd, ankle_kp, ankle_kd, pelvis_kp, pelvis_kd: PD gains
             (N m/rad, N m s/rad); pelvis in the world frame.
-        stance_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical
-            axis (``ankle_kd`` about the other two; ``None``: ``ankle_kd``). The stance foot keeps
-            its own yaw (no stiffness about the vertical), so this damping is all that couples
-            the leg's twist to the planted foot: 60 (with the human band's lift-off and ankle
-            limit, 1.2 m/s): stance slip 0.95 cm/step against 1.01 with 15; 120: no better; 5:
-            2.8 cm, 2: fell (the leg twists freely and the pelvis loses its yaw anchor).
         pelvis_yaw_kp, pelvis_yaw_kd: the pelvis gains about the vertical (heading) axis.
         stance_knee: stance knee flexion target (rad).
         stance_knee_kp: the stance knee's stiffness up to ``slow_speed`` (N m/rad; ``None``:
@@ -217,7 +217,6 @@ class IPMParams:
     knee_kd: float = 35.0
     ankle_kp: float = 50.0
     ankle_kd: float = 15.0
-    stance_ankle_yaw_kd: float | None = 60.0
     swing_ankle_kp: float = 200.0
     swing_ankle_kd: float = 20.0
     pelvis_kp: float = 1000.0
@@ -239,6 +238,7 @@ class IPMParams:
     human_liftoff_height: float = 0.12
     human_push_off: float = 0.2
     human_ankle_back: float = 0.01
+    human_ankle_yaw_kd: float = 60.0
     push_off_phase: float = 0.5
     human_coronal_scale: float = 0.8
     human_speed_integral: float = 0.06
