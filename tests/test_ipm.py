@@ -306,13 +306,11 @@ def test_speed_schedule_slow_fast_slow(character):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("speed", [
-    1.0,
-    pytest.param(1.2, marks=pytest.mark.xfail(
-        strict=True, reason="the human band's turn falls at 5-9 s (yaw jumps 10-40 deg ahead of "
-        "the heading target; docs/ipm.md, issue 14's IPM points)")),
-])
+@pytest.mark.parametrize("speed", [1.0, 1.2])
 def test_turns_90_degrees(character, speed):
+    """Heading 90 deg at 3 s from the standing start. 1.2 m/s turns since session 14's stance
+    slip change (it fell at 5-9 s before); from perturbed starts (``terrain.walk``) seeds 0 and 1
+    still fall at 1.2 m/s, and 1.5-1.6 m/s fall (docs/ipm.md)."""
     c = make_ipm(character, speed=speed, heading=lambda t: 0.0 if t < 3.0 else 90.0)
     r, times, com, yaw = run_walk(character, c, 14.0)
     assert not r.fell, r.fall_reason
