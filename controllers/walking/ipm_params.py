@@ -105,7 +105,7 @@ class IPMParams:
             stance ankle at that limit from phase 0.1 to 0.45: the foot rocked onto its heel
             (toes up 9 deg, 2 of 8 corners down) and slapped flat again, 0.9 cm of the 1.98
             cm/step slip at 1.2 m/s; 0.01 m: the foot stays flat (1.2 m/s walks 1.140 m/s
-            instead of 1.167, 1.5 m/s 60 s steady 1.363 instead of 1.387); 0 m: 0.93 cm but a
+            instead of 1.167, 1.5 m/s 60 s steady 1.361 instead of 1.387); 0 m: 0.93 cm but a
             60 s walk at 1.6 m/s fell (7.2 s, with a 0.10 m lift-off).
         human_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical
             axis in that band (``ankle_kd`` otherwise, and about the other two axes). The stance
