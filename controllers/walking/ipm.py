@@ -87,7 +87,13 @@ fell at 1.5 (docs/ipm.md, speed range). Between them a human-like band (issue 14
 ``IPMParams.human_weight``: the ``human_*`` values from 1.1 to 1.35 m/s, giving way to the fast
 ones by 1.6): ~0.47 s steps, a stiff stance knee from landing (kp 300, no ramp), push-off
 (a toes-down stance-ankle moment late in stance, so the heel lifts and the hip does not sink
-over a flat trailing foot), a 5 cm swing and narrower lateral steps (``human_coronal_scale``).
+over a flat trailing foot), a 5 cm swing that starts with its target 0.12 m up
+(``human_liftoff_height``: the trailing foot comes straight off the floor instead of being
+dragged along it by the COM-relative target), a stance ankle that pushes the toes up with at
+most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
+heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
+and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
+twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
@@ -326,9 +332,10 @@ class IPMController:
         step_time, self._knee_kp, self._knee_ramp = p.at_speed(self.speed_target)
         self._human = w = p.human_weight(self.speed_target)
         self.trajectory = self._trajectory
-        if w > 0:  # a lower swing at human-like speeds
+        if w > 0:  # a lower swing, lifted off at once, at human-like speeds
             h0, h1, h2 = p.swing_heights
-            self.trajectory = SwingTrajectory((h0, h1 + w * (p.human_swing_height - h1), h2),
+            self.trajectory = SwingTrajectory((h0 + w * (p.human_liftoff_height - h0),
+                                               h1 + w * (p.human_swing_height - h1), h2),
                                               p.descent_speed, blend=p.swing_blend)
         self._T = step_time if duration is None else duration
         self.phase = 0.0
@@ -617,6 +624,11 @@ class IPMController:
             A = d.xaxis[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
+            if leg is st and self._human > 0:
+                # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
+                n = A.T @ R_foot[:, 2]                    # the foot's vertical on the hinges
+                extra = self._human * (p.human_ankle_yaw_kd - kd)
+                D[np.ix_(leg.ankle, leg.ankle)] += extra * np.outer(n, n)
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0
@@ -717,6 +729,7 @@ class IPMController:
         without rolling: limits are metres x body weight."""
         d = ch.data
         fwd, back, roll = self.params.stance_ankle_limit
+        back += self._human * (self.params.human_ankle_back - back)
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]

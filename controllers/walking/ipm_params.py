@@ -25,7 +25,8 @@ TUNED_LEG_LENGTH = 0.878
 TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
-           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off")
+           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off",
+           "human_liftoff_height", "human_ankle_back")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
          "speed_offset", "speed_integral", "human_step_time", "human_speed_integral")
 _SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
@@ -36,7 +37,7 @@ _TORQUE_GAIN = ("hip_kp", "knee_kp", "stance_knee_kp", "fast_stance_knee_kp",
                 "human_stance_knee_kp",
                 "ankle_kp", "swing_ankle_kp", "pelvis_kp", "pelvis_yaw_kp")
 _DAMPING_GAIN = ("hip_kd", "knee_kd", "ankle_kd", "swing_ankle_kd", "pelvis_kd",
-                 "pelvis_yaw_kd")
+                 "pelvis_yaw_kd", "human_ankle_yaw_kd")
 _FORCE = ("vf_max_sagittal", "vf_max_coronal")
 _TORQUE = ("stance_yaw_limit",)
 #: parameters without a dimension (phases, scales, angles, switches), left as they are
@@ -93,6 +94,26 @@ class IPMParams:
         human_swing_height: mid-swing sole height (m) in that band (``swing_heights[1]``
             otherwise): 0.05 m, foot clearance 0.06 m (the 0.15 m swing: 0.14 m, mocap 0.07-0.08
             m) and 2-4 deg less mean knee flexion (34.0 at 0.05, 35.5 at 0.06, 37.5 at 0.08 m).
+        human_liftoff_height: the swing target's sole height (m) at lift-off (phase 0,
+            ``swing_heights[0]`` otherwise) in that band: 0.12 m, so the trailing foot comes
+            straight up instead of skimming the floor. Measured (issue 14's stance slip, 1.2
+            m/s, ``mjchar gait``): with 0.04 m the lifted foot slid on 1-4 mm of air at up to
+            0.6 m/s before the probe's stance ended (0.8 of 1.8 cm/step with no contact left);
+            0.08 m: 1.06 cm, 0.12 m: 1.00 cm, 0.16 m: 1.02 cm.
+        human_ankle_back: ``stance_ankle_limit``'s toe-up (``pitch_back``) moment in that band
+            (m x body weight): 0.01 m. With 0.03 m the saturated forward virtual force kept the
+            stance ankle at that limit from phase 0.1 to 0.45: the foot rocked onto its heel
+            (toes up 9 deg, 2 of 8 corners down) and slapped flat again, 0.9 cm of the 1.98
+            cm/step slip at 1.2 m/s; 0.01 m: the foot stays flat (1.2 m/s walks 1.140 m/s
+            instead of 1.167, 1.5 m/s 60 s steady 1.361 instead of 1.387); 0 m: 0.93 cm but a
+            60 s walk at 1.6 m/s fell (7.2 s, with a 0.10 m lift-off).
+        human_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical
+            axis in that band (``ankle_kd`` otherwise, and about the other two axes). The stance
+            foot keeps its own yaw (no stiffness about the vertical), so this damping is all that
+            couples the leg's twist to the planted foot: 60 (with the lift-off and ankle limit
+            above, 1.2 m/s) gives a stance slip of 0.95 cm/step against 1.01 with 15; 120: no
+            better; 5: 2.8 cm, 2: fell (the leg twists freely, the pelvis loses its yaw anchor).
+            Applied at every speed it cost a 150 N backward standing push (38/40 against 39/40).
         human_push_off, push_off_phase: in that band, from ``push_off_phase`` to the end of the
             step a toes-down moment of ``human_push_off`` x body weight (m) on the stance foot
             (smoothstep), and the forward ankle limit grows to the ball of the foot (its toe
@@ -214,7 +235,10 @@ class IPMParams:
     human_stance_knee_kp: float = 300.0
     human_stance_knee_ramp: float = 0.0
     human_swing_height: float = 0.05
+    human_liftoff_height: float = 0.12
     human_push_off: float = 0.2
+    human_ankle_back: float = 0.01
+    human_ankle_yaw_kd: float = 60.0
     push_off_phase: float = 0.5
     human_coronal_scale: float = 0.8
     human_speed_integral: float = 0.06
