@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="walkers taking a speed: the commanded speed")
     p.add_argument("--gait", metavar="NAME", help="simbicon: gait parameter set")
     p.add_argument("--seed", type=integer("seed"), metavar="N",
-                   help="walkers: seed of a small start perturbation (default: none)")
+                   help="walkers: start from a seeded perturbation of the standing pose, as "
+                        "the terrain walks do (default: the standing pose itself)")
     p.add_argument("--plot", metavar="OUT.png",
                    help="write the cycle curves (knee, hip flexion, trunk lean) as a PNG "
                         "(needs matplotlib: the bench extra)")
@@ -50,6 +51,7 @@ def _walker_stats(args, spec):
     from bvh.gait import analyse
     from controllers import registry
     from controllers.core import scenarios as S
+    from controllers.core import terrain
     from controllers.core.character import Character
     from controllers.core.recording import MotionRecorder
 
@@ -71,9 +73,12 @@ def _walker_stats(args, spec):
     start = 3.0 if args.start is None else args.start
     if start >= duration:
         raise MjcharError(f"--from {start:g} must be before the end of the {duration:g} s run")
-    kw = {} if args.seed is None else {"seed": args.seed}
-    result = S.run_scenario("walk", character, controller, duration=duration,
-                            frame_callback=recorder, **kw)
+    if args.seed is None:  # from the standing pose, as `mjchar run` and the bench walk
+        result = S.run_scenario("walk", character, controller, duration=duration,
+                                frame_callback=recorder)
+    else:  # the seeded start of the terrain walks (controllers.core.terrain.walk)
+        result = terrain.walk(character, controller, duration=duration, seed=args.seed,
+                              frame_callback=recorder)
     label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])
                      + ([f"{options['speed']:g} m/s"] if "speed" in options else []))
     stats = analyse(character.model, recorder.times, recorder.qpos, start=start,
