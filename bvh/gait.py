@@ -95,13 +95,13 @@ class GaitStats:
     left_strikes: list = field(default_factory=list, repr=False)
 
     ROWS = (("speed_mps", "speed m/s", 2), ("cadence_spm", "cadence steps/min", 0),
-            ("step_length_m", "step length m", 2), ("step_width_m", "step width m", 2),
+            ("step_length_m", "step length m", 2), ("step_width_m", "step width m", 3),
             ("stance_fraction", "stance fraction", 2),
             ("double_support_fraction", "double support fraction", 2),
             ("trunk_lean_deg", "trunk lean deg", 1), ("trunk_lean_range_deg", "lean range deg", 1),
             ("knee_flexion_deg", "mean knee flexion deg", 1),
             ("hip_flexion_deg", "mean hip flexion deg", 1),
-            ("foot_clearance_m", "foot clearance m", 3), ("stance_slip_m", "stance slip m/step", 3),
+            ("foot_clearance_m", "foot clearance m", 3), ("stance_slip_m", "stance slip m/step", 4),
             ("com_excursion_m", "COM vertical excursion m", 3), ("steps", "steps", 0))
 
     def to_dict(self) -> dict:
