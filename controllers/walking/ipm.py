@@ -237,6 +237,7 @@ class IPMController:
         self.speed_target = 0.0
         self.speed_bias = 0.0
         self._heading_rate = 0.0
+        self._turned = -math.inf
         self._last_t = ch.time
         self.steps = 0
         self.stand_switches: list[float] = []
@@ -302,6 +303,8 @@ class IPMController:
         step = rate * dt
         self.heading_target = wrap_angle(self.heading_target + max(-step, min(step, err)))
         self._heading_rate = rate * (1.0 if err > step else -1.0 if err < -step else 0.0)
+        if self._heading_rate != 0.0:
+            self._turned = t
 
     def _wants_to_walk(self, ch: Character, t: float) -> bool:
         """Whether the commands at ``t`` ask for walking (a speed, or a heading away from the
@@ -331,6 +334,9 @@ class IPMController:
             self.trajectory = SwingTrajectory((h0, h1 + w * (p.human_swing_height - h1), h2),
                                               p.descent_speed, blend=p.swing_blend)
         self._T = step_time if duration is None else duration
+        # a step that starts while the heading target turns keeps its centre of pressure ahead
+        # of the ankle: rocked back onto its heel edge the foot holds little yaw moment
+        self._turning = t - self._turned <= self.params.turn_hold
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
@@ -716,7 +722,8 @@ class IPMController:
         """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
         without rolling: limits are metres x body weight."""
         d = ch.data
-        fwd, back, roll = self.params.stance_ankle_limit
+        p = self.params
+        fwd, back, roll = p.turn_ankle_limit if self._turning else p.stance_ankle_limit
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]

@@ -25,9 +25,10 @@ TUNED_LEG_LENGTH = 0.878
 TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
-           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off")
+           "coronal_offset", "stance_ankle_limit", "turn_ankle_limit", "human_swing_height",
+           "human_push_off")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
-         "speed_offset", "speed_integral", "human_step_time", "human_speed_integral")
+         "speed_offset", "speed_integral", "human_step_time", "human_speed_integral", "turn_hold")
 _SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 #: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
@@ -243,6 +244,8 @@ class IPMParams:
     yaw_friction: float = 0.5
     first_step_time: float = 0.3
     push_step_time: float = 0.3
+    turn_ankle_limit: tuple[float, float, float] = (0.08, 0.0, 0.015)
+    turn_hold: float = 1.0
 
     def for_body(self, leg_length: float, mass: float) -> IPMParams:
         """These parameters carried from the tuned body (:data:`TUNED_LEG_LENGTH`,
