@@ -35,7 +35,9 @@ ends when the swing foot touches the ground after half the step):
 
    Its vertical component is limited to what the stance foot's contact patch can hold
    (``yaw_friction m g r``), and the stance ankle's moment to what keeps the centre of pressure
-   inside the foot, so the stance foot neither spins nor rolls.
+   inside the foot, so the stance foot neither spins nor rolls; in a turning step that pressure
+   stays ahead of the ankle and nearer the foot's middle (``turn_ankle_limit``): a foot rocked
+   back onto its heel edge holds half the yaw moment, on one heel corner none.
 4. **Gravity compensation**: an upward ``m_i g`` at the COM of every link that is not part of the
    stance leg, mapped by the Jacobian transpose to the joints between the link and the pelvis;
    for dof ``j`` (axis ``a_j`` at ``p_j``) with subtree mass ``M_j`` and subtree COM ``C_j``
@@ -58,7 +60,8 @@ velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-diagona
 Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
 counter-clockwise), each a number or a function of time. The speed target follows the command at
 ``acceleration``; the heading target turns at ``turn_rate`` (less when fast); swing feet land
-turned with it.
+turned with it. Steps that start while it turns, or within ``turn_hold`` after, are turning
+steps (the stance ankle's ``turn_ankle_limit``); straight walking never takes one.
 
 Standing: the controller starts standing and stands whenever nothing is commanded, with
 :class:`~controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where

@@ -159,6 +159,19 @@ class IPMParams:
             before standing turns into stepping (3x that during ``settle_time`` after a stop).
         stance_ankle_limit: ``(pitch_fwd, pitch_back, roll)`` moments (N m per N of body weight,
             i.e. m) the stance ankle may apply, so the foot does not roll; ``None`` = no limit.
+        turn_ankle_limit: ``stance_ankle_limit`` in turning steps (a step that starts while the
+            heading target moves, or up to ``turn_hold`` after): no pressure behind the ankle
+            and less roll, so the stance foot stays flat and keeps its yaw grip. Measured (issue
+            14, docs/ipm.md): with the straight-walking limits the sagittal virtual force (60 N
+            forward in mid-stance) rocks the stance foot back onto its heel edge from phase
+            ~0.25 to ~0.7 (toes up to 9 deg; the contact patch holds ~14 N m of yaw moment
+            instead of ~30), in a turn onto one heel corner (none), where it spins 15-25 deg;
+            the 90 deg turn then fell in 24 of 48 cases (0.5, 1.0-1.6 m/s, left and right, three
+            start times). With ``(0.08, 0, 0.025)`` 3 of 35 fell; with roll 0.015 and
+            ``turn_hold`` 1 s, none of 48.
+        turn_hold: seconds after the heading target stops that steps still count as turning:
+            the gait right after a turn is still swaying (with 0, a 1.1 m/s right turn fell
+            1.8 s after the target stopped).
         arm_abduction: arms hang this far (rad) from the body.
         stance_yaw_limit: largest vertical (yaw) moment (N m) the stance hip may apply to the
             pelvis; more spins the stance foot on the ground.
