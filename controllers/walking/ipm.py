@@ -35,7 +35,9 @@ ends when the swing foot touches the ground after half the step):
 
    Its vertical component is limited to what the stance foot's contact patch can hold
    (``yaw_friction m g r``), and the stance ankle's moment to what keeps the centre of pressure
-   inside the foot, so the stance foot neither spins nor rolls.
+   inside the foot, so the stance foot neither spins nor rolls; in a turning step that pressure
+   stays ahead of the ankle and nearer the foot's middle (``turn_ankle_limit``): a foot rocked
+   back onto its heel edge holds half the yaw moment, on one heel corner none.
 4. **Gravity compensation**: an upward ``m_i g`` at the COM of every link that is not part of the
    stance leg, mapped by the Jacobian transpose to the joints between the link and the pelvis;
    for dof ``j`` (axis ``a_j`` at ``p_j``) with subtree mass ``M_j`` and subtree COM ``C_j``
@@ -58,7 +60,8 @@ velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-diagona
 Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
 counter-clockwise), each a number or a function of time. The speed target follows the command at
 ``acceleration``; the heading target turns at ``turn_rate`` (less when fast); swing feet land
-turned with it.
+turned with it. Steps that start while it turns, or within ``turn_hold`` after, are turning
+steps (the stance ankle's ``turn_ankle_limit``); straight walking never takes one.
 
 Standing: the controller starts standing and stands whenever nothing is commanded, with
 :class:`~controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where
@@ -243,6 +246,7 @@ class IPMController:
         self.speed_target = 0.0
         self.speed_bias = 0.0
         self._heading_rate = 0.0
+        self._turned = -math.inf
         self._last_t = ch.time
         self.steps = 0
         self.stand_switches: list[float] = []
@@ -308,6 +312,8 @@ class IPMController:
         step = rate * dt
         self.heading_target = wrap_angle(self.heading_target + max(-step, min(step, err)))
         self._heading_rate = rate * (1.0 if err > step else -1.0 if err < -step else 0.0)
+        if self._heading_rate != 0.0:
+            self._turned = t
 
     def _wants_to_walk(self, ch: Character, t: float) -> bool:
         """Whether the commands at ``t`` ask for walking (a speed, or a heading away from the
@@ -338,6 +344,9 @@ class IPMController:
                                                h1 + w * (p.human_swing_height - h1), h2),
                                               p.descent_speed, blend=p.swing_blend)
         self._T = step_time if duration is None else duration
+        # a step that starts while the heading target turns keeps its centre of pressure ahead
+        # of the ankle: rocked back onto its heel edge the foot holds little yaw moment
+        self._turning = t - self._turned <= self.params.turn_hold
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
@@ -728,8 +737,12 @@ class IPMController:
         """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
         without rolling: limits are metres x body weight."""
         d = ch.data
-        fwd, back, roll = self.params.stance_ankle_limit
-        back += self._human * (self.params.human_ankle_back - back)
+        p = self.params
+        if self._turning:
+            fwd, back, roll = p.turn_ankle_limit
+        else:
+            fwd, back, roll = p.stance_ankle_limit
+            back += self._human * (p.human_ankle_back - back)
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]

@@ -25,10 +25,10 @@ TUNED_LEG_LENGTH = 0.878
 TUNED_MASS = 70.0
 #: how each dimensional field scales (the rest are dimensionless)
 _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing_heights",
-           "coronal_offset", "stance_ankle_limit", "human_swing_height", "human_push_off",
-           "human_liftoff_height", "human_ankle_back")
+           "coronal_offset", "stance_ankle_limit", "turn_ankle_limit", "human_swing_height",
+           "human_push_off", "human_liftoff_height", "human_ankle_back")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
-         "speed_offset", "speed_integral", "human_step_time", "human_speed_integral")
+         "speed_offset", "speed_integral", "human_step_time", "human_speed_integral", "turn_hold")
 _SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 #: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
@@ -179,6 +179,19 @@ class IPMParams:
             before standing turns into stepping (3x that during ``settle_time`` after a stop).
         stance_ankle_limit: ``(pitch_fwd, pitch_back, roll)`` moments (N m per N of body weight,
             i.e. m) the stance ankle may apply, so the foot does not roll; ``None`` = no limit.
+        turn_ankle_limit: ``stance_ankle_limit`` in turning steps (a step that starts while the
+            heading target moves, or up to ``turn_hold`` after): no pressure behind the ankle
+            and less roll, so the stance foot stays flat and keeps its yaw grip. Measured (issue
+            14, docs/ipm.md): with the straight-walking limits the sagittal virtual force (60 N
+            forward in mid-stance) rocks the stance foot back onto its heel edge from phase
+            ~0.25 to ~0.7 (toes up to 9 deg; the contact patch holds ~14 N m of yaw moment
+            instead of ~30), in a turn onto one heel corner (none), where it spins 15-25 deg;
+            the 90 deg turn then fell in 24 of 48 cases (0.5, 1.0-1.6 m/s, left and right, three
+            start times). With ``(0.08, 0, 0.025)`` 3 of 35 fell; with roll 0.015 and
+            ``turn_hold`` 1 s, none of 48.
+        turn_hold: seconds after the heading target stops that steps still count as turning:
+            the gait right after a turn is still swaying (with 0, a 1.1 m/s right turn fell
+            1.8 s after the target stopped).
         arm_abduction: arms hang this far (rad) from the body.
         stance_yaw_limit: largest vertical (yaw) moment (N m) the stance hip may apply to the
             pelvis; more spins the stance foot on the ground.
@@ -267,6 +280,8 @@ class IPMParams:
     yaw_friction: float = 0.5
     first_step_time: float = 0.3
     push_step_time: float = 0.3
+    turn_ankle_limit: tuple[float, float, float] = (0.08, 0.0, 0.015)
+    turn_hold: float = 1.0
 
     def for_body(self, leg_length: float, mass: float) -> IPMParams:
         """These parameters carried from the tuned body (:data:`TUNED_LEG_LENGTH`,
