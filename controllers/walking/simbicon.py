@@ -34,6 +34,8 @@ import math
 import mujoco
 import numpy as np
 
+from bvh.foot_points import geoms_extent
+
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
@@ -113,32 +115,6 @@ def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
         if abs(det) > 1e-9:
             return (tau[0] * c23 + tau[1] * c31 + tau[2] * c12) / det
     return np.linalg.lstsq(axes, tau, rcond=None)[0]
-
-
-def _extent(m: mujoco.MjModel, data: mujoco.MjData, bodies: np.ndarray, origin: np.ndarray,
-            fwd: np.ndarray, out: np.ndarray) -> tuple[float, float, float, float]:
-    """``(back, front, inner, outer)`` (m): how far the geoms of ``bodies`` reach from
-    ``origin`` backwards, forwards, inwards (``-out``) and outwards (``out``) at ``data``'s pose
-    (boxes by their corners, capsules and spheres by their ends and radius, other shapes by
-    their bounding sphere)."""
-    ext = np.zeros(4)
-    for gid in np.flatnonzero(np.isin(m.geom_bodyid, bodies)):
-        c, R, size = data.geom_xpos[gid], data.geom_xmat[gid].reshape(3, 3), m.geom_size[gid]
-        t = m.geom_type[gid]
-        if t == mujoco.mjtGeom.mjGEOM_BOX:
-            pts = c + (np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
-                       * size) @ R.T
-            r = 0.0
-        elif t == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            pts, r = c + np.outer([-1.0, 1.0], R[:, 2] * size[1]), size[0]
-        elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
-            pts, r = c[None], size[0]
-        else:
-            pts, r = c[None], m.geom_rbound[gid]
-        rel = pts - origin
-        ext = np.maximum(ext, [(-rel @ fwd).max() + r, (rel @ fwd).max() + r,
-                               (-rel @ out).max() + r, (rel @ out).max() + r])
-    return tuple(float(e) for e in ext)
 
 
 def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
@@ -394,7 +370,7 @@ class Simbicon:
             }
             # the sole's extent about the ankle at rest (m): heel and toe along forward, the
             # inner and outer edges across (the box, capsule and sphere geoms of the foot)
-            ext = _extent(m, rest, leg["foot_bodies"], pos(ankle), fwd, out)
+            ext = geoms_extent(m, rest, leg["foot_bodies"], pos(ankle), fwd, out)
             leg["sole"] = {"heel": ext[0], "toe": ext[1], "inner": ext[2], "outer": ext[3]}
             leg["roll_sign"] = sign(rest.xaxis[A["x"].jnt], out, up) if "x" in A else 0.0
             leg_hinges = [*H.values(), K["y"], *A.values()]
