@@ -478,7 +478,11 @@ CROUCH = Gait(
 #: walks at 1.2 m/s), then, for forward pushes and the downhill walk (issue 14's robustness),
 #: weaker sagittal feedback (cd 0.667 -> 0.58, cv 0.189 -> 0.14) with the swing hip raised by
 #: what cv gave up at 1.2 m/s and a longer lift-off state (by hand, then a small CMA-ES on the
-#: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md). Own speed
+#: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md), then, for
+#: the bars from ``terrain.walk``'s seeded starts (``mjchar gait --seed``), a CMA-ES over the
+#: lift-off duration, the swing state's swing hip, the coronal target and ``cv_coronal``, the
+#: stance knees and the pelvis and spine pitch (more pelvis pitch, more spine extension: longer
+#: steps at the same trunk lean; docs/simbicon.md, "Seeded starts"). Own speed
 #: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
 #: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
 #: slow legs, tuned by hand; docs/simbicon.md).
