@@ -478,7 +478,11 @@ CROUCH = Gait(
 #: walks at 1.2 m/s), then, for forward pushes and the downhill walk (issue 14's robustness),
 #: weaker sagittal feedback (cd 0.667 -> 0.58, cv 0.189 -> 0.14) with the swing hip raised by
 #: what cv gave up at 1.2 m/s and a longer lift-off state (by hand, then a small CMA-ES on the
-#: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md). Own speed
+#: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md), then, for
+#: the bars from ``terrain.walk``'s seeded starts (``mjchar gait --seed``), a CMA-ES over the
+#: lift-off duration, the swing state's swing hip, the coronal target and ``cv_coronal``, the
+#: stance knees and the pelvis and spine pitch (more pelvis pitch, more spine extension: longer
+#: steps at the same trunk lean; docs/simbicon.md, "Seeded starts"). Own speed
 #: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
 #: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
 #: slow legs, tuned by hand; docs/simbicon.md).
@@ -486,36 +490,36 @@ NATURAL = Gait(
     name="natural",
     states=(
         StateParams(
-            duration=0.2086,
+            duration=0.2079,
             ends_on_contact=False,
             swing_hip=0.6334,
-            swing_hip_coronal=-0.0385,
+            swing_hip_coronal=-0.0691,
             swing_knee=1.4516,
             swing_ankle=0.9036,
-            stance_knee=-0.0258,
+            stance_knee=-0.0351,
             stance_ankle=0.143,
             cd=0.5818,
             cv=0.1379,
             cd_coronal=0.4473,
-            cv_coronal=0.1122,
+            cv_coronal=0.1926,
         ),
         StateParams(
             duration=0.1574,
             ends_on_contact=True,
-            swing_hip=0.211,
-            swing_hip_coronal=-0.0385,
+            swing_hip=0.2015,
+            swing_hip_coronal=-0.0691,
             swing_knee=0.083,
             swing_ankle=-0.1738,
-            stance_knee=-0.0414,
+            stance_knee=-0.0325,
             stance_ankle=0.3215,
             cd=0.5818,
             cv=0.1379,
             cd_coronal=0.4473,
-            cv_coronal=0.1122,
+            cv_coronal=0.1926,
         ),
     ),
-    torso_pitch=0.3386,
-    spine_pitch=-0.195,
+    torso_pitch=0.3718,
+    spine_pitch=-0.2135,
     arm_swing=0.442,
     max_twist=0.21,
     speed_gain=0.0097,
