@@ -47,24 +47,6 @@ def _geom_drop(model: mujoco.MjModel, g: int) -> float:
     return float(model.geom_rbound[g])
 
 
-def geoms_extent(model: mujoco.MjModel, data: mujoco.MjData, bodies, origin: np.ndarray,
-                 fwd: np.ndarray, out: np.ndarray) -> tuple[float, float, float, float]:
-    """``(back, front, inner, outer)`` (m): how far the geoms of ``bodies`` reach from
-    ``origin`` backwards, forwards, inwards (``-out``) and outwards (``out``), both directions
-    unit vectors, at ``data``'s pose (the points of :func:`_geom_local_points` plus the
-    radius of round geoms)."""
-    ext = np.zeros(4)
-    for g in np.flatnonzero(np.isin(model.geom_bodyid, bodies)):
-        if int(model.geom_type[g]) == _PLANE:
-            continue
-        R = data.geom_xmat[g].reshape(3, 3)
-        rel = data.geom_xpos[g] + _geom_local_points(model, g) @ R.T - origin
-        r = _geom_drop(model, g)
-        ext = np.maximum(ext, [(-rel @ fwd).max() + r, (rel @ fwd).max() + r,
-                               (-rel @ out).max() + r, (rel @ out).max() + r])
-    return tuple(float(e) for e in ext)
-
-
 class _FootPoints:
     """Where to look for the feet: geoms (per side) or sites, as points sampled per frame."""
 

@@ -115,6 +115,8 @@ def test_options_are_checked():
         IPMController(swing_blend="linear")
     with pytest.raises(IPMError):
         IPMController(speed=float("nan"))
+    with pytest.raises(IPMError, match="turn_ankle_limit"):
+        IPMController(turn_ankle_limit=None)
     c = IPMController(speed=1.0, params=IPMParams(step_time=0.45), hip_kp=500.0)
     assert c.params.step_time == 0.45 and c.params.hip_kp == 500.0
     assert c.name == "ipm" and c.actuation == "torque"

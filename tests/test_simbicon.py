@@ -324,14 +324,14 @@ def test_new_options_off_leave_the_walk_alone():
         g = GAITS[name]
         assert g.swing_gravity == g.stance_support == 0.0
         assert g.velocity_force == g.velocity_force_coronal == 0.0
-        assert g.stance_foot_flat == g.stance_ankle_cop == 0.0
 
 
-@pytest.mark.parametrize("seed, duration", [(None, 11.0), (1, 20.0)])
+@pytest.mark.parametrize("seed, duration", [(None, 11.0), (0, 20.0)])
 def test_natural_gait_bars_at_1_2(ch, seed, duration):
     """The natural gait at 1.2 m/s analysed from 3 s on, from the standing pose (11 s) and from
-    a seeded start (``mjchar gait --seed 1``, 20 s): issue 14's bars (all but the stance-foot
-    slip, which it does not meet: ~3 cm per step against < 1 cm)."""
+    a seeded start the gait was not tuned on (``mjchar gait --seed 0``, 20 s; tuned on the
+    standing pose and seeds 1-2): issue 14's bars (all but the stance-foot slip, which it does
+    not meet: ~3 cm per step against < 1 cm). Seed 4 misses cadence (136; docs/simbicon.md)."""
     r, s = natural_stats(ch, 1.2, duration, seed)
     assert not r.fell, r.fall_reason
     assert no_root_force(r)
@@ -483,17 +483,3 @@ def test_natural_walks_60s(ch, seed):
     assert abs(r.extra["steady_speed_mps"] - 1.2) <= SPEED_TOLERANCE, r.extra
     assert no_root_force(r)
 
-
-def test_sole_extent_from_the_model(ch):
-    """The stance-ankle centre-of-pressure bound (``stance_ankle_cop``) takes the sole's extent
-    about the ankle from the model: on the bundled humanoid the foot box reaches 0.046 m behind
-    the ankle and 0.130 m ahead, its toe box to 0.18 m, and 0.0414 m to either side."""
-    c = make_simbicon(gait="natural")
-    c.reset(ch)
-    for leg in c._legs:
-        sole = leg["sole"]
-        assert sole["heel"] == pytest.approx(0.046, abs=1e-6)
-        assert sole["toe"] == pytest.approx(0.18, abs=1e-6)
-        assert sole["inner"] == pytest.approx(0.0414, abs=1e-6)
-        assert sole["outer"] == pytest.approx(0.0414, abs=1e-6)
-        assert leg["roll_sign"] != 0.0

@@ -139,16 +139,6 @@ class Gait:
             ``F = k m g (v_d - v) / sqrt(g L)`` per plane (``k`` dimensionless, ``m`` the
             body's mass, ``L`` its leg length), ``v_d`` the speed target forward (none: no
             sagittal force) and 0 sideways; 0: off.
-        stance_foot_flat: weight (0-1) of a world-frame stance-ankle control blended with the
-            local PD: torques that turn the stance foot's sole towards level (pitch and roll;
-            gains ``stance_ankle_world``, the world's up as the rest pose's sole normal), so
-            the whole sole bears load instead of its back corners (0: off). It stops the
-            natural gait's stance-foot spin but changes its gait (docs/gait.md).
-        stance_ankle_cop: the stance ankle's pitch and roll torques bounded by what the floor
-            can take under the sole: the centre of pressure within this fraction of the
-            sole's extent about the ankle (measured on the model: the heel for toes-up torque,
-            the toes for toes-down, the edges for roll) for the foot's normal force now, so
-            the foot does not tip onto an edge (0: off; docs/gait.md).
     """
 
     name: str
@@ -176,8 +166,6 @@ class Gait:
     stance_support: float = 0.0
     velocity_force: float = 0.0
     velocity_force_coronal: float = 0.0
-    stance_foot_flat: float = 0.0
-    stance_ankle_cop: float = 0.0
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:

@@ -239,6 +239,7 @@ class IPMController:
         self.stand_width = float(np.linalg.norm(ch.data.xanchor[self._legs[0].hip_jnt[0]]
                                                 - ch.data.xanchor[self._legs[1].hip_jnt[0]]))
         self._stopping = False
+        self._turning = False
         # commands and state
         R = ch.data.xmat[self._pelvis].reshape(3, 3)
         self._start_yaw = yaw_of(R)

@@ -173,7 +173,11 @@ class IPMParams:
         implicit_damping: evaluate every damping term at the next step's velocity (stable PD
             generalised to the controller's damping matrix); explicit damping needs a time step
             of about 0.5 ms.
-        stop_speed: COM speed (m/s) under which a step may end in standing (zero command).
+        stop_speed: COM speed (m/s) under which a step may end in standing (zero command);
+            also the COM's sideways speed under which a stopping step's target is widened to
+            the standing width (checked every control step, so the target can move by
+            ``stand_width - min_width`` within a swing; a blend from half ``stop_speed`` to
+            ``stop_speed`` lost the 150 N push this rule saves).
         heading_tolerance: heading error (rad) below which the character may stand.
         capture_margin: the capture point may lie this far (m) outside the support polygon
             before standing turns into stepping (3x that during ``settle_time`` after a stop).
@@ -188,7 +192,8 @@ class IPMParams:
             instead of ~30), in a turn onto one heel corner (none), where it spins 15-25 deg;
             the 90 deg turn then fell in 24 of 48 cases (0.5, 1.0-1.6 m/s, left and right, three
             start times). With ``(0.08, 0, 0.025)`` 3 of 35 fell; with roll 0.015 and
-            ``turn_hold`` 1 s, none of 48.
+            ``turn_hold`` 1 s, none of 48 (2 of 48, both at 1.6 m/s, with the human band's
+            slip change merged in).
         turn_hold: seconds after the heading target stops that steps still count as turning:
             the gait right after a turn is still swaying (with 0, a 1.1 m/s right turn fell
             1.8 s after the target stopped).
@@ -386,6 +391,9 @@ class IPMParams:
             raise IPMError("need 0 <= min_phase < max_phase")
         if self.clamp <= 0:
             raise IPMError("clamp must be a positive fraction of the leg length")
+        if self.turn_ankle_limit is None or len(self.turn_ankle_limit) != 3:
+            raise IPMError(f"turn_ankle_limit must be (pitch_fwd, pitch_back, roll), got "
+                           f"{self.turn_ankle_limit!r}")
         return self
 
 

@@ -34,8 +34,6 @@ import math
 import mujoco
 import numpy as np
 
-from bvh.foot_points import geoms_extent
-
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
@@ -52,7 +50,6 @@ DEFAULT_GAINS = {
     "stance_twist": (300.0, 30.0),
     "swing_hip": (600.0, 60.0),
     "swing_ankle_world": (100.0, 10.0),
-    "stance_ankle_world": (300.0, 30.0),
 }
 
 
@@ -364,15 +361,8 @@ class Simbicon:
                 "thigh_dir": thigh / np.linalg.norm(thigh),
                 # + rotation about the heading frame's lateral axis lifts the toes?
                 "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
-                # the world's up in the foot's frame at rest (the rest pose's sole is level)
-                "sole_up": rest.xmat[ch.body_id(ankle)].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]),
                 "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
-            # the sole's extent about the ankle at rest (m): heel and toe along forward, the
-            # inner and outer edges across (the box, capsule and sphere geoms of the foot)
-            ext = geoms_extent(m, rest, leg["foot_bodies"], pos(ankle), fwd, out)
-            leg["sole"] = {"heel": ext[0], "toe": ext[1], "inner": ext[2], "outer": ext[3]}
-            leg["roll_sign"] = sign(rest.xaxis[A["x"].jnt], out, up) if "x" in A else 0.0
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
                 leg_hinges += list(self._hinges(ch, toe).values())
@@ -461,7 +451,6 @@ class Simbicon:
         self._torso_kd = np.array([kdt, kdt, kdy])
         self._swing_gains = g.gains["swing_hip"]
         self._ankle_world_gains = g.gains["swing_ankle_world"]
-        self._stance_ankle_gains = g.gains["stance_ankle_world"]
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -626,17 +615,6 @@ class Simbicon:
         else:
             tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
 
-        if g.stance_foot_flat:
-            # the stance foot's sole towards level (pitch and roll only; its yaw is left to
-            # the floor's friction), blended with the local PD
-            Rf = d.xmat[st["ankle_body"]].reshape(3, 3)
-            kpa, kda = self._stance_ankle_gains
-            w = d.cvel[st["ankle_body"], :3]
-            tau_f = kpa * _angle_between(Rf @ st["sole_up"], np.array([0.0, 0.0, 1.0])) \
-                - kda * np.array([w[0], w[1], 0.0])
-            a = st["ankle_acts"]
-            flat = d.xaxis[st["ankle_joints"]] @ tau_f
-            tau[a] = (1.0 - g.stance_foot_flat) * tau[a] + g.stance_foot_flat * flat
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
             tau[st["support_acts"]] += self._virtual_force(character, st, H)
         if g.swing_ankle_world:
@@ -646,28 +624,7 @@ class Simbicon:
             kpa, kda = self._ankle_world_gains
             tau_f = kpa * _log(Rfd @ Rf.T) - kda * d.cvel[sw["ankle_body"], :3]
             tau[sw["ankle_acts"]] = d.xaxis[sw["ankle_joints"]] @ tau_f
-        if g.stance_ankle_cop:
-            self._cop_clamp(character, tau, si)
         return np.minimum(np.maximum(tau, -lim), lim)
-
-    def _cop_clamp(self, character: Character, tau: np.ndarray, si: int) -> None:
-        """Bound the stance ankle's pitch and roll torques (in place) by what the floor can
-        take under the sole: the centre of pressure within ``stance_ankle_cop`` of the sole's
-        extent about the ankle (the heel for toes-up torque, the toes for toes-down, the edges
-        for roll), for the foot's floor normal force now; a foot off the floor is left alone."""
-        fn = foot_normal_forces(character, self._feet)[si]
-        if fn <= 0.0:
-            return
-        st = self._legs[si]
-        c = self.gait.stance_ankle_cop * fn
-        sole = st["sole"]
-        y = st["ankle"]["y"].act
-        s = st["ankle_dorsi"]  # toes-up torque = s * hinge torque
-        tau[y] = s * min(max(s * tau[y], -c * sole["toe"]), c * sole["heel"])
-        if st["roll_sign"]:
-            x = st["ankle"]["x"].act
-            r = st["roll_sign"]  # outer-edge-up torque = r * hinge torque
-            tau[x] = r * min(max(r * tau[x], -c * sole["outer"]), c * sole["inner"])
 
     def _virtual_force(self, character: Character, st: dict, H: np.ndarray) -> np.ndarray:
         """Torques of the stance ankle and knee that put a virtual force on the centre of mass
