@@ -341,6 +341,18 @@ def test_turns_90_degrees_right(character):
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="at 1.6 m/s the turn is fragile: this right turn from the "
+                   "seeded start falls at 7.6 s (2 of 6 turns of the 1.6 m/s grid fall; "
+                   "docs/ipm.md, the turn in the human band)")
+def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
+    from controllers.core import terrain
+
+    c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else -90.0)
+    r = terrain.walk(character, c, duration=18.0, seed=0)
+    assert not r.fell, r.fall_reason
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("direction", [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0])
 def test_survives_200N_push_from_every_direction(character, direction):
     r = push(character, make_ipm(character, speed=0.0), force=200.0, direction=direction,
