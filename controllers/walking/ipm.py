@@ -61,7 +61,8 @@ Commands: a desired forward speed (m/s) and a desired heading (degrees, world ya
 counter-clockwise), each a number or a function of time. The speed target follows the command at
 ``acceleration``; the heading target turns at ``turn_rate`` (less when fast); swing feet land
 turned with it. Steps that start while it turns, or within ``turn_hold`` after, are turning
-steps (the stance ankle's ``turn_ankle_limit``); straight walking never takes one.
+steps (the stance ankle's ``turn_ankle_limit``); a walk whose heading command stays at its
+start heading never takes one.
 
 Standing: the controller starts standing and stands whenever nothing is commanded, with
 :class:`~controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where
