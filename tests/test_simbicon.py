@@ -341,6 +341,29 @@ def test_natural_gait_bars_at_1_2(ch, seed, duration):
         assert v is not None and (lo is None or v >= lo) and (hi is None or v <= hi), (key, v)
 
 
+def test_stance_ankle_roll_and_twist_have_their_own_gains(ch):
+    """A gait's ``stance_ankle_roll`` / ``stance_ankle_twist`` gains drive the stance ankle's
+    roll and twist hinges (the swing ankle keeps ``ankle``): a twist without stiffness puts no
+    torque on a twisted stance foot, the swing foot's twist is pulled back."""
+    g = GAITS["walk"].with_overrides(gain_stance_ankle_roll=(40.0, 4.0),
+                                     gain_stance_ankle_twist=(0.0, 2.0), gain_ankle=(300.0, 30.0))
+    c = Simbicon(g)
+    c.reset(ch)
+    st, sw = c._legs[c._stance_leg(c.state)], c._legs[1 - c._stance_leg(c.state)]
+    d = ch.data
+    for leg in (st, sw):
+        d.qpos[leg["ankle"]["x"].qadr] = 0.1
+        d.qpos[leg["ankle"]["z"].qadr] = 0.2
+    d.qvel[:] = 0.0
+    mujoco.mj_forward(ch.model, d)
+    tau = c.torques(ch, 0.0)
+    target = c._targets[c.state]
+    x, z = st["ankle"]["x"].act, st["ankle"]["z"].act
+    assert tau[x] == pytest.approx(40.0 * (target[x] - 0.1))
+    assert tau[z] == 0.0
+    assert tau[sw["ankle"]["z"].act] == pytest.approx(300.0 * (target[sw["ankle"]["z"].act] - 0.2))
+
+
 def test_natural_speed_command_slow(ch):
     """The natural gait commanded 0.6 m/s (issue 14's slowest point): its slow speed anchor
     keeps it from drifting sideways (without it: 1.12 m/s steady here, mostly sideways; 30 s

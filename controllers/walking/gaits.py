@@ -104,8 +104,12 @@ class Gait:
         max_twist: rad; bound on the stance hip's twist target (the heading control).
         gains: ``(kp, kd)`` per group: ``torso`` (world-frame pelvis pitch and roll),
             ``stance_twist`` (the stance hip's twist, heading control), ``swing_hip`` (world
-            frame), ``knee``, ``ankle``, ``toe``, ``spine``, ``head``, ``arm``. A group left out
-            uses the model's own gains table.
+            frame), ``knee``, ``ankle``, ``toe``, ``spine``, ``head``, ``arm``, and the stance
+            ankle's own ``stance_ankle_roll`` and ``stance_ankle_twist`` (its hinges nearest the
+            forward and the vertical axis: a soft roll lets the sole sit flat across its width
+            instead of on one heel corner, a twist without stiffness lets the leg turn above a
+            planted foot instead of spinning it; left out, the stance ankle uses ``ankle``). A
+            group left out uses the model's own gains table.
         start_speed: forward speed (m/s) given to the standing start pose.
         speed_target, speed_gain, speed_limit: optional step-to-step speed regulation (off when
             ``speed_target`` is ``None``): at every lift-off the sagittal swing-hip offset

@@ -45,6 +45,9 @@ DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
 #: world-frame gains ``(kp N m/rad, kd N m s/rad)`` of a gait that leaves them out, for the gait's
 #: own body (scaled with it, :meth:`~controllers.walking.gaits.Gait.scaled`)
+#: gain groups of the stance ankle's hinges nearest the rest pose's forward (roll) and vertical
+#: (twist) axes; a gait without them drives them with its ``ankle`` gains
+_STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
 DEFAULT_GAINS = {
     "torso": (1000.0, 100.0),
     "stance_twist": (300.0, 30.0),
@@ -451,6 +454,10 @@ class Simbicon:
         self._torso_kd = np.array([kdt, kdt, kdy])
         self._swing_gains = g.gains["swing_hip"]
         self._ankle_world_gains = g.gains["swing_ankle_world"]
+        # the stance ankle's roll and twist hinges with gains of their own, if the gait has them
+        self._stance_ankle_gains = {
+            axis: g.gains[grp] for axis, grp in _STANCE_ANKLE_GROUPS.items() if grp in g.gains
+        }
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -556,6 +563,11 @@ class Simbicon:
 
         si = self._stance_leg(self.state)
         st, sw = self._legs[si], self._legs[1 - si]
+        for axis, (kpa, kda) in self._stance_ankle_gains.items():
+            h = st["ankle"].get(axis)
+            if h is not None:
+                a = h.act
+                tau[a] = kpa * (self._targets[self.state][a] - q[a]) - kda * qd[a]
         Rp = d.xmat[self._pelvis].reshape(3, 3)
         heading = yaw_of(Rp)
         H = _rot_z(heading)
