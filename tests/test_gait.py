@@ -102,7 +102,7 @@ def test_pelvis_rotation_of_a_known_sinusoidal_yaw():
     strikes = list(np.searchsorted(t, 0.37 + period * np.arange(4)))
     strides = _pelvis_rotation(pos["left_hip"], pos["right_hip"], pos["pelvis"], strikes)
     assert len(strides) == 3
-    assert strides == pytest.approx([2 * amp] * 3, abs=0.5)
+    assert strides == pytest.approx([2 * amp] * 3, abs=0.5), strides
 
 
 def test_walk60_pelvis_rotation_matches_its_own_fk():
