@@ -23,13 +23,19 @@ What is measured (world z up, metres, degrees; over ``[start, end]``):
 - **stance fraction**: stance time / stride time per foot (complete strides); **double
   support**: fraction of the window with both feet in stance.
 - **trunk lean**: angle of the pelvis-to-head vector from vertical (mean and range).
+- **pelvis rotation**: the pelvis's transverse-plane (yaw) angle is the signed horizontal angle
+  from the stride's direction of travel (root displacement from left strike to left strike) to
+  the forward normal of the hip line (the horizontal part of left hip joint minus right hip
+  joint, rotated by -90 deg about the vertical): joint positions only, no body's local axes.
+  Its peak-to-peak range within each stride of the left foot (mean over strides).
 - **knee flexion**: 180 deg minus the hip-knee-ankle angle; **hip flexion**: angle of the thigh
   (hip to knee) from the trunk's downward axis in the sagittal plane, + forward.
 - **foot clearance**: highest rise of the foot above its floor in each swing (mean).
 - **stance slip**: horizontal travel of the foot points touching the floor (within 1 cm) while
   they stay touching, summed over a stance (mean per step, m).
 - **COM vertical excursion**: range of the centre-of-mass height within each stride (mean).
-- **cycle curves**: knee and hip flexion (both sides) and trunk lean over the normalised gait
+- **cycle curves**: knee and hip flexion (both sides), trunk lean and pelvis rotation (the
+  angle above, against each stride's own direction of travel) over the normalised gait
   cycle (left strike to left strike, 0-100 %, mean and standard deviation over strides).
 """
 
@@ -81,6 +87,7 @@ class GaitStats:
     double_support_fraction: float | None
     trunk_lean_deg: float
     trunk_lean_range_deg: float
+    pelvis_rotation_deg: float | None
     knee_flexion_deg: float
     hip_flexion_deg: float
     foot_clearance_m: float | None
@@ -99,6 +106,7 @@ class GaitStats:
             ("stance_fraction", "stance fraction", 2),
             ("double_support_fraction", "double support fraction", 2),
             ("trunk_lean_deg", "trunk lean deg", 1), ("trunk_lean_range_deg", "lean range deg", 1),
+            ("pelvis_rotation_deg", "pelvis rotation deg", 1),
             ("knee_flexion_deg", "mean knee flexion deg", 1),
             ("hip_flexion_deg", "mean hip flexion deg", 1),
             ("foot_clearance_m", "foot clearance m", 3), ("stance_slip_m", "stance slip m/step", 4),
@@ -159,6 +167,30 @@ def _debounce(mask: np.ndarray, n_min: int) -> np.ndarray:
 def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     c = np.sum(u * v, axis=-1) / (np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1))
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def _pelvis_yaw(hip_left: np.ndarray, hip_right: np.ndarray, travel: np.ndarray) -> np.ndarray:
+    """Signed angle (deg, + counter-clockwise seen from above) from the horizontal direction
+    ``travel (2,)`` to the hip line's forward normal, per sample of ``hip_left``, ``hip_right``
+    ``(n, 3)`` (unwrapped, so a range is meaningful)."""
+    lat = hip_left[:, :2] - hip_right[:, :2]
+    fwd = np.stack([lat[:, 1], -lat[:, 0]], axis=1)          # the left vector rotated by -90 deg
+    cross = travel[0] * fwd[:, 1] - travel[1] * fwd[:, 0]
+    return np.degrees(np.unwrap(np.arctan2(cross, fwd @ travel)))
+
+
+def _pelvis_rotation(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
+                     strikes) -> list[float]:
+    """Peak-to-peak pelvis rotation (deg) of each stride between consecutive sample indices of
+    ``strikes`` (both ends included), against the stride's root displacement (``root (n, 3)``);
+    a stride without horizontal travel is skipped."""
+    out = []
+    for a0, a1 in zip(strikes, strikes[1:], strict=False):
+        travel = root[a1, :2] - root[a0, :2]
+        if np.linalg.norm(travel) < 1e-6:
+            continue
+        out.append(float(np.ptp(_pelvis_yaw(hip_left[a0:a1 + 1], hip_right[a0:a1 + 1], travel))))
+    return out
 
 
 def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
@@ -274,13 +306,18 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
 
     # strides of the left foot: COM excursion and cycle curves
     left = [a for a, side in strikes if side == "left"]
-    excursions, cycles = [], {k: [] for k in curves}
+    excursions, cycles = [], {k: [] for k in [*curves, "pelvis_rotation"]}
     grid = np.linspace(0.0, 1.0, CYCLE_SAMPLES)
     for a0, a1 in zip(left, left[1:], strict=False):
         excursions.append(float(np.ptp(com[a0:a1 + 1, 2])))
         phase = (t[a0:a1 + 1] - t[a0]) / (t[a1] - t[a0])
         for k, c in curves.items():
             cycles[k].append(np.interp(grid, phase, c[a0:a1 + 1]))
+        travel = root[a1, :2] - root[a0, :2]
+        if np.linalg.norm(travel) >= 1e-6:
+            yaw = _pelvis_yaw(pos["left_hip"][a0:a1 + 1], pos["right_hip"][a0:a1 + 1], travel)
+            cycles["pelvis_rotation"].append(np.interp(grid, phase, yaw))
+    rotations = _pelvis_rotation(pos["left_hip"], pos["right_hip"], root, left)
 
     def mean(v):
         return float(np.mean(v)) if len(v) else None
@@ -292,6 +329,7 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         stance_fraction=mean(fractions),
         double_support_fraction=float(both.mean()) if lengths else None,
         trunk_lean_deg=float(lean.mean()), trunk_lean_range_deg=float(np.ptp(lean)),
+        pelvis_rotation_deg=mean(rotations),
         knee_flexion_deg=float(np.mean(knees)), hip_flexion_deg=float(np.mean(hips)),
         foot_clearance_m=mean(clearances), stance_slip_m=mean(slips),
         com_excursion_m=mean(excursions),

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import json
 
+import mujoco
 import numpy as np
 import pytest
 from conftest import shared_clip
 
 import bvh
-from bvh.gait import GaitError, analyse, analyse_clip, table
+from bvh.gait import GaitError, _pelvis_rotation, analyse, analyse_clip, table
 from controllers import registry
 from controllers.core import scenarios as S
 from controllers.core.character import Character
@@ -19,17 +20,16 @@ from controllers.core.recording import MotionRecorder
 from mjchar.cli import main
 
 
-def _independent(path):
-    """Speed, step length and cadence from the BVH's own FK (no model, no stance rule): foot
-    strikes are the local minima of each ankle's horizontal speed, at least 0.5 s apart."""
+def _clip_fk(path):
+    """``(motion, fk, names, speed, strikes)`` of a BVH from its own FK (no model, no stance
+    rule): ``fk (T, J, 3)`` in metres, ``strikes`` ``[(frame, side)]`` in time order, the local
+    minima of each ankle's horizontal speed, at least 0.5 s apart."""
     motion = bvh.load(path)
     fk = bvh.forward_kinematics(motion).positions * bvh.units.guess_unit_scale(motion.skeleton)
     t = motion.times
     names = motion.skeleton.names
     root = fk[:, 0][:, [0, 2]]                                  # Y-up clips: the XZ plane
-    travel = root[-1] - root[0]
-    speed = np.linalg.norm(travel) / (t[-1] - t[0])
-    f = travel / np.linalg.norm(travel)
+    speed = np.linalg.norm(root[-1] - root[0]) / (t[-1] - t[0])
     strikes = []
     for side in ("l", "r"):
         a = fk[:, names.index(f"{side}Ankle")][:, [0, 2]]
@@ -38,13 +38,23 @@ def _independent(path):
         while k < len(v) - 1:
             w = slice(max(0, k - 15), min(len(v), k + 16))     # +-0.25 s at 60 fps
             if v[k] == v[w].min() and v[k] < 0.5 * speed:
-                strikes.append((t[k], side, a[k]))
+                strikes.append((k, side))
                 k += 30
             else:
                 k += 1
-    strikes.sort(key=lambda s: s[0])
-    steps = [float((b[2] - a[2]) @ f) for a, b in zip(strikes, strikes[1:], strict=False)
-             if a[1] != b[1]]
+    strikes.sort()
+    return motion, fk, names, speed, strikes
+
+
+def _independent(path):
+    """Speed, step length and cadence from the BVH's own FK (:func:`_clip_fk`'s strikes)."""
+    motion, fk, names, speed, strikes = _clip_fk(path)
+    t = motion.times
+    root = fk[:, 0][:, [0, 2]]
+    f = (root[-1] - root[0]) / np.linalg.norm(root[-1] - root[0])
+    ankle = {side: fk[:, names.index(f"{side}Ankle")][:, [0, 2]] for side in ("l", "r")}
+    steps = [float((ankle[b[1]][b[0]] - ankle[a[1]][a[0]]) @ f)
+             for a, b in zip(strikes, strikes[1:], strict=False) if a[1] != b[1]]
     left = np.linalg.norm(np.gradient(fk[:, names.index("lAnkle")][:, [0, 2]], t, axis=0), axis=1)
     left = left - left.mean()
     ac = np.correlate(left, left, "full")[len(left) - 1:]
@@ -66,6 +76,53 @@ def test_walk60_matches_an_independent_calculation():
     assert 0.65 < stats.step_length_m < 0.80 and 90 < stats.cadence_spm < 110
     assert 2.0 < stats.trunk_lean_deg < 6.0 and stats.step_width_m < 0.12
     assert 15 < stats.knee_flexion_deg < 35
+
+
+def test_pelvis_rotation_of_a_known_sinusoidal_yaw():
+    """The bundled model's root walks a straight line at 1 m/s (heading 30 deg) and yaws +-6 deg
+    sinusoidally, one period per stride: the hip joints' positions (its FK) give 12 deg of
+    pelvis rotation per stride, whatever the heading."""
+    ch = Character(None)
+    amp, period, heading = 6.0, 1.1, np.radians(30.0)
+    t = np.arange(0.0, 5.0, 0.01)
+    yaw = heading + np.radians(amp) * np.sin(2 * np.pi * t / period)
+    q = np.tile(ch.model.qpos0, (len(t), 1))
+    q[:, 0], q[:, 1] = t * np.cos(heading), t * np.sin(heading)
+    q[:, 3], q[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)        # a turn about z
+    data = mujoco.MjData(ch.model)
+    body = {r: mujoco.mj_name2id(ch.model, mujoco.mjtObj.mjOBJ_BODY,
+                                 ch.info.joints[ch.info.roles[r]].body)
+            for r in ("pelvis", "left_hip", "right_hip")}
+    pos = {r: np.empty((len(t), 3)) for r in body}
+    for k, qk in enumerate(q):
+        data.qpos[:] = qk
+        mujoco.mj_kinematics(ch.model, data)
+        for r, b in body.items():
+            pos[r][k] = data.xpos[b]
+    strikes = list(np.searchsorted(t, 0.37 + period * np.arange(4)))
+    strides = _pelvis_rotation(pos["left_hip"], pos["right_hip"], pos["pelvis"], strikes)
+    assert len(strides) == 3
+    assert strides == pytest.approx([2 * amp] * 3, abs=0.5), strides
+
+
+def test_walk60_pelvis_rotation_matches_its_own_fk():
+    """walk60's pelvis rotation against the same quantity from the clip's own FK: the signed
+    angle from each stride's travel to the hip line (lHip - rHip) in the XZ plane, over strides
+    between the left strikes that :func:`_clip_fk` finds."""
+    path = shared_clip("walk60.bvh")
+    stats = analyse_clip(path)
+    motion, fk, names, _, strikes = _clip_fk(path)
+    root = fk[:, 0][:, [0, 2]]
+    lat = (fk[:, names.index("lHip")] - fk[:, names.index("rHip")])[:, [0, 2]]
+    left = [k for k, side in strikes if side == "l"]
+    ranges = []
+    for a, b in zip(left, left[1:], strict=False):
+        d = root[b] - root[a]
+        ang = np.arctan2(d[0] * lat[a:b + 1, 1] - d[1] * lat[a:b + 1, 0], lat[a:b + 1] @ d)
+        ranges.append(np.degrees(np.ptp(np.unwrap(ang))))
+    assert len(ranges) >= 1 and stats.strides >= 1              # a 3 s clip: one stride
+    assert stats.pelvis_rotation_deg == pytest.approx(np.mean(ranges), abs=1.0)
+    assert 2.0 < stats.pelvis_rotation_deg < 20.0
 
 
 def test_simulated_walk_is_measured_by_the_same_probe():

@@ -16,10 +16,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "gait", help="gait statistics of a walker or a clip against reference clips",
         description="Measure speed, cadence, step length and width, stance and double support, "
-                    "trunk lean, knee and hip flexion, foot clearance, stance slip and COM "
-                    "excursion of a simulated walk or a BVH clip (see docs/gait.md), print "
-                    "them beside reference clips, and optionally plot the joint-angle curves "
-                    "over the normalised gait cycle.")
+                    "trunk lean, pelvis rotation, knee and hip flexion, foot clearance, stance "
+                    "slip and COM excursion of a simulated walk or a BVH clip (see "
+                    "docs/gait.md), print them beside reference clips, and optionally plot the "
+                    "joint-angle curves over the normalised gait cycle.")
     p.add_argument("source", metavar="SOURCE",
                    help=f"a walker ({', '.join(walkers)}) to run, or a BVH clip to analyse")
     p.add_argument("--reference", action="append", default=[], metavar="CLIP.bvh",
