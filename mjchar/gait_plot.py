@@ -11,7 +11,7 @@ from bvh.errors import MjcharError
 
 #: curves plotted, with their axis labels
 PANELS = (("left_knee_flexion", "knee flexion (deg)"), ("left_hip_flexion", "hip flexion (deg)"),
-          ("trunk_lean", "trunk lean (deg)"))
+          ("trunk_lean", "trunk lean (deg)"), ("pelvis_rotation", "pelvis rotation (deg)"))
 
 
 def _pyplot():

@@ -37,8 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="walkers: start from a seeded perturbation of the standing pose, as "
                         "the terrain walks do (default: the standing pose itself)")
     p.add_argument("--plot", metavar="OUT.png",
-                   help="write the cycle curves (knee, hip flexion, trunk lean) as a PNG "
-                        "(needs matplotlib: the bench extra)")
+                   help="write the cycle curves (knee, hip flexion, trunk lean, pelvis "
+                        "rotation) as a PNG (needs matplotlib: the bench extra)")
     p.add_argument("--filmstrip", metavar="OUT.png",
                    help="write side views over one stride of every walk (the source, then each "
                         "reference) as a PNG (needs matplotlib and OpenGL: MUJOCO_GL=egl)")
