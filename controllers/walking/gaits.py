@@ -108,8 +108,11 @@ class Gait:
             ankle's own ``stance_ankle_roll`` and ``stance_ankle_twist`` (its hinges nearest the
             forward and the vertical axis: a soft roll lets the sole sit flat across its width
             instead of on one heel corner, a twist without stiffness lets the leg turn above a
-            planted foot instead of spinning it; left out, the stance ankle uses ``ankle``). A
-            group left out uses the model's own gains table.
+            planted foot instead of spinning it; left out, the stance ankle uses ``ankle``), and
+            ``swing_ankle_level`` (in the swing state, the swing ankle's roll hinge levels the
+            sole across its width in the world, so the heel lands on both its corners; left
+            out, it holds its roll relative to the shank). A group left out uses the model's
+            own gains table.
         start_speed: forward speed (m/s) given to the standing start pose.
         speed_target, speed_gain, speed_limit: optional step-to-step speed regulation (off when
             ``speed_target`` is ``None``): at every lift-off the sagittal swing-hip offset
@@ -474,7 +477,12 @@ CROUCH = Gait(
 #: the bars from ``terrain.walk``'s seeded starts (``mjchar gait --seed``), a CMA-ES over the
 #: lift-off duration, the swing state's swing hip, the coronal target and ``cv_coronal``, the
 #: stance knees and the pelvis and spine pitch (more pelvis pitch, more spine extension: longer
-#: steps at the same trunk lean; docs/simbicon.md, "Seeded starts"). Own speed
+#: steps at the same trunk lean; docs/simbicon.md, "Seeded starts"), then, for the stance-foot
+#: slip, a stance ankle whose roll is soft (0.35 of the ankle's gains) and whose twist has no
+#: stiffness (damping only), and a swing foot levelled across its width before it lands (with
+#: the ankle's full gains the stance foot stood on one heel corner and spun 20-35 deg about it
+#: every step, and the whole body with it), followed by a CMA-ES over the gait's numbers on the
+#: 20 s slip under the bars (docs/simbicon.md, "The stance foot"). Own speed
 #: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
 #: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
 #: slow legs, tuned by hand; docs/simbicon.md).
@@ -482,39 +490,40 @@ NATURAL = Gait(
     name="natural",
     states=(
         StateParams(
-            duration=0.2079,
+            duration=0.2065,
             ends_on_contact=False,
-            swing_hip=0.6334,
-            swing_hip_coronal=-0.0691,
-            swing_knee=1.4516,
-            swing_ankle=0.9036,
+            swing_hip=0.656,
+            swing_hip_coronal=-0.0608,
+            swing_knee=1.4222,
+            swing_ankle=0.9809,
             stance_knee=-0.0351,
-            stance_ankle=0.143,
-            cd=0.5818,
-            cv=0.1379,
+            stance_ankle=0.0882,
+            cd=0.5567,
+            cv=0.1468,
             cd_coronal=0.4473,
-            cv_coronal=0.1926,
+            cv_coronal=0.1836,
         ),
         StateParams(
             duration=0.1574,
             ends_on_contact=True,
-            swing_hip=0.2015,
-            swing_hip_coronal=-0.0691,
-            swing_knee=0.083,
-            swing_ankle=-0.1738,
+            swing_hip=0.2012,
+            swing_hip_coronal=-0.0608,
+            swing_knee=0.127,
+            swing_ankle=-0.2014,
             stance_knee=-0.0325,
-            stance_ankle=0.3215,
-            cd=0.5818,
-            cv=0.1379,
+            stance_ankle=0.3149,
+            cd=0.5567,
+            cv=0.1468,
             cd_coronal=0.4473,
-            cv_coronal=0.1926,
+            cv_coronal=0.1836,
         ),
     ),
-    torso_pitch=0.3718,
+    torso_pitch=0.3744,
+    contact_phase=0.449,
     spine_pitch=-0.2135,
-    arm_swing=0.442,
+    arm_swing=0.4523,
     max_twist=0.21,
-    speed_gain=0.0097,
+    speed_gain=0.0114,
     swing_gravity=0.9763,
     velocity_force=0.1705,
     body_leg_length=BUNDLED_LEG_LENGTH,
@@ -534,6 +543,9 @@ NATURAL = Gait(
         "swing_hip": (260.881, 26.088),
         "ankle": (363.157, 36.316),
         "stance_twist": (600.0, 60.0),
+        "stance_ankle_roll": (126.27, 12.627),
+        "stance_ankle_twist": (0.0, 4.911),
+        "swing_ankle_level": (363.0, 36.0),
     },
 )
 

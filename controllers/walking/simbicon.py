@@ -364,6 +364,9 @@ class Simbicon:
                 "thigh_dir": thigh / np.linalg.norm(thigh),
                 # + rotation about the heading frame's lateral axis lifts the toes?
                 "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
+                # the foot's forward and left axes in its own frame (from the rest pose)
+                "foot_axes": rest.xmat[ch.body_id(ankle)].reshape(3, 3).T
+                @ np.stack([fwd, left], axis=1),
                 "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
@@ -458,6 +461,7 @@ class Simbicon:
         self._stance_ankle_gains = {
             axis: g.gains[grp] for axis, grp in _STANCE_ANKLE_GROUPS.items() if grp in g.gains
         }
+        self._swing_level_gains = g.gains.get("swing_ankle_level")
         # joints (other than the hips) that attach to the pelvis: their torques react on it
         others = []
         hip_bodies = {leg["hip_body"] for leg in self._legs}
@@ -568,6 +572,16 @@ class Simbicon:
             if h is not None:
                 a = h.act
                 tau[a] = kpa * (self._targets[self.state][a] - q[a]) - kda * qd[a]
+        if self._swing_level_gains and self.state % 2 == 1 and "x" in sw["ankle"]:
+            # swing state: the swing foot's roll levels its sole in the world (its left axis
+            # horizontal), so the heel lands on its whole width rather than on one corner
+            kpl, kdl = self._swing_level_gains
+            f, lat = (d.xmat[sw["ankle_body"]].reshape(3, 3) @ sw["foot_axes"]).T
+            f = f / np.linalg.norm(f)
+            w = d.cvel[sw["ankle_body"], :3] @ f
+            tau_l = (-kpl * lat[2] / np.linalg.norm(lat) - kdl * w) * f
+            h = sw["ankle"]["x"]
+            tau[h.act] = d.xaxis[h.jnt] @ tau_l
         Rp = d.xmat[self._pelvis].reshape(3, 3)
         heading = yaw_of(Rp)
         H = _rot_z(heading)
