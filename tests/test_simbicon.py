@@ -319,11 +319,13 @@ def natural_stats(ch, speed, duration, seed=None):
 
 
 def test_new_options_off_leave_the_walk_alone():
-    """Coros 2010's terms are options, off (0) in the walk and crouch gaits."""
+    """Coros 2010's terms and the stance-foot gain groups are options, off in the walk and
+    crouch gaits (their ankles keep the ``ankle`` gains in stance and swing)."""
     for name in ("walk", "crouch"):
         g = GAITS[name]
         assert g.swing_gravity == g.stance_support == 0.0
         assert g.velocity_force == g.velocity_force_coronal == 0.0
+        assert not {"stance_ankle_roll", "stance_ankle_twist", "swing_ankle_level"} & set(g.gains)
 
 
 @pytest.mark.parametrize("seed, duration", [(None, 11.0), (0, 20.0)])
