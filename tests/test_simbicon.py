@@ -332,10 +332,9 @@ def test_new_options_off_leave_the_walk_alone():
 def test_natural_gait_bars_at_1_2(ch, seed, duration):
     """The natural gait at 1.2 m/s analysed from 3 s on, from the standing pose (11 s) and from
     a seeded start the gait was not tuned on (``mjchar gait --seed 0``, 20 s; tuned on the
-    standing pose and seeds 1-2): issue 14's bars; the stance-foot slip (bar < 1 cm per step)
-    reads 1.0-1.1 cm in these windows, which include the start (3.0 cm before the stance foot
-    was kept off a single heel corner; docs/gait.md), and is held under 1.2 cm. Seed 4 misses
-    cadence (132.5; docs/simbicon.md)."""
+    standing pose and seeds 1 and 9): issue 14's bars, the stance-foot slip under 1 cm per step
+    included (0.83 and 0.86 cm here; 3.0 cm before the stance foot was kept off a single heel
+    corner, docs/gait.md)."""
     r, s = natural_stats(ch, 1.2, duration, seed)
     assert not r.fell, r.fall_reason
     assert no_root_force(r)
@@ -343,14 +342,14 @@ def test_natural_gait_bars_at_1_2(ch, seed, duration):
     for key, (lo, hi) in NATURAL_BARS.items():
         v = getattr(s, key)
         assert v is not None and (lo is None or v >= lo) and (hi is None or v <= hi), (key, v)
-    assert s.stance_slip_m < 0.012, s.stance_slip_m
+    assert s.stance_slip_m < 0.01, s.stance_slip_m
 
 
 def test_natural_gait_steady_stance_foot(ch):
     """Walking steadily (a 14 s walk at 1.2 m/s from the standing pose, analysed from 8 s on)
-    the natural gait's stance foot slips under 1 cm per step (0.88 cm measured) and the pelvis
-    turns like a person's (17.6 deg per stride; 41.5 deg when the stance foot spun on one heel
-    corner; walk60 16.6)."""
+    the natural gait's stance foot slips under 1 cm per step (0.82 cm measured) and the pelvis
+    turns like a person's (17.7 deg per stride; 41.5 deg when the stance foot spun on
+    one heel corner; walk60 16.6)."""
     from bvh.gait import analyse
     from controllers.core.recording import MotionRecorder
     from controllers.core.scenarios import run_scenario
