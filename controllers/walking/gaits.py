@@ -464,6 +464,19 @@ CROUCH = Gait(
     },
 )
 
+#: the natural gait's legs and lean before its stance-foot retune (2026-11-27): its fast anchor
+_NATURAL_FAST_LEGS = {
+    "state0_swing_hip": 0.6334, "state0_swing_hip_coronal": -0.0691, "state0_swing_knee": 1.4516,
+    "state0_swing_ankle": 0.9036, "state0_stance_knee": -0.0351, "state0_stance_ankle": 0.143,
+    "state0_cd": 0.5818, "state0_cv": 0.1379, "state0_cd_coronal": 0.4473,
+    "state0_cv_coronal": 0.1926,
+    "state1_swing_hip": 0.2015, "state1_swing_hip_coronal": -0.0691, "state1_swing_knee": 0.083,
+    "state1_swing_ankle": -0.1738, "state1_stance_knee": -0.0325, "state1_stance_ankle": 0.3215,
+    "state1_cd": 0.5818, "state1_cv": 0.1379, "state1_cd_coronal": 0.4473,
+    "state1_cv_coronal": 0.1926,
+    "torso_pitch": 0.3718,
+}
+
 #: Natural walk (issue 14): human-like gait statistics at 1.2 m/s (cadence, step length and
 #: width, trunk lean, knee flexion; docs/simbicon.md). The walk's controller with Coros,
 #: Beaudoin and van de Panne 2010's swing-leg gravity compensation (``swing_gravity``) and
@@ -534,9 +547,13 @@ NATURAL = Gait(
         # lean 0.2), the natural gait's own state durations and velocity force: without it the
         # natural gait drifts sideways below ~1.1 m/s (0.75 m/s sideways at 0.6)
         (0.22, _legs_at(WALK, 0.22)),
-        # the gait's own values from Froude 0.40 up: 1.2 m/s on the bundled humanoid is Froude
-        # 0.4089, just below 0.409, and walks exactly as the gait does without anchors
+        # the gait's own values from Froude 0.40 to 0.41: 1.2 m/s on the bundled humanoid is
+        # Froude 0.4089, just below 0.409, and walks exactly as the gait does without anchors
         (0.40, {}),
+        (0.41, {}),
+        # 1.6 m/s on the bundled humanoid: the legs the gait had before its stance-foot retune,
+        # which walked up to 1.6 m/s (the retuned legs top out near 1.4 m/s; docs/simbicon.md)
+        (0.545, _NATURAL_FAST_LEGS),
     ),
     gains={
         "torso": (873.399, 87.34),
