@@ -111,8 +111,9 @@ class Gait:
             planted foot instead of spinning it; left out, the stance ankle uses ``ankle``), and
             ``swing_ankle_level`` (in the swing state, the swing ankle's roll hinge levels the
             sole across its width in the world, so the heel lands on both its corners; left
-            out, it holds its roll relative to the shank). A group left out uses the model's
-            own gains table.
+            out, it holds its roll relative to the shank; ``swing_ankle_world`` overrides it).
+            The stance ankle's roll and twist still carry the virtual forces' share
+            (``velocity_force``). A group left out uses the model's own gains table.
         start_speed: forward speed (m/s) given to the standing start pose.
         speed_target, speed_gain, speed_limit: optional step-to-step speed regulation (off when
             ``speed_target`` is ``None``): at every lift-off the sagittal swing-hip offset
@@ -491,8 +492,8 @@ _NATURAL_FAST_LEGS = {
 #: lift-off duration, the swing state's swing hip, the coronal target and ``cv_coronal``, the
 #: stance knees and the pelvis and spine pitch (more pelvis pitch, more spine extension: longer
 #: steps at the same trunk lean; docs/simbicon.md, "Seeded starts"), then, for the stance-foot
-#: slip, a stance ankle whose roll is soft (0.35 of the ankle's gains) and whose twist has no
-#: stiffness (damping only), and a swing foot levelled across its width before it lands (with
+#: slip, a stance ankle whose roll is soft (about a third of the ankle's gains) and whose twist
+#: has no stiffness (damping only), and a swing foot levelled across its width before it lands (with
 #: the ankle's full gains the stance foot stood on one heel corner and spun 20-35 deg about it
 #: every step, and the whole body with it), followed by a CMA-ES over the gait's numbers on the
 #: 20 s slip under the bars (docs/simbicon.md, "The stance foot"). Own speed
@@ -551,8 +552,9 @@ NATURAL = Gait(
         # Froude 0.4089, just below 0.409, and walks exactly as the gait does without anchors
         (0.40, {}),
         (0.41, {}),
-        # 1.6 m/s on the bundled humanoid: the legs the gait had before its stance-foot retune,
-        # which walked up to 1.6 m/s (the retuned legs top out near 1.4 m/s; docs/simbicon.md)
+        # 1.6 m/s on the bundled humanoid: the legs and lean the gait had before its stance-foot
+        # retune (its durations and gains stay): the retuned legs top out near 1.4 m/s, with
+        # these a 1.6 m/s command walks 1.50 (docs/simbicon.md)
         (0.545, _NATURAL_FAST_LEGS),
     ),
     gains={

@@ -43,11 +43,11 @@ from .leg import yaw_of
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
+#: gain groups of the stance ankle's hinges nearest the world x (forward at rest, as every hinge
+#: key here) and z axes at rest: its roll and twist; a gait without them uses its ``ankle`` gains
+_STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
 #: world-frame gains ``(kp N m/rad, kd N m s/rad)`` of a gait that leaves them out, for the gait's
 #: own body (scaled with it, :meth:`~controllers.walking.gaits.Gait.scaled`)
-#: gain groups of the stance ankle's hinges nearest the rest pose's forward (roll) and vertical
-#: (twist) axes; a gait without them drives them with its ``ankle`` gains
-_STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
 DEFAULT_GAINS = {
     "torso": (1000.0, 100.0),
     "stance_twist": (300.0, 30.0),
