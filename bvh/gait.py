@@ -179,18 +179,24 @@ def _pelvis_yaw(hip_left: np.ndarray, hip_right: np.ndarray, travel: np.ndarray)
     return np.degrees(np.unwrap(np.arctan2(cross, fwd @ travel)))
 
 
-def _pelvis_rotation(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
-                     strikes) -> list[float]:
-    """Peak-to-peak pelvis rotation (deg) of each stride between consecutive sample indices of
-    ``strikes`` (both ends included), against the stride's root displacement (``root (n, 3)``);
-    a stride without horizontal travel is skipped."""
-    out = []
+def _stride_yaws(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
+                 strikes) -> dict[int, np.ndarray]:
+    """The pelvis's yaw (deg, :func:`_pelvis_yaw`) over each stride between consecutive sample
+    indices of ``strikes`` (both ends included), against the stride's root displacement
+    (``root (n, 3)``), keyed by the stride's first index; a stride without horizontal travel is
+    skipped."""
+    out = {}
     for a0, a1 in zip(strikes, strikes[1:], strict=False):
         travel = root[a1, :2] - root[a0, :2]
-        if np.linalg.norm(travel) < 1e-6:
-            continue
-        out.append(float(np.ptp(_pelvis_yaw(hip_left[a0:a1 + 1], hip_right[a0:a1 + 1], travel))))
+        if np.linalg.norm(travel) >= 1e-6:
+            out[a0] = _pelvis_yaw(hip_left[a0:a1 + 1], hip_right[a0:a1 + 1], travel)
     return out
+
+
+def _pelvis_rotation(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
+                     strikes) -> list[float]:
+    """Peak-to-peak pelvis rotation (deg) of each stride of :func:`_stride_yaws`."""
+    return [float(np.ptp(y)) for y in _stride_yaws(hip_left, hip_right, root, strikes).values()]
 
 
 def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
@@ -308,16 +314,15 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
     left = [a for a, side in strikes if side == "left"]
     excursions, cycles = [], {k: [] for k in [*curves, "pelvis_rotation"]}
     grid = np.linspace(0.0, 1.0, CYCLE_SAMPLES)
+    yaws = _stride_yaws(pos["left_hip"], pos["right_hip"], root, left)
     for a0, a1 in zip(left, left[1:], strict=False):
         excursions.append(float(np.ptp(com[a0:a1 + 1, 2])))
         phase = (t[a0:a1 + 1] - t[a0]) / (t[a1] - t[a0])
         for k, c in curves.items():
             cycles[k].append(np.interp(grid, phase, c[a0:a1 + 1]))
-        travel = root[a1, :2] - root[a0, :2]
-        if np.linalg.norm(travel) >= 1e-6:
-            yaw = _pelvis_yaw(pos["left_hip"][a0:a1 + 1], pos["right_hip"][a0:a1 + 1], travel)
-            cycles["pelvis_rotation"].append(np.interp(grid, phase, yaw))
-    rotations = _pelvis_rotation(pos["left_hip"], pos["right_hip"], root, left)
+        if a0 in yaws:
+            cycles["pelvis_rotation"].append(np.interp(grid, phase, yaws[a0]))
+    rotations = [float(np.ptp(y)) for y in yaws.values()]
 
     def mean(v):
         return float(np.mean(v)) if len(v) else None

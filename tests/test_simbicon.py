@@ -300,10 +300,10 @@ NATURAL_BARS = {
 }
 
 
-def natural_stats(ch, speed, duration, seed=None):
+def natural_stats(ch, speed, duration, seed=None, start=3.0):
     """The natural gait's run and statistics as ``mjchar gait simbicon --gait natural`` measures
     them: the walk scenario (from the standing pose; with ``seed``, from the terrain walks'
-    seeded perturbation of it, as ``--seed``), analysed from 3 s on."""
+    seeded perturbation of it, as ``--seed``), analysed from ``start`` s on."""
     from bvh.gait import analyse
     from controllers.core.recording import MotionRecorder
     from controllers.core.scenarios import run_scenario
@@ -314,7 +314,7 @@ def natural_stats(ch, speed, duration, seed=None):
         r = run_scenario("walk", ch, c, duration=duration, frame_callback=rec)
     else:
         r = walk(ch, c, duration=duration, seed=seed, frame_callback=rec)
-    stats = None if r.fell else analyse(ch.model, rec.times, rec.qpos, start=3.0, info=ch.info)
+    stats = None if r.fell else analyse(ch.model, rec.times, rec.qpos, start=start, info=ch.info)
     return r, stats
 
 
@@ -350,15 +350,8 @@ def test_natural_gait_steady_stance_foot(ch):
     the natural gait's stance foot slips under 1 cm per step (0.82 cm measured) and the pelvis
     turns like a person's (17.7 deg per stride; 41.5 deg when the stance foot spun on
     one heel corner; walk60 16.6)."""
-    from bvh.gait import analyse
-    from controllers.core.recording import MotionRecorder
-    from controllers.core.scenarios import run_scenario
-
-    rec = MotionRecorder()
-    r = run_scenario("walk", ch, make_simbicon(gait="natural", speed=1.2), duration=14.0,
-                     frame_callback=rec)
+    r, s = natural_stats(ch, 1.2, 14.0, start=8.0)
     assert not r.fell, r.fall_reason
-    s = analyse(ch.model, rec.times, rec.qpos, start=8.0, info=ch.info)
     assert s.stance_slip_m < 0.01, s.stance_slip_m
     assert s.pelvis_rotation_deg < 25.0, s.pelvis_rotation_deg
 
