@@ -70,3 +70,19 @@ def run_command(argv: list[str]):
 
     args = build_parser().parse_args(argv)
     return args.func(args)
+
+
+@pytest.fixture(scope="session")
+def zoo_humanoids(tmp_path_factory) -> dict[float, str]:
+    """The zoo's humanoids: the bundled humanoid's skeleton scaled to 1.5 m / 50 kg and 1.95 m /
+    100 kg, converted with their masses as the bench's skeletons section does: {height: xml}."""
+    import bvh
+    from bvh.mjcf import convert
+    from bvh.zoo import _humanoids
+
+    out = {}
+    for rig in _humanoids():
+        xml = tmp_path_factory.mktemp("rigs") / f"{rig.name}.xml"
+        convert(bvh.loads(bvh.dumps(rig.motion)), total_mass=rig.mass_kg).save(xml)
+        out[rig.height_m] = str(xml)
+    return out

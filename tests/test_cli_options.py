@@ -133,3 +133,39 @@ def test_speed_limits_come_from_the_registry():
     spec = registry.get("ipm")
     assert spec.limit("speed") == (0.0, 1.6)
     assert registry.get("static_balance").limit("speed") is None
+
+
+def test_speed_limits_scale_with_the_body():
+    """Walkers register their speed limits on one body; on a body of leg length L they are the
+    same Froude speeds, times sqrt(L / speed_leg_length)."""
+    for name in ("simbicon", "ipm"):
+        spec = registry.get(name)
+        lo, hi = spec.limit("speed")
+        assert spec.limit("speed", spec.speed_leg_length) == pytest.approx((lo, hi))
+        assert spec.limit("speed", 4.0 * spec.speed_leg_length) == pytest.approx((2 * lo, 2 * hi))
+    assert registry.get("simbicon").limit("speed") == (0.6, 1.6)  # issue 14's range
+    assert registry.get("static_balance").limit("speed", 1.0) is None
+
+
+def test_leg_length_follows_the_body(zoo_humanoids):
+    from controllers.core.character import Character
+    from controllers.walking.gaits import BUNDLED_LEG_LENGTH
+
+    assert Character().leg_length() == pytest.approx(BUNDLED_LEG_LENGTH, abs=1e-9)
+    small, tall = (Character(zoo_humanoids[h]).leg_length() for h in (1.5, 1.95))
+    assert 0.7 < small < tall < 1.2
+    assert tall / small == pytest.approx(1.95 / 1.5, rel=1e-3)  # one skeleton, scaled
+
+
+def test_speed_range_on_another_body_is_checked_in_its_units(zoo_humanoids, capsys):
+    """The 1.95 m body's SIMBICON range is 0.66-1.76 m/s: 0.62 m/s, inside the bundled
+    humanoid's 0.6-1.6, is refused on it, naming the body's range; 1.7 m/s is taken."""
+    from controllers.core.character import Character
+
+    xml = zoo_humanoids[1.95]
+    k = (Character(xml).leg_length() / registry.get("simbicon").speed_leg_length) ** 0.5
+    expected = f"walks at {0.6 * k:.3g} to {1.6 * k:.3g} m/s on this body"
+    for command in ("run", "gait"):
+        argv = [command, "simbicon", "--model", xml, "--speed", "0.62"]
+        assert expected in _one_line_error(capsys, argv)
+    assert main(["run", "simbicon", "--model", xml, "--speed", "1.7", "--duration", "0.2"]) == 0

@@ -183,9 +183,7 @@ def test_no_speed_is_the_gait_itself(ch):
 
 @pytest.mark.parametrize("speed", [0.6, 1.0, 1.4])
 def test_speed_command(ch, speed):
-    """Issue 14's speed-control points on the bundled humanoid (0.6 m/s is below the CLI's
-    0.7-1.5 m/s range, which holds on every rig of the zoo: the 1.95 m body walks 0.85 m/s
-    when commanded 0.6; the Python API takes it)."""
+    """Issue 14's speed-control points on the bundled humanoid."""
     c = make_simbicon(gait="walk", speed=speed)
     r = walk(ch, c, duration=12.0, seed=0, steady_window=6.0)
     assert not r.fell, r.fall_reason
@@ -473,28 +471,16 @@ def test_speed_command_60s(ch, speed, seed):
     assert no_root_force(r)
 
 
-@pytest.fixture(scope="module")
-def scaled_humanoids(tmp_path_factory):
-    """The bundled humanoid's skeleton scaled to 1.5 m / 50 kg and 1.95 m / 100 kg (the zoo's),
-    converted with their masses as the bench's skeletons section does."""
-    import bvh
-    from bvh.mjcf import convert
-    from bvh.zoo import _humanoids
-
-    out = {}
-    for rig in _humanoids():
-        xml = tmp_path_factory.mktemp("rigs") / f"{rig.name}.xml"
-        convert(bvh.loads(bvh.dumps(rig.motion)), total_mass=rig.mass_kg).save(xml)
-        out[rig.height_m] = str(xml)
-    return out
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("speed", [0.7, 1.5, 1.6])
+@pytest.mark.parametrize("gait", ["walk", "natural"])
+@pytest.mark.parametrize("end", [0, 1])
 @pytest.mark.parametrize("height", [1.5, 1.95])
-def test_speed_command_on_scaled_bodies(scaled_humanoids, height, speed):
-    ch = Character(scaled_humanoids[height], timestep=DEFAULT_TIMESTEP)
-    c = make_simbicon(ch, gait="walk", speed=speed)
+def test_speed_command_on_scaled_bodies(zoo_humanoids, height, end, gait):
+    """The ends of the registered speed range on other bodies, where they are the same Froude
+    speeds (1.95 m: 0.66-1.76 m/s; 1.5 m: 0.58-1.54)."""
+    ch = Character(zoo_humanoids[height], timestep=DEFAULT_TIMESTEP)
+    speed = registry.get("simbicon").limit("speed", ch.leg_length())[end]
+    c = make_simbicon(ch, gait=gait, speed=speed)
     r = walk(ch, c, duration=60.0, seed=0)
     assert not r.fell, r.fall_reason
     assert abs(r.extra["steady_speed_mps"] - speed) <= SPEED_TOLERANCE, r.extra

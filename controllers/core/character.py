@@ -752,6 +752,15 @@ class Character:
                                      f"{self.max_velocity:g}", d.time)
 
     # -- poses ---------------------------------------------------------------------------------
+    def leg_length(self) -> float:
+        """The leg length (m): the hips' mean height over the character's lowest point at rest
+        (``qpos0``, every joint at zero). Walkers scale their gaits and speeds with it (equal
+        Froude speed ``v / sqrt(g L)`` on every body)."""
+        q = self.model.qpos0
+        hips = [poses.body_pose(self.model, q, self.body_id(self.role(f"{side}_hip")))[0][2]
+                for side in ("left", "right")]
+        return float(np.mean(hips)) - self.lowest_point(q)
+
     def lowest_point(self, qpos: np.ndarray) -> float:
         """Lowest world z (m) of the character's geoms at pose ``qpos`` ``(nq,)`` (boxes, capsules,
         spheres exactly; other shapes by their bounding sphere). Does not change the state."""

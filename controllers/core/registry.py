@@ -21,6 +21,7 @@ what fills the registry (no directory scanning, no entry points).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -69,6 +70,10 @@ class ControllerSpec:
             default, looked for in the bundled trajectories.
         limits: ``(option, low, high)`` ranges of numeric options the controller supports
             (measured, e.g. IPM's walking speeds); ``mjchar run`` refuses values outside them.
+        speed_leg_length: the leg length (m, :meth:`Character.leg_length`) of the body the
+            ``speed`` limits were measured on; on a body of leg length ``L`` they scale by
+            ``sqrt(L / speed_leg_length)`` (the same Froude speeds, as the walkers scale their
+            gaits). ``None``: the speed limits hold in m/s on every body.
         floor: how a reference clip it tracks is placed on the floor by default
             (``ReferenceMotion(floor=...)``): ``"contact"`` (stance feet on the floor) for
             controllers that only have joint torques, ``"clip"`` for one with a root force,
@@ -91,12 +96,18 @@ class ControllerSpec:
     expected: tuple[str, ...] = ()
     trajectory_prefixes: tuple[str, ...] = ()
     limits: tuple[tuple[str, float, float], ...] = ()
+    speed_leg_length: float | None = None
     floor: str = "contact"
 
-    def limit(self, option: str) -> tuple[float, float] | None:
-        """``(low, high)`` of ``option`` from :attr:`limits`, ``None`` when unlimited."""
+    def limit(self, option: str, leg_length: float | None = None) -> tuple[float, float] | None:
+        """``(low, high)`` of ``option`` from :attr:`limits`, ``None`` when unlimited; the
+        ``speed`` limits on a body of ``leg_length`` m (``None``: as registered), see
+        :attr:`speed_leg_length`."""
         for name, lo, hi in self.limits:
             if name == option:
+                if option == "speed" and leg_length is not None and self.speed_leg_length:
+                    k = math.sqrt(leg_length / self.speed_leg_length)
+                    return lo * k, hi * k
                 return lo, hi
         return None
 
@@ -126,6 +137,8 @@ class ControllerSpec:
                 raise bad(f"limits must be (option, low, high) of its own options, got {lim}")
         if self.floor not in FLOOR_MODES:
             raise bad(f"floor must be one of {', '.join(FLOOR_MODES)}, got {self.floor!r}")
+        if self.speed_leg_length is not None and not self.speed_leg_length > 0:
+            raise bad(f"speed_leg_length must be positive metres, got {self.speed_leg_length}")
         if self.timestep is not None and not self.timestep > 0:
             raise bad(f"the time step must be positive, got {self.timestep}")
 

@@ -119,7 +119,7 @@ from ..core.base import Action
 from ..core.character import Character
 from ..core.geometry import point_in_polygon_margin
 from ..core.registry import ControllerSpec, register
-from .ipm_params import GRAVITY, IPMError, IPMParams, ipm_step_offset, schedule
+from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .leg import Leg, inverse3, rotation_error, wrap_angle, yaw_of
 from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
 
@@ -781,6 +781,7 @@ register(ControllerSpec(
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
     options=("speed", "heading", "params"), steps=True,
     # walks 60 s with no fall from 0.3 to 1.6 m/s, steady speed within 0.15 m/s of the command
-    # (bundled humanoid, docs/ipm.md speed range and human-like band); 0 stops and stands
-    limits=(("speed", 0.0, 1.6),),
+    # (bundled humanoid, docs/ipm.md speed range and human-like band); 0 stops and stands; on
+    # other bodies the same Froude speeds (its parameters scale with the body)
+    limits=(("speed", 0.0, 1.6),), speed_leg_length=TUNED_LEG_LENGTH,
     bench=("stand", "random-push", "push-search", "walk", "slopes"), expected=("stand", "walk")))

@@ -37,7 +37,7 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
-from .gaits import GRAVITY, Gait, get_gait
+from .gaits import BUNDLED_LEG_LENGTH, GRAVITY, Gait, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
@@ -261,11 +261,10 @@ class Simbicon:
             out[key] = _Hinge(int(dof), int(m.jnt_qposadr[j]), j, int(self._dof2act[dof]))
         return out
 
-    def _body_gait(self, ch: Character, rest: mujoco.MjData) -> Gait:
+    def _body_gait(self, ch: Character) -> Gait:
         """The gait for this body (see the class docstring); with a speed command, the gait at
         the command's start (the gait's own speed)."""
-        hips = [rest.xpos[ch.body_id(ch.role(f"{side}_hip"))][2] for side in _SIDES]
-        self.leg_length = float(np.mean(hips)) - ch.lowest_point(ch.model.qpos0)
+        self.leg_length = ch.leg_length()
         self._mass = ch.mass
         g = self.base_gait
         missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
@@ -308,7 +307,7 @@ class Simbicon:
         rest.qpos[:] = m.qpos0
         mujoco.mj_kinematics(m, rest)
         self._rest = rest
-        self.gait = self._body_gait(ch, rest)
+        self.gait = self._body_gait(ch)
         pelvis = ch.role("pelvis")
         self._pelvis = ch.body_id(pelvis)
         Rp = rest.xmat[self._pelvis].reshape(3, 3)
@@ -754,10 +753,10 @@ register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
     scenarios=("walk",), default_scenario="walk", options=("gait", "speed", "params"),
-    # the walk gait's speed command: 60 s with no fall at seeds 0-2 and a steady speed within
-    # 0.15 m/s of the command from 0.7 to 1.5 m/s on the bundled humanoid and on its skeleton
-    # scaled to 1.5 m / 50 kg and 1.95 m / 100 kg, and at 0.7, 1.1 and 1.5 m/s on every rig of
-    # the skeleton zoo (docs/simbicon.md); no --speed: the gait's own
-    limits=(("speed", 0.7, 1.5),),
+    # the speed command (issue 14's 0.6-1.6 m/s): 60 s with no fall and a steady speed within
+    # 0.15 m/s of the command at 0.6-1.6 m/s, seeds 0-2, on the bundled humanoid (walk; natural
+    # 30 s), and at the same Froude speeds on its skeleton scaled to 1.5 m / 50 kg and 1.95 m /
+    # 100 kg (walk and natural, seed 0; docs/simbicon.md); no --speed: the gait's own
+    limits=(("speed", 0.6, 1.6),), speed_leg_length=BUNDLED_LEG_LENGTH,
     timestep=DEFAULT_TIMESTEP, push="walking",
     bench=("walk", "push-search", "slopes"), expected=("walk",)))

@@ -61,10 +61,11 @@ def _walker_stats(args, spec):
             continue
         if name not in spec.options:
             raise MjcharError(f"--{name} does not apply to {spec.name}")
-        if name == "speed":
-            check_speed(spec, value)
         options[name] = value
     character = Character(args.model)
+    if args.speed is not None:
+        check_speed(spec, args.speed,
+                    character.leg_length() if spec.speed_leg_length else None)
     if spec.timestep:
         character.set_timestep(spec.timestep)
     controller = registry.make_controller(spec.name, character, None, **options)
