@@ -325,12 +325,27 @@ def test_gait_section(tiny_doc):
     table.md."""
     out, doc = tiny_doc
     labels = [w["label"] for w in doc["gait"]["walks"]] + list(doc["gait"]["skipped"])
-    assert "simbicon" in labels
+    assert {"simbicon walk", "simbicon natural"} <= set(labels)
+    assert doc["gait"]["speed_mps"] == 1.2
     if (SHARED_BVH / "walk60.bvh").is_file():
         assert "walk60" in labels
     for w in doc["gait"]["walks"]:
         assert w["speed_mps"] >= 0 and len(w["cycle_mean"].get("trunk_lean", [0] * 101)) == 101
-    assert "Gait (walkers:" in (out / "table.md").read_text()
+    assert "Gait (walkers at 1.2 m/s:" in (out / "table.md").read_text()
+
+
+def test_gait_walks_are_issue_14s_comparison():
+    """Walkers that take a speed walk at gait_speed (1.2 m/s, the mocap walks' speed); walkers
+    with gaits walk once per gait; controllers that do not walk have no gait row."""
+    from mjchar.bench.gait import gait_walks
+
+    cfg = B.quick_config()
+    walks = gait_walks(cfg, ["static_balance", "simbicon", "ipm"])
+    assert walks == [("simbicon walk", "simbicon", {"speed": 1.2, "gait": "walk"}),
+                     ("simbicon natural", "simbicon", {"speed": 1.2, "gait": "natural"}),
+                     ("ipm", "ipm", {"speed": 1.2})]
+    with pytest.raises(B.BenchError, match="gait_gaits"):
+        replace(cfg, gait_gaits=()).check()
 
 
 def test_videos_give_stills_and_a_walk_strip(tmp_path):

@@ -94,6 +94,8 @@ class BenchConfig:
     slope_distance: float = 10.0
     slope_duration: float = 20.0
     ipm_speed: float = 1.0
+    gait_speed: float = 1.2
+    gait_gaits: tuple[str, ...] = ("walk", "natural")
     track_duration: float | None = None
     sample_rate: float = 20.0
     fps: float = 30.0
@@ -107,10 +109,12 @@ class BenchConfig:
         for name in ("stand_duration", "random_push_duration", "walk_duration",
                      "slope_duration", "push_standing_cap", "push_walking_cap",
                      "push_resolution", "push_after", "push_warmup", "sample_rate", "fps",
-                     "random_push_force", "ipm_speed"):
+                     "random_push_force", "ipm_speed", "gait_speed"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise BenchError(f"{name} must be a positive number, got {v!r}")
+        if not self.gait_gaits or not all(isinstance(g, str) for g in self.gait_gaits):
+            raise BenchError(f"gait_gaits must name gaits, got {self.gait_gaits!r}")
         if not (0 < abs(self.slope_degrees) < 45):
             raise BenchError(f"slope_degrees must be in (0, 45), got {self.slope_degrees}")
         bad = [d for d in self.push_directions if d not in DIRECTION_NAMES]

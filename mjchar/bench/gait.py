@@ -14,51 +14,68 @@ GAIT_START_S = 3.0
 MOCAP_WALKS = ("walk60.bvh", "walk_forward.bvh")
 
 
+def gait_walks(config: BenchConfig, controllers: Sequence[str]) -> list[tuple[str, str, dict]]:
+    """``(label, controller, factory options)`` of the gait section's walks: every walker among
+    ``controllers`` at ``config.gait_speed`` if it takes a speed (issue 14's comparison point,
+    the mocap walks' speed), once per gait of ``config.gait_gaits`` if it takes a gait
+    (labelled ``NAME GAIT``)."""
+    from controllers import registry
+
+    out = []
+    for name in controllers:
+        spec = registry.get(name)
+        if spec.kind != "walker":
+            continue
+        base = {"speed": config.gait_speed} if "speed" in spec.options else {}
+        if "gait" in spec.options:
+            out += [(f"{name} {g}", name, {**base, "gait": g}) for g in config.gait_gaits]
+        else:
+            out.append((name, name, base))
+    return out
+
+
 def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
              filmstrip=None) -> dict:
-    """Gait statistics of each walker among ``controllers`` (``config.walk_duration`` s, IPM at
-    ``config.ipm_speed``, analysed from :data:`GAIT_START_S`, or a quarter of the run if that
-    is shorter; a run too short or fallen too early to analyse is listed in ``skipped``) and
-    of the mocap walks. With ``filmstrip`` (a PNG path) every walk's middle stride is drawn
-    there too (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the
-    file, or says why there is none)."""
+    """Gait statistics of the walks of :func:`gait_walks` (``config.walk_duration`` s, analysed
+    from :data:`GAIT_START_S`, or a quarter of the run if that is shorter; a run too short or
+    fallen too early to analyse is listed in ``skipped``) and of the mocap walks. With
+    ``filmstrip`` (a PNG path) every walk's middle stride is drawn there too
+    (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the file, or
+    says why there is none)."""
     from bvh.gait import GaitError, analyse, clip_walk
     from controllers import registry
     from controllers.core import scenarios as S
     from controllers.core.character import Character
     from controllers.core.recording import MotionRecorder
 
-    from .matrix import factory_options
-
     start = min(GAIT_START_S, 0.25 * config.walk_duration)
     walks, falls, skipped = [], {}, {}
-    for name in controllers:
+    for label, name, options in gait_walks(config, controllers):
         spec = registry.get(name)
-        if spec.kind != "walker":
-            continue
         ch = Character(None)
         if spec.timestep:
             ch.set_timestep(spec.timestep)
-        ctrl = registry.make_controller(name, ch, None, **factory_options(spec, "walk", config))
+        ctrl = registry.make_controller(name, ch, None, **options)
         rec = MotionRecorder()
         result = S.run_scenario("walk", ch, ctrl, duration=config.walk_duration,
                                 frame_callback=rec)
-        falls[name] = result.fall_time_s
+        falls[label] = result.fall_time_s
         try:
             walks.append((analyse(ch.model, rec.times, rec.qpos, start=start,
-                                  end=result.fall_time_s, info=ch.info, label=name),
+                                  end=result.fall_time_s, info=ch.info, label=label),
                           ch.model, rec.times, rec.qpos))
         except GaitError as e:
-            skipped[name] = str(e)
+            skipped[label] = str(e)
             continue
         if progress:
-            progress(f"  gait {name}: {walks[-1][0].steps} steps")
+            progress(f"  gait {label}: {walks[-1][0].steps} steps")
     for clip in MOCAP_WALKS:
         if (SHARED_BVH / clip).is_file():
             model, info, times, qpos = clip_walk(SHARED_BVH / clip)
             stats = analyse(model, times, qpos, info=info, label=clip.removesuffix(".bvh"))
             walks.append((stats, model, times, qpos))
-    section = {"start_s": start, "duration_s": config.walk_duration, "falls": falls,
+    section = {"start_s": start, "duration_s": config.walk_duration,
+               "speed_mps": config.gait_speed, "falls": falls,
                "skipped": skipped, "walks": [w[0].to_dict() for w in walks]}
     if filmstrip is not None and walks:
         from bvh.errors import MjcharError
@@ -80,8 +97,10 @@ def gait_markdown(section: dict | None) -> str:
     from bvh.gait import GaitStats, table
 
     stats = [GaitStats(**w) for w in section["walks"]]
-    return (f"Gait (walkers: {section['duration_s']:g} s runs from {section['start_s']:g} s on; "
-            "mocap clips whole; docs/gait.md):\n\n" + table(stats))
+    speed = section.get("speed_mps")
+    at = f" at {speed:g} m/s" if speed is not None else ""
+    return (f"Gait (walkers{at}: {section['duration_s']:g} s runs from {section['start_s']:g} s "
+            "on; mocap clips whole; docs/gait.md):\n\n" + table(stats))
 
 
 def plot_gait(section: dict | None, path):
