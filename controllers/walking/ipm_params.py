@@ -29,7 +29,8 @@ _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing
            "human_push_off", "human_liftoff_height", "human_ankle_back")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
          "speed_offset", "speed_integral", "human_step_time", "human_speed_integral", "turn_hold")
-_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
+_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end",
+          "ankle_back_speeds")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 #: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
 _RATE2 = ("vf_coronal_pos", "cadence_gain")
@@ -44,7 +45,8 @@ _TORQUE = ("stance_yaw_limit",)
 _DIMENSIONLESS = ("min_phase", "max_phase", "sagittal_scale", "coronal_scale", "clamp",
                   "swing_blend", "stance_knee", "stance_knee_ramp", "fast_stance_knee_ramp",
                   "stance_knee_ramp_max", "human_stance_knee_ramp",
-                  "human_coronal_scale", "push_off_phase", "upper_gain_scale", "acceleration",
+                  "human_coronal_scale", "push_off_phase", "human_toe_up", "toe_up_phase",
+                  "upper_gain_scale", "acceleration",
                   "turn_acceleration", "gravity_compensation", "implicit_damping", "feedforward",
                   "heading_tolerance", "arm_abduction", "yaw_friction")
 
@@ -257,6 +259,9 @@ class IPMParams:
     human_push_off: float = 0.2
     human_ankle_back: float = 0.01
     human_ankle_yaw_kd: float = 60.0
+    human_toe_up: float = 0.35
+    toe_up_phase: float = 0.3
+    ankle_back_speeds: tuple[float, float] = (0.7, 0.9)
     push_off_phase: float = 0.5
     human_coronal_scale: float = 0.8
     human_speed_integral: float = 0.06
@@ -327,6 +332,15 @@ class IPMParams:
             x *= max(0.0, 1.0 - (v - self.human_top) / max(self.human_end - self.human_top, 1e-9))
         return x
 
+    def ankle_back_weight(self, speed: float) -> float:
+        """Weight (0-1) of ``human_ankle_back`` at a desired speed (m/s): 0 up to
+        ``ankle_back_speeds[0]``, 1 from ``ankle_back_speeds[1]`` on (and from ``fast_speed``
+        on in any case), linear in between."""
+        v = abs(float(speed))
+        lo, hi = self.ankle_back_speeds
+        x = 0.0 if v <= lo else 1.0 if v >= hi else (v - lo) / (hi - lo)
+        return max(x, self.speed_blend(v))
+
     def human(self, name: str, speed: float) -> float:
         """Parameter ``name`` at a desired speed: ``name`` blended towards ``human_<name>`` by
         :meth:`human_weight`."""
@@ -391,6 +405,12 @@ class IPMParams:
             raise IPMError("need 0 <= min_phase < max_phase")
         if self.clamp <= 0:
             raise IPMError("clamp must be a positive fraction of the leg length")
+        if len(self.ankle_back_speeds) != 2 or not (
+                0 <= self.ankle_back_speeds[0] < self.ankle_back_speeds[1]):
+            raise IPMError(f"ankle_back_speeds must be (from, full) m/s with 0 <= from < full, "
+                           f"got {self.ankle_back_speeds!r}")
+        if self.toe_up_phase <= 0:
+            raise IPMError(f"toe_up_phase must be a phase > 0, got {self.toe_up_phase}")
         if self.turn_ankle_limit is None or len(self.turn_ankle_limit) != 3:
             raise IPMError(f"turn_ankle_limit must be (pitch_fwd, pitch_back, roll), got "
                            f"{self.turn_ankle_limit!r}")
