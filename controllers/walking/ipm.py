@@ -97,7 +97,12 @@ dragged along it by the COM-relative target), a stance ankle that pushes the toe
 most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
 heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
 and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
-twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md).
+twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md). The
+feet's measures reach beyond the band: the swing foot leaves the floor toes up
+(``human_toe_up``), and the lift-off, toes up, push-off and twist damping stay on above
+``human_top`` (they blend in from ``slow_speed`` with the band but do not fade with it); the
+toe-up ankle limit applies from 0.7-0.9 m/s up (``ankle_back_speeds``): slip 0.46-0.95 cm per
+step at 0.6 and 0.8-1.4 m/s (1.3-1.4 cm at 1.5-1.6).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
