@@ -123,10 +123,10 @@ class IPMParams:
             Applied at every speed it cost a 150 N backward standing push (38/40 against 39/40).
         ankle_back_speeds: ``human_ankle_back`` takes over from ``stance_ankle_limit``'s
             toe-up moment between these desired speeds (m/s) and holds at every faster one
-            (:meth:`IPMParams.ankle_back_weight`). Measured (issue 14, ``mjchar gait``): in the
-            slow band the foot rocked back onto its heel in mid stance as it did at 1.2 m/s, and
-            spun at the end of stance: slip 1.29 -> 0.65 cm/step at 1.0 m/s, 0.92 -> 0.57 at 0.9,
-            0.76 -> 0.53 at 0.8 (1.0 m/s walks 0.92 instead of 0.94 m/s over 3-20 s); at 0.6
+            (:meth:`IPMParams.ankle_back_weight`). Measured (issue 14, ``mjchar gait``): the slow
+            band's 0.03 m (which rocked the foot onto its heel at 1.2 m/s) left most of the slip
+            late in stance at 1.0 m/s; with 0.01 m: 1.29 -> 0.65 cm/step at 1.0 m/s, 0.92 -> 0.56
+            at 0.9, 0.76 -> 0.56 at 0.8 (1.0 m/s walks 0.92 instead of 0.94 m/s over 3-20 s); at 0.6
             m/s it gave 0.55 against 0.46, so it starts at 0.7.
         human_toe_up, toe_up_phase: the swing foot's target is pitched toes up by
             ``human_toe_up`` (rad) at lift-off, easing (smoothstep) to flat by ``toe_up_phase``,
