@@ -97,7 +97,12 @@ dragged along it by the COM-relative target), a stance ankle that pushes the toe
 most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
 heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
 and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
-twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md).
+twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md). The
+feet's measures reach beyond the band: the swing foot leaves the floor toes up
+(``human_toe_up``), and the lift-off, toes up, push-off and twist damping stay on above
+``human_top`` (they blend in from ``slow_speed`` with the band but do not fade with it); the
+toe-up ankle limit applies from 0.7-0.9 m/s up (``ankle_back_speeds``): slip 0.46-0.95 cm per
+step at 0.6 and 0.8-1.4 m/s (1.3-1.4 cm at 1.5-1.6).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
@@ -162,8 +167,9 @@ class IPMController:
         if unknown:
             raise IPMError(f"unknown IPM option(s) {', '.join(sorted(unknown))}; choose from "
                            f"{', '.join(f.name for f in fields(IPMParams))}")
-        if "swing_heights" in options:
-            options["swing_heights"] = tuple(float(x) for x in options["swing_heights"])
+        for name in ("swing_heights", "ankle_back_speeds"):
+            if name in options:
+                options[name] = tuple(float(x) for x in options[name])
         #: the parameters as given (for the tuned body, see ``ipm_params.TUNED_LEG_LENGTH``);
         #: ``params`` is them carried to the driven body at :meth:`reset`
         self.body_params = replace(base, **options).check()
@@ -198,7 +204,7 @@ class IPMController:
         self._ball = {lg.side: float(np.linalg.norm(
             (rest.xpos[ch.body_id(lg.toe_name)] - rest.xpos[lg.foot])[:2]))
             if lg.toe_name else fwd for lg in self._legs}
-        self._human = self._push_w = 0.0
+        self._human = self._foot = self._back = self._push_w = 0.0
         # joints acting directly on the pelvis other than the hips (the spine)
         leg_jnts = {int(j) for lg in self._legs for j in lg.hip_jnt}
         pelvis_jnts = [j for j in range(m.njnt) if m.jnt_bodyid[j] != self._pelvis
@@ -339,10 +345,13 @@ class IPMController:
         p = self.params
         step_time, self._knee_kp, self._knee_ramp = p.at_speed(self.speed_target)
         self._human = w = p.human_weight(self.speed_target)
+        # the feet's measures (lift-off, toes up, push-off, twist damping) hold above the band
+        self._foot = fw = p.speed_blend(self.speed_target)
+        self._back = p.ankle_back_weight(self.speed_target)
         self.trajectory = self._trajectory
-        if w > 0:  # a lower swing, lifted off at once, at human-like speeds
+        if w > 0 or fw > 0:  # a lower swing, lifted off at once, at human-like speeds
             h0, h1, h2 = p.swing_heights
-            self.trajectory = SwingTrajectory((h0 + w * (p.human_liftoff_height - h0),
+            self.trajectory = SwingTrajectory((h0 + fw * (p.human_liftoff_height - h0),
                                                h1 + w * (p.human_swing_height - h1), h2),
                                               p.descent_speed, blend=p.swing_blend)
         self._T = step_time if duration is None else duration
@@ -597,6 +606,12 @@ class IPMController:
         self.swing_target = site_target
         R_foot_des = rotation_z(self.heading_target)
         ankle_target = site_target - R_foot_des @ sw.site_offset
+        R_sw_foot = R_foot_des
+        if self._foot > 0 and p.human_toe_up > 0 and self.phase < p.toe_up_phase:
+            # toes up early in the swing (easing to flat): the trailing toe leaves the floor
+            x = self.phase / p.toe_up_phase
+            toe_up = self._foot * p.human_toe_up * (1.0 - x * x * (3.0 - 2.0 * x))
+            R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
         hip_pos = d.xanchor[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
         thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
@@ -627,7 +642,7 @@ class IPMController:
             knee_target += (self._knee0 - p.stance_knee) * (1.0 - x * x * (3.0 - 2.0 * x))
         tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
-        for leg, R_des, kp, kd in ((sw, R_foot_des, p.swing_ankle_kp, p.swing_ankle_kd),
+        for leg, R_des, kp, kd in ((sw, R_sw_foot, p.swing_ankle_kp, p.swing_ankle_kd),
                                    (st, None, p.ankle_kp, p.ankle_kd)):
             R_foot = d.xmat[leg.foot].reshape(3, 3)
             if R_des is None:  # stance foot: flat, keep its own yaw
@@ -635,17 +650,17 @@ class IPMController:
             A = d.xaxis[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
-            if leg is st and self._human > 0:
+            if leg is st and self._foot > 0:
                 # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
                 n = A.T @ R_foot[:, 2]                    # the foot's vertical on the hinges
-                extra = self._human * (p.human_ankle_yaw_kd - kd)
+                extra = self._foot * (p.human_ankle_yaw_kd - kd)
                 D[np.ix_(leg.ankle, leg.ankle)] += extra * np.outer(n, n)
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0
-        if self._human > 0 and p.human_push_off > 0 and self.phase > p.push_off_phase:
+        if self._foot > 0 and p.human_push_off > 0 and self.phase > p.push_off_phase:
             x = min((self.phase - p.push_off_phase) / (1.0 - p.push_off_phase), 1.0)
-            self._push_w = self._human * x * x * (3.0 - 2.0 * x)
+            self._push_w = self._foot * x * x * (3.0 - 2.0 * x)
             R_foot = d.xmat[st.foot].reshape(3, 3)
             moment = p.human_push_off * self._push_w * self.mass * GRAVITY
             tau[st.ankle] += d.xaxis[st.ankle_jnt] @ (R_foot[:, 1] * moment)
@@ -744,7 +759,7 @@ class IPMController:
             fwd, back, roll = p.turn_ankle_limit
         else:
             fwd, back, roll = p.stance_ankle_limit
-            back += self._human * (p.human_ankle_back - back)
+            back += self._back * (p.human_ankle_back - back)
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]

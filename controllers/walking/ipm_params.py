@@ -29,7 +29,8 @@ _LENGTH = ("step_width", "min_width", "capture_margin", "max_speed_bias", "swing
            "human_push_off", "human_liftoff_height", "human_ankle_back")
 _TIME = ("step_time", "fast_step_time", "first_step_time", "push_step_time", "settle_time",
          "speed_offset", "speed_integral", "human_step_time", "human_speed_integral", "turn_hold")
-_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end")
+_SPEED = ("stop_speed", "descent_speed", "slow_speed", "fast_speed", "human_top", "human_end",
+          "ankle_back_speeds")
 _RATE = ("vf_sagittal", "vf_coronal_vel", "max_target_rate", "turn_rate", "lean")
 #: per length: 1/s^2 gains and ``cadence_gain`` (steps/s per m/s = 1/m), both x L_t/L
 _RATE2 = ("vf_coronal_pos", "cadence_gain")
@@ -44,7 +45,8 @@ _TORQUE = ("stance_yaw_limit",)
 _DIMENSIONLESS = ("min_phase", "max_phase", "sagittal_scale", "coronal_scale", "clamp",
                   "swing_blend", "stance_knee", "stance_knee_ramp", "fast_stance_knee_ramp",
                   "stance_knee_ramp_max", "human_stance_knee_ramp",
-                  "human_coronal_scale", "push_off_phase", "upper_gain_scale", "acceleration",
+                  "human_coronal_scale", "push_off_phase", "human_toe_up", "toe_up_phase",
+                  "upper_gain_scale", "acceleration",
                   "turn_acceleration", "gravity_compensation", "implicit_damping", "feedforward",
                   "heading_tolerance", "arm_abduction", "yaw_friction")
 
@@ -73,14 +75,15 @@ class IPMParams:
             at 60 s, still growing), at 1.5 m/s 0.39 s steps fell at 30 s, 0.36 s steps held a
             steady gait (docs/ipm.md, speed range).
         human_top, human_end: the human-like gait band (m/s of desired speed). The ``human_*``
-            values take over from the slow ones between ``slow_speed`` and ``fast_speed``, hold
-            up to ``human_top`` and give way to the fast ones (quick steps, soft knee) by
-            ``human_end`` (:meth:`IPMParams.human_weight`). Measured (60 s walks, issue 14):
-            the human-like gait alone above 1.35 m/s settles too slow (1.6 m/s: steady 1.35 m/s;
-            a larger speed bias or stepping closer fell at 5-13 s), while fading it out by 1.5
-            m/s (knee kp 400, swing 0.06 m) fell at 6.4-7.5 s at 1.4-1.6 m/s in the switch; kp 300
-            with this fade walked 1.4/1.5/1.6 m/s 60 s at 1.351/1.392/1.532 m/s (0.08 m swing),
-            and the defaults pass the 60 s range 0.3-1.6 m/s (``test_speed_range_60s``).
+            values take over from the slow ones between ``slow_speed`` and ``fast_speed``, hold up
+            to ``human_top`` and give way to the fast ones (quick steps, soft knee) by ``human_end``
+            (:meth:`IPMParams.human_weight`); the feet's ones (lift-off, toes up, push-off, twist
+            damping, toe-up ankle limit) do not give way. Measured (60 s walks, issue 14): the
+            human-like gait alone above 1.35 m/s settles too slow (1.6 m/s: steady 1.35 m/s; a
+            larger speed bias or stepping closer fell at 5-13 s), while fading it out by 1.5 m/s
+            (knee kp 400, swing 0.06 m) fell at 6.4-7.5 s at 1.4-1.6 m/s in the switch; kp 300 with
+            this fade walked 1.4/1.5/1.6 m/s 60 s at 1.351/1.392/1.532 m/s (0.08 m swing), and the
+            defaults pass the 60 s range 0.3-1.6 m/s (``test_speed_range_60s``).
         human_step_time: step time (s) at ``fast_speed`` in that band (the rate then grows by
             ``cadence_gain`` like the fast one's): 0.48 s, so 1.2 m/s takes 0.47 s nominal steps
             (~0.5 s as walked, 119 steps/min, 0.59 m; the fast band's 0.39 s gave 145 steps/min
@@ -95,33 +98,52 @@ class IPMParams:
             otherwise): 0.05 m, foot clearance 0.06 m (the 0.15 m swing: 0.14 m, mocap 0.07-0.08
             m) and 2-4 deg less mean knee flexion (34.0 at 0.05, 35.5 at 0.06, 37.5 at 0.08 m).
         human_liftoff_height: the swing target's sole height (m) at lift-off (phase 0,
-            ``swing_heights[0]`` otherwise) in that band: 0.12 m, so the trailing foot comes
-            straight up instead of skimming the floor. Measured (issue 14's stance slip, 1.2
-            m/s, ``mjchar gait``): with 0.04 m the lifted foot slid on 1-4 mm of air at up to
-            0.6 m/s before the probe's stance ended (0.8 of 1.8 cm/step with no contact left);
-            0.08 m: 1.06 cm, 0.12 m: 1.00 cm, 0.16 m: 1.02 cm.
-        human_ankle_back: ``stance_ankle_limit``'s toe-up (``pitch_back``) moment in that band
-            (m x body weight): 0.01 m. With 0.03 m the saturated forward virtual force kept the
-            stance ankle at that limit from phase 0.1 to 0.45: the foot rocked onto its heel
-            (toes up 9 deg, 2 of 8 corners down) and slapped flat again, 0.9 cm of the 1.98
-            cm/step slip at 1.2 m/s; 0.01 m: the foot stays flat (1.2 m/s walks 1.140 m/s
-            instead of 1.167, 1.5 m/s 60 s steady 1.361 instead of 1.387); 0 m: 0.93 cm but a
-            60 s walk at 1.6 m/s fell (7.2 s, with a 0.10 m lift-off).
-        human_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical
-            axis in that band (``ankle_kd`` otherwise, and about the other two axes). The stance
-            foot keeps its own yaw (no stiffness about the vertical), so this damping is all that
-            couples the leg's twist to the planted foot: 60 (with the lift-off and ankle limit
+            ``swing_heights[0]`` otherwise) from ``fast_speed`` on (it, ``human_toe_up``,
+            ``human_push_off`` and ``human_ankle_yaw_kd`` blend in from ``slow_speed`` like the band
+            but do not fade above ``human_top``: measured at 1.4 m/s, where the band has faded to
+            0.8, 1.10 cm/step with them faded, 0.95 held; 1.6 m/s 2.64 -> 1.34 cm with
+            ``ankle_back_speeds``; 60 s steady speeds 1.294, 1.392, 1.494 m/s at 1.4, 1.5, 1.6):
+            0.12 m, so the trailing foot comes straight up instead of skimming the floor. Measured
+            (issue 14's stance slip, 1.2 m/s, ``mjchar gait``): with 0.04 m the lifted foot slid on
+            1-4 mm of air at up to 0.6 m/s before the probe's stance ended (0.8 of 1.8 cm/step with
+            no contact left); 0.08 m: 1.06 cm, 0.12 m: 1.00 cm, 0.16 m: 1.02 cm.
+        human_ankle_back: ``stance_ankle_limit``'s toe-up (``pitch_back``) moment in that band and,
+            by ``ankle_back_speeds``, below it (m x body weight): 0.01 m. With 0.03 m the saturated
+            forward virtual force kept the stance ankle at that limit from phase 0.1 to 0.45: the
+            foot rocked onto its heel (toes up 9 deg, 2 of 8 corners down) and slapped flat again,
+            0.9 cm of the 1.98 cm/step slip at 1.2 m/s; 0.01 m: the foot stays flat (1.2 m/s walks
+            1.140 m/s instead of 1.167, 1.5 m/s 60 s steady 1.361 instead of 1.387); 0 m: 0.93 cm
+            but a 60 s walk at 1.6 m/s fell (7.2 s, with a 0.10 m lift-off).
+        human_ankle_yaw_kd: the stance ankle's damping (N m s/rad) about the foot's vertical axis
+            from ``fast_speed`` on (``ankle_kd`` otherwise, and about the other two axes). The
+            stance foot keeps its own yaw (no stiffness about the vertical), so this damping is all
+            that couples the leg's twist to the planted foot: 60 (with the lift-off and ankle limit
             above, 1.2 m/s) gives a stance slip of 0.95 cm/step against 1.01 with 15; 120: no
             better; 5: 2.8 cm, 2: fell (the leg twists freely, the pelvis loses its yaw anchor).
             Applied at every speed it cost a 150 N backward standing push (38/40 against 39/40).
-        human_push_off, push_off_phase: in that band, from ``push_off_phase`` to the end of the
-            step a toes-down moment of ``human_push_off`` x body weight (m) on the stance foot
-            (smoothstep), and the forward ankle limit grows to the ball of the foot (its toe
-            joint) with it, so the heel lifts. Measured why: with a straight stance knee and
-            0.5 s steps the stance foot stayed flat to the end (pitch 0 deg at the next
-            landing), so the hip sank over it (0.83 -> 0.77 m in 6 s), every landing came
-            deeper (swing knee 0.57 -> 0.92 rad at contact) and the walk fell at 12.8 s; with
-            0.2 it holds (landing hip ~0.80 m).
+        ankle_back_speeds: ``human_ankle_back`` takes over from ``stance_ankle_limit``'s
+            toe-up moment between these desired speeds (m/s) and holds at every faster one
+            (:meth:`IPMParams.ankle_back_weight`). Measured (issue 14, ``mjchar gait``): the slow
+            band's 0.03 m (which rocked the foot onto its heel at 1.2 m/s) left most of the slip
+            late in stance at 1.0 m/s; with 0.01 m: 1.29 -> 0.65 cm/step at 1.0 m/s, 0.92 -> 0.56
+            at 0.9, 0.76 -> 0.56 at 0.8 (1.0 m/s walks 0.92 instead of 0.94 m/s over 3-20 s); at 0.6
+            m/s it gave 0.55 against 0.46, so it starts at 0.7.
+        human_toe_up, toe_up_phase: the swing foot's target is pitched toes up by
+            ``human_toe_up`` (rad) at lift-off, easing (smoothstep) to flat by ``toe_up_phase``,
+            from ``fast_speed`` on (blended in from ``slow_speed``). Measured (1.2 m/s): the
+            trailing foot left the floor pitched toes down (7 deg, heel up from push-off) and
+            tipped further (12 deg) as the knee lifted it, its toe dragged forward within 1 cm
+            of the floor for ~50 ms at 0.5-1.5 m/s; toes up 0.2 rad: 0.95 -> 0.83 cm/step, 0.35:
+            0.80, 0.5: 0.82 (phase 0.3 or 0.6 alike); 1.1 / 1.3 m/s 1.10 / 0.97 -> 0.75 / 0.82.
+            In the slow band (0.5 s steps, no push-off) it made it worse (1.0 m/s: 1.29 -> 1.9).
+        human_push_off, push_off_phase: from ``fast_speed`` on, from ``push_off_phase`` to the end
+            of the step a toes-down moment of ``human_push_off`` x body weight (m) on the stance
+            foot (smoothstep), and the forward ankle limit grows to the ball of the foot (its toe
+            joint) with it, so the heel lifts. Measured why: with a straight stance knee and 0.5 s
+            steps the stance foot stayed flat to the end (pitch 0 deg at the next landing), so the
+            hip sank over it (0.83 -> 0.77 m in 6 s), every landing came deeper (swing knee 0.57 ->
+            0.92 rad at contact) and the walk fell at 12.8 s; with 0.2 it holds (landing hip ~0.80
+            m).
         human_coronal_scale: ``coronal_scale`` in that band: 0.8 (at 1.0 the longer steps
             stepped 0.20-0.26 m wide; 0.9: 0.15 m, 0.8: 0.12 m; 0.7 fell at 6.2 s).
         human_speed_integral: ``speed_integral`` in that band (s): 0.06; with 0.02 the
@@ -257,6 +279,9 @@ class IPMParams:
     human_push_off: float = 0.2
     human_ankle_back: float = 0.01
     human_ankle_yaw_kd: float = 60.0
+    human_toe_up: float = 0.35
+    toe_up_phase: float = 0.3
+    ankle_back_speeds: tuple[float, float] = (0.7, 0.9)
     push_off_phase: float = 0.5
     human_coronal_scale: float = 0.8
     human_speed_integral: float = 0.06
@@ -327,6 +352,15 @@ class IPMParams:
             x *= max(0.0, 1.0 - (v - self.human_top) / max(self.human_end - self.human_top, 1e-9))
         return x
 
+    def ankle_back_weight(self, speed: float) -> float:
+        """Weight (0-1) of ``human_ankle_back`` at a desired speed (m/s): 0 up to
+        ``ankle_back_speeds[0]``, 1 from ``ankle_back_speeds[1]`` on (and from ``fast_speed``
+        on in any case), linear in between."""
+        v = abs(float(speed))
+        lo, hi = self.ankle_back_speeds
+        x = 0.0 if v <= lo else 1.0 if v >= hi else (v - lo) / (hi - lo)
+        return max(x, self.speed_blend(v))
+
     def human(self, name: str, speed: float) -> float:
         """Parameter ``name`` at a desired speed: ``name`` blended towards ``human_<name>`` by
         :meth:`human_weight`."""
@@ -391,6 +425,12 @@ class IPMParams:
             raise IPMError("need 0 <= min_phase < max_phase")
         if self.clamp <= 0:
             raise IPMError("clamp must be a positive fraction of the leg length")
+        if len(self.ankle_back_speeds) != 2 or not (
+                0 <= self.ankle_back_speeds[0] < self.ankle_back_speeds[1]):
+            raise IPMError(f"ankle_back_speeds must be (from, full) m/s with 0 <= from < full, "
+                           f"got {self.ankle_back_speeds!r}")
+        if self.toe_up_phase <= 0:
+            raise IPMError(f"toe_up_phase must be a phase > 0, got {self.toe_up_phase}")
         if self.turn_ankle_limit is None or len(self.turn_ankle_limit) != 3:
             raise IPMError(f"turn_ankle_limit must be (pitch_fwd, pitch_back, roll), got "
                            f"{self.turn_ankle_limit!r}")
