@@ -330,6 +330,23 @@ def test_speed_range_60s(character, speed):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("end", [0.3, 1.6])
+@pytest.mark.parametrize("height", [1.5, 1.95])
+def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
+    """On the zoo's 1.5 m and 1.95 m humanoids the range is the same Froude speeds (the
+    registered limits scale with the leg length, as the parameters do): 60 s at its ends."""
+    from controllers import registry
+    from controllers.core.terrain import walk
+
+    ch = Character(zoo_humanoids[height])
+    speed = end * registry.get("ipm").limit("speed", ch.leg_length())[1] / 1.6
+    r = walk(ch, make_ipm(ch, speed=speed), duration=60.0, seed=0)
+    assert not r.fell, r.fall_reason
+    assert r.root_force_max_N == 0.0
+    assert abs(r.extra["steady_speed_mps"] - speed) < 0.15, r.extra
+
+
+@pytest.mark.slow
 def test_speed_schedule_slow_fast_slow(character):
     """0.5 -> 1.5 -> 0.5 m/s in one run (commands at 15 and 35 s): no fall, each speed reached."""
     c = make_ipm(character, speed=lambda t: 0.5 if t < 15.0 else 1.5 if t < 35.0 else 0.5)
