@@ -97,12 +97,9 @@ dragged along it by the COM-relative target), a stance ankle that pushes the toe
 most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
 heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
 and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
-twist damping keep the stance foot's slip under 1 cm per step at 1.2 m/s (docs/ipm.md). The
-feet's measures reach beyond the band: the swing foot leaves the floor toes up
-(``human_toe_up``), and the lift-off, toes up, push-off and twist damping stay on above
-``human_top`` (they blend in from ``slow_speed`` with the band but do not fade with it); the
-toe-up ankle limit applies from 0.7-0.9 m/s up (``ankle_back_speeds``): slip 0.46-0.95 cm per
-step at 0.6 and 0.8-1.4 m/s (1.3-1.4 cm at 1.5-1.6).
+twist damping, with a swing foot that leaves the floor toes up (``human_toe_up``), hold above
+the band (blended in with it from ``slow_speed``), and the toe-up limit from 0.7-0.9 m/s
+(``ankle_back_speeds``): stance slip 0.46-0.95 cm per step at 0.6, 0.8-1.4 m/s (docs/ipm.md).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
@@ -795,8 +792,7 @@ register(ControllerSpec(
                                                                            **options),
     scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
     options=("speed", "heading", "params"), steps=True,
-    # walks 60 s with no fall from 0.3 to 1.6 m/s, steady speed within 0.15 m/s of the command
-    # (bundled humanoid, docs/ipm.md speed range and human-like band); 0 stops and stands; on
-    # other bodies the same Froude speeds (its parameters scale with the body)
+    # 60 s, no fall, steady speed within 0.15 m/s at 0.3-1.6 m/s on the bundled humanoid (0:
+    # stops and stands; docs/ipm.md), the same Froude speeds on other bodies (as its parameters)
     limits=(("speed", 0.0, 1.6),), speed_leg_length=TUNED_LEG_LENGTH,
     bench=("stand", "random-push", "push-search", "walk", "slopes"), expected=("stand", "walk")))
