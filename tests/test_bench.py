@@ -344,8 +344,9 @@ def test_gait_walks_are_issue_14s_comparison():
     assert walks == [("simbicon walk", "simbicon", {"speed": 1.2, "gait": "walk"}),
                      ("simbicon natural", "simbicon", {"speed": 1.2, "gait": "natural"}),
                      ("ipm", "ipm", {"speed": 1.2})]
-    with pytest.raises(B.BenchError, match="gait_gaits"):
-        replace(cfg, gait_gaits=()).check()
+    for bad in ((), "walk", ("walk", "no-such-gait"), ("crouch",)):
+        with pytest.raises(B.BenchError, match="gait_gaits"):
+            replace(cfg, gait_gaits=bad).check()
 
 
 def test_videos_give_stills_and_a_walk_strip(tmp_path):

@@ -117,9 +117,29 @@ def test_options_are_checked():
         IPMController(speed=float("nan"))
     with pytest.raises(IPMError, match="turn_ankle_limit"):
         IPMController(turn_ankle_limit=None)
-    c = IPMController(speed=1.0, params=IPMParams(step_time=0.45), hip_kp=500.0)
+    for bad in ({"ankle_back_speeds": 0.8}, {"swing_heights": 0.1}):
+        with pytest.raises(IPMError, match="sequence of numbers"):
+            IPMController(**bad)  # one number where a tuple belongs (e.g. --param)
+    for bad in ({"ankle_back_speeds": (0.9, 0.7)}, {"human_toe_up": -0.1}, {"toe_up_phase": 0}):
+        with pytest.raises(IPMError):
+            IPMController(**bad)
+    c = IPMController(speed=1.0, params=IPMParams(step_time=0.45), hip_kp=500.0,
+                      ankle_back_speeds=[0.6, 0.8])
     assert c.params.step_time == 0.45 and c.params.hip_kp == 500.0
+    assert c.params.ankle_back_speeds == (0.6, 0.8)
     assert c.name == "ipm" and c.actuation == "torque"
+
+
+def test_toe_up_ankle_limit_weight_follows_the_speed():
+    """The toe-up ankle limit (``human_ankle_back``) takes over between ankle_back_speeds and
+    holds at every faster speed, at least as much as the human band's blend."""
+    p = IPMParams()
+    lo, hi = p.ankle_back_speeds
+    assert p.ankle_back_weight(0.0) == p.ankle_back_weight(lo) == 0.0
+    assert p.ankle_back_weight((lo + hi) / 2) == pytest.approx(0.5)
+    assert all(p.ankle_back_weight(v) == 1.0 for v in (hi, 1.2, 1.6, 3.0, -1.2))
+    late = IPMParams(ankle_back_speeds=(1.5, 2.0))
+    assert late.ankle_back_weight(1.2) == late.speed_blend(1.2) == 1.0
 
 
 def test_act_before_reset_raises():
@@ -334,12 +354,13 @@ def test_speed_range_60s(character, speed):
 @pytest.mark.parametrize("height", [1.5, 1.95])
 def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
     """On the zoo's 1.5 m and 1.95 m humanoids the range is the same Froude speeds (the
-    registered limits scale with the leg length, as the parameters do): 60 s at its ends."""
+    registered limits scale with the leg length, as the parameters do): 60 s at the Froude
+    speeds of 0.3 m/s (the slowest walk of the 60 s range; 0 stands) and 1.6 m/s."""
     from controllers import registry
     from controllers.core.terrain import walk
 
     ch = Character(zoo_humanoids[height])
-    speed = end * registry.get("ipm").limit("speed", ch.leg_length())[1] / 1.6
+    speed = end * (ch.leg_length() / registry.get("ipm").speed_leg_length) ** 0.5
     r = walk(ch, make_ipm(ch, speed=speed), duration=60.0, seed=0)
     assert not r.fell, r.fall_reason
     assert r.root_force_max_N == 0.0

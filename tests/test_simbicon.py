@@ -477,9 +477,10 @@ def test_speed_command_60s(ch, speed, seed):
 @pytest.mark.parametrize("height", [1.5, 1.95])
 def test_speed_command_on_scaled_bodies(zoo_humanoids, height, end, gait):
     """The ends of the registered speed range on other bodies, where they are the same Froude
-    speeds (1.95 m: 0.66-1.76 m/s; 1.5 m: 0.58-1.54)."""
+    speeds (1.95 m: 0.660-1.761 m/s; 1.5 m: 0.579-1.544)."""
     ch = Character(zoo_humanoids[height], timestep=DEFAULT_TIMESTEP)
-    speed = registry.get("simbicon").limit("speed", ch.leg_length())[end]
+    spec = registry.get("simbicon")
+    speed = spec.limit("speed")[end] * (ch.leg_length() / spec.speed_leg_length) ** 0.5
     c = make_simbicon(ch, gait=gait, speed=speed)
     r = walk(ch, c, duration=60.0, seed=0)
     assert not r.fell, r.fall_reason

@@ -73,7 +73,10 @@ class ControllerSpec:
         speed_leg_length: the leg length (m, :meth:`Character.leg_length`) of the body the
             ``speed`` limits were measured on; on a body of leg length ``L`` they scale by
             ``sqrt(L / speed_leg_length)`` (the same Froude speeds, as the walkers scale their
-            gaits). ``None``: the speed limits hold in m/s on every body.
+            gaits), rounded outward to 0.01 m/s. ``None``: the speed limits hold in m/s on
+            every body.
+        speed_every_body: ``(low, high)`` m/s measured on every body (e.g. every rig of the
+            skeleton zoo); the scaled range is widened to include it.
         floor: how a reference clip it tracks is placed on the floor by default
             (``ReferenceMotion(floor=...)``): ``"contact"`` (stance feet on the floor) for
             controllers that only have joint torques, ``"clip"`` for one with a root force,
@@ -97,17 +100,22 @@ class ControllerSpec:
     trajectory_prefixes: tuple[str, ...] = ()
     limits: tuple[tuple[str, float, float], ...] = ()
     speed_leg_length: float | None = None
+    speed_every_body: tuple[float, float] | None = None
     floor: str = "contact"
 
     def limit(self, option: str, leg_length: float | None = None) -> tuple[float, float] | None:
         """``(low, high)`` of ``option`` from :attr:`limits`, ``None`` when unlimited; the
         ``speed`` limits on a body of ``leg_length`` m (``None``: as registered), see
-        :attr:`speed_leg_length`."""
+        :attr:`speed_leg_length` and :attr:`speed_every_body`."""
         for name, lo, hi in self.limits:
             if name == option:
                 if option == "speed" and leg_length is not None and self.speed_leg_length:
                     k = math.sqrt(leg_length / self.speed_leg_length)
-                    return lo * k, hi * k
+                    lo = math.floor(round(lo * k * 100.0, 6)) / 100.0
+                    hi = math.ceil(round(hi * k * 100.0, 6)) / 100.0
+                    if self.speed_every_body:
+                        every = self.speed_every_body
+                        lo, hi = min(lo, every[0]), max(hi, every[1])
                 return lo, hi
         return None
 
@@ -139,6 +147,11 @@ class ControllerSpec:
             raise bad(f"floor must be one of {', '.join(FLOOR_MODES)}, got {self.floor!r}")
         if self.speed_leg_length is not None and not self.speed_leg_length > 0:
             raise bad(f"speed_leg_length must be positive metres, got {self.speed_leg_length}")
+        if self.speed_every_body is not None and (
+                len(self.speed_every_body) != 2 or self.limit("speed") is None
+                or not self.speed_every_body[0] <= self.speed_every_body[1]):
+            raise bad(f"speed_every_body must be (low, high) m/s with speed limits, got "
+                      f"{self.speed_every_body}")
         if self.timestep is not None and not self.timestep > 0:
             raise bad(f"the time step must be positive, got {self.timestep}")
 

@@ -111,7 +111,7 @@ Use :func:`make_ipm` or :class:`IPMController` directly::
 from __future__ import annotations
 
 import math
-from dataclasses import fields, replace
+from dataclasses import fields
 
 import mujoco
 import numpy as np
@@ -164,12 +164,9 @@ class IPMController:
         if unknown:
             raise IPMError(f"unknown IPM option(s) {', '.join(sorted(unknown))}; choose from "
                            f"{', '.join(f.name for f in fields(IPMParams))}")
-        for name in ("swing_heights", "ankle_back_speeds"):
-            if name in options:
-                options[name] = tuple(float(x) for x in options[name])
         #: the parameters as given (for the tuned body, see ``ipm_params.TUNED_LEG_LENGTH``);
         #: ``params`` is them carried to the driven body at :meth:`reset`
-        self.body_params = replace(base, **options).check()
+        self.body_params = base.updated(options)
         self.params = self.body_params
         self.speed = schedule(speed, "speed")
         self.heading = schedule(heading, "heading", math.pi / 180.0)

@@ -313,6 +313,11 @@ class IPMParams:
     turn_ankle_limit: tuple[float, float, float] = (0.08, 0.0, 0.015)
     turn_hold: float = 1.0
 
+    def updated(self, options: dict) -> IPMParams:
+        """These parameters with ``options`` (field: value; sequences as tuples of floats),
+        checked (:meth:`check`)."""
+        return replace(self, **sequences_as_tuples(options)).check()
+
     def for_body(self, leg_length: float, mass: float) -> IPMParams:
         """These parameters carried from the tuned body (:data:`TUNED_LEG_LENGTH`,
         :data:`TUNED_MASS`) to a body of ``leg_length`` m and ``mass`` kg by dynamic similarity
@@ -425,16 +430,30 @@ class IPMParams:
             raise IPMError("need 0 <= min_phase < max_phase")
         if self.clamp <= 0:
             raise IPMError("clamp must be a positive fraction of the leg length")
-        if len(self.ankle_back_speeds) != 2 or not (
-                0 <= self.ankle_back_speeds[0] < self.ankle_back_speeds[1]):
+        lo_hi = self.ankle_back_speeds
+        if not isinstance(lo_hi, tuple) or len(lo_hi) != 2 or not 0 <= lo_hi[0] < lo_hi[1]:
             raise IPMError(f"ankle_back_speeds must be (from, full) m/s with 0 <= from < full, "
                            f"got {self.ankle_back_speeds!r}")
-        if self.toe_up_phase <= 0:
-            raise IPMError(f"toe_up_phase must be a phase > 0, got {self.toe_up_phase}")
+        if self.toe_up_phase <= 0 or self.human_toe_up < 0:
+            raise IPMError(f"need toe_up_phase > 0 and human_toe_up >= 0 (rad), got "
+                           f"{self.toe_up_phase}, {self.human_toe_up}")
         if self.turn_ankle_limit is None or len(self.turn_ankle_limit) != 3:
             raise IPMError(f"turn_ankle_limit must be (pitch_fwd, pitch_back, roll), got "
                            f"{self.turn_ankle_limit!r}")
         return self
+
+
+def sequences_as_tuples(options: dict) -> dict:
+    """``options`` with the sequence-valued :class:`IPMParams` fields (``swing_heights``,
+    ``ankle_back_speeds``) as tuples of floats; :class:`IPMError` for a single value."""
+    out = dict(options)
+    for name in ("swing_heights", "ankle_back_speeds"):
+        if name in out:
+            if isinstance(out[name], str | int | float):
+                raise IPMError(f"IPM option {name} must be a sequence of numbers, got "
+                               f"{out[name]!r}")
+            out[name] = tuple(float(x) for x in out[name])
+    return out
 
 
 def ipm_step_offset(v, h: float, g: float = GRAVITY):

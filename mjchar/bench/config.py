@@ -113,8 +113,7 @@ class BenchConfig:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise BenchError(f"{name} must be a positive number, got {v!r}")
-        if not self.gait_gaits or not all(isinstance(g, str) for g in self.gait_gaits):
-            raise BenchError(f"gait_gaits must name gaits, got {self.gait_gaits!r}")
+        self._check_gait_gaits()
         if not (0 < abs(self.slope_degrees) < 45):
             raise BenchError(f"slope_degrees must be in (0, 45), got {self.slope_degrees}")
         bad = [d for d in self.push_directions if d not in DIRECTION_NAMES]
@@ -127,6 +126,22 @@ class BenchConfig:
         if self.push_processes < 0:
             raise BenchError("push_processes must be >= 0 (0: one per core)")
         return self
+
+    def _check_gait_gaits(self) -> None:
+        """``gait_gaits``: a sequence of known gaits that take a speed command."""
+        from controllers.walking.gaits import GaitError, get_gait
+
+        gaits = self.gait_gaits
+        if isinstance(gaits, str) or not isinstance(gaits, tuple | list) or not gaits:
+            raise BenchError(f"gait_gaits must be a list of gait names, got {gaits!r}")
+        for name in gaits:
+            try:
+                gait = get_gait(name)
+            except GaitError as e:
+                raise BenchError(f"gait_gaits: {e}") from None
+            if gait.froude is None:
+                raise BenchError(f"gait_gaits: the {name!r} gait takes no speed command, so it "
+                                 f"cannot walk at gait_speed")
 
     def push_protocol(self, mode: str = "standing") -> PushProtocol:
         """The push protocol of the push-search cells (``mode``: the controller's push mode,

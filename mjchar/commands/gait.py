@@ -64,8 +64,7 @@ def _walker_stats(args, spec):
         options[name] = value
     character = Character(args.model)
     if args.speed is not None:
-        check_speed(spec, args.speed,
-                    character.leg_length() if spec.speed_leg_length else None)
+        check_speed(spec, args.speed, character)
     if spec.timestep:
         character.set_timestep(spec.timestep)
     controller = registry.make_controller(spec.name, character, None, **options)

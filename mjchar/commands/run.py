@@ -200,8 +200,7 @@ def run(args: argparse.Namespace) -> int:
     character = Character(args.model)
     check_ranges(args, spec, scenario, mass=character.mass,
                  height=character.info.extra.get("height"),
-                 leg_length=(character.leg_length()
-                             if spec.speed_leg_length and args.speed is not None else None),
+                 character=character,
                  default_duration=S.DEFAULT_DURATIONS.get(scenario))
     if scenario == "push-search":
         return _push_search(args, spec)

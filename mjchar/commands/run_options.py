@@ -174,35 +174,38 @@ def _bad(flag: str, value, what: str) -> MjcharError:
     return MjcharError(f"{flag} {value:g} is out of range: {what}")
 
 
-def check_speed(spec, speed: float, leg_length: float | None = None) -> None:
+def check_speed(spec, speed: float, character=None) -> None:
     """One-line :class:`MjcharError` when ``speed`` is outside the controller's registered
-    ``speed`` limits (none registered: any speed) on a body of ``leg_length`` m (the limits
-    scale with it when the controller registers ``speed_leg_length``)."""
-    lim = spec.limit("speed", leg_length)
-    if lim is None or lim[0] <= speed <= lim[1]:
+    ``speed`` limits (none registered: any speed) on ``character``'s body (the limits scale
+    with its leg length when the controller registers ``speed_leg_length``)."""
+    reg = spec.limit("speed")
+    if reg is None:
         return
-    what = f"{spec.name} walks at {lim[0]:.3g} to {lim[1]:.3g} m/s"
-    if lim != spec.limit("speed"):
-        reg = spec.limit("speed")
-        what += (f" on this body (leg length {leg_length:.3g} m; {reg[0]:g} to {reg[1]:g} "
-                 f"on one of {spec.speed_leg_length:g} m)")
+    leg = character.leg_length() if character is not None and spec.speed_leg_length else None
+    lim = spec.limit("speed", leg)
+    if lim[0] <= speed <= lim[1]:
+        return
+    what = f"{spec.name} walks at {lim[0]:g} to {lim[1]:g} m/s"
+    if lim != reg:
+        what += (f" on this body (leg length {leg:.3g} m; {reg[0]:g} to {reg[1]:g} m/s on the "
+                 f"body the range was measured on, leg length {spec.speed_leg_length:g} m)")
     raise _bad("--speed", speed, what)
 
 
 def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float | None = None,
-                 height: float | None = None, leg_length: float | None = None,
+                 height: float | None = None, character=None,
                  default_duration: float | None = None) -> None:
     """One-line :class:`MjcharError` for a value the controller does not support.
 
     Args:
         mass: the model's mass in kg (push forces are checked against its weight).
         height: the model's standing height in m (squat depth).
-        leg_length: the model's leg length in m (walking speeds scale with it).
+        character: the model's :class:`Character` (walking speeds scale with its legs).
         default_duration: the scenario's run length when ``--duration`` is not given (a push
             must start within the run).
     """
     if "speed" in spec.options and scenario == "walk" and args.speed is not None:
-        check_speed(spec, args.speed, leg_length)
+        check_speed(spec, args.speed, character)
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
         raise _bad("--heading", args.heading,
                    f"give degrees within +-{MAX_HEADING_DEG:g}")
