@@ -366,13 +366,6 @@ class IPMParams:
         x = 0.0 if v <= lo else 1.0 if v >= hi else (v - lo) / (hi - lo)
         return max(x, self.speed_blend(v))
 
-    def human(self, name: str, speed: float) -> float:
-        """Parameter ``name`` at a desired speed: ``name`` blended towards ``human_<name>`` by
-        :meth:`human_weight`."""
-        w = self.human_weight(speed)
-        v = getattr(self, name)
-        return v if w <= 0 else v + w * (getattr(self, "human_" + name) - v)
-
     def at_speed(self, speed: float) -> tuple[float, float, float]:
         """``(step_time, stance_knee_kp, stance_knee_ramp)`` at a desired speed (m/s): the slow
         values up to ``slow_speed``, the ``fast_*`` ones from ``fast_speed``, linear between;
