@@ -527,8 +527,9 @@ _NATURAL_1_4 = {
 #: every step, and the whole body with it), followed by a CMA-ES over the gait's numbers on the
 #: 20 s slip under the bars (docs/simbicon.md, "The stance foot"). Own speed
 #: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
-#: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
-#: slow legs, tuned by hand; docs/simbicon.md).
+#: the virtual force, and interpolates speed anchors: walk's slow legs at Froude 0.22 (by hand),
+#: anchors at 1.0 and 1.4 m/s (CMA-ES, for the bars and the slip there) and the legs before the
+#: stance-foot retune at 1.6 m/s (docs/simbicon.md, "Anchors at 1.0 and 1.4 m/s").
 NATURAL = Gait(
     name="natural",
     states=(
