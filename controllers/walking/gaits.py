@@ -40,7 +40,8 @@ GRAVITY = 9.81
 
 
 #: :class:`Gait` fields a speed anchor may set besides the per-state parameters
-ANCHOR_FIELDS = ("torso_pitch", "arm_swing", "max_twist", "contact_phase", "velocity_force")
+ANCHOR_FIELDS = ("torso_pitch", "spine_pitch", "arm_swing", "max_twist", "contact_phase",
+                 "velocity_force")
 
 
 class GaitError(MjcharError):
@@ -478,6 +479,34 @@ _NATURAL_FAST_LEGS = {
     "torso_pitch": 0.3718,
 }
 
+#: the natural gait at 1.0 m/s on the bundled humanoid (Froude 0.341): its slow speed anchor's
+#: legs, lean, lift-off duration and velocity force (CMA-ES, 2026-11-27; docs/simbicon.md)
+_NATURAL_1_0 = {
+    "state0_swing_hip": 0.6799, "state0_swing_hip_coronal": -0.0698, "state0_swing_knee": 1.4801,
+    "state0_swing_ankle": 0.9177, "state0_stance_knee": -0.0265, "state0_stance_ankle": 0.0874,
+    "state0_cd": 0.5149, "state0_cv": 0.2328, "state0_cd_coronal": 0.5142,
+    "state0_cv_coronal": 0.2456, "state1_swing_hip": 0.1557, "state1_swing_hip_coronal": -0.0698,
+    "state1_swing_knee": 0.1236, "state1_swing_ankle": -0.1064, "state1_stance_knee": 0.0263,
+    "state1_stance_ankle": 0.276, "state1_cd": 0.5149, "state1_cv": 0.2328,
+    "state1_cd_coronal": 0.5142, "state1_cv_coronal": 0.2456, "torso_pitch": 0.3192,
+    "state0_duration": 0.1951, "velocity_force": 0.1663,
+}
+
+#: the natural gait at 1.4 m/s on the bundled humanoid (Froude 0.477): its fast speed anchor's
+#: legs, pelvis and spine pitch, state durations, contact phase and velocity force (CMA-ES,
+#: 2026-11-27; docs/simbicon.md)
+_NATURAL_1_4 = {
+    "state0_swing_hip": 0.765, "state0_swing_hip_coronal": -0.1026, "state0_swing_knee": 1.4405,
+    "state0_swing_ankle": 0.9549, "state0_stance_knee": -0.0351, "state0_stance_ankle": 0.2175,
+    "state0_cd": 0.6391, "state0_cv": 0.1333, "state0_cd_coronal": 0.4473,
+    "state0_cv_coronal": 0.2863, "state1_swing_hip": 0.1985, "state1_swing_hip_coronal": -0.1026,
+    "state1_swing_knee": 0.1135, "state1_swing_ankle": -0.212, "state1_stance_knee": -0.0325,
+    "state1_stance_ankle": 0.3707, "state1_cd": 0.6391, "state1_cv": 0.1333,
+    "state1_cd_coronal": 0.4473, "state1_cv_coronal": 0.2863, "torso_pitch": 0.3954,
+    "state0_duration": 0.2545, "state1_duration": 0.1694, "contact_phase": 0.5691,
+    "velocity_force": 0.2689, "spine_pitch": -0.2344,
+}
+
 #: Natural walk (issue 14): human-like gait statistics at 1.2 m/s (cadence, step length and
 #: width, trunk lean, knee flexion; docs/simbicon.md). The walk's controller with Coros,
 #: Beaudoin and van de Panne 2010's swing-leg gravity compensation (``swing_gravity``) and
@@ -498,8 +527,9 @@ _NATURAL_FAST_LEGS = {
 #: every step, and the whole body with it), followed by a CMA-ES over the gait's numbers on the
 #: 20 s slip under the bars (docs/simbicon.md, "The stance foot"). Own speed
 #: 1.2 m/s (Froude 0.409); a speed command regulates towards the command with ``speed_gain`` and
-#: the virtual force, and below 1.2 m/s interpolates towards a slow anchor at Froude 0.22 (walk's
-#: slow legs, tuned by hand; docs/simbicon.md).
+#: the virtual force, and interpolates speed anchors: walk's slow legs at Froude 0.22 (by hand),
+#: anchors at 1.0 and 1.4 m/s (CMA-ES, for the bars and the slip there) and the legs before the
+#: stance-foot retune at 1.6 m/s (docs/simbicon.md, "Anchors at 1.0 and 1.4 m/s").
 NATURAL = Gait(
     name="natural",
     states=(
@@ -548,10 +578,18 @@ NATURAL = Gait(
         # lean 0.2), the natural gait's own state durations and velocity force: without it the
         # natural gait drifts sideways below ~1.1 m/s (0.75 m/s sideways at 0.6)
         (0.22, _legs_at(WALK, 0.22)),
+        # 1.0 m/s: every key of its neighbours (the slow anchor's; narrower steps and less
+        # stance-foot slip than their interpolation), tuned by CMA-ES over 12 numbers on 20 s
+        # walks at 1.0 and 1.1 m/s (standing start, seed 1) for issue 14's bars and the slip
+        (0.341, _NATURAL_1_0),
         # the gait's own values from Froude 0.40 to 0.41: 1.2 m/s on the bundled humanoid is
         # Froude 0.4089, just below 0.409, and walks exactly as the gait does without anchors
         (0.40, {}),
         (0.41, {}),
+        # 1.4 m/s: every key of the fast anchor's, longer states and steps (a lower cadence),
+        # more pelvis pitch and spine extension; CMA-ES over 15 numbers on 20 s walks at 1.4
+        # (standing start, seed 1) and 1.3 m/s (standing start)
+        (0.477, _NATURAL_1_4),
         # 1.6 m/s on the bundled humanoid: the legs and lean the gait had before its stance-foot
         # retune (its durations and gains stay): the retuned legs top out near 1.4 m/s, with
         # these a 1.6 m/s command walks 1.50 (docs/simbicon.md)

@@ -392,12 +392,15 @@ class Simbicon:
             group[leg["knee"].act] = "knee"
             for h in leg["ankle"].values():
                 group[h.act] = "ankle"
+        self._spine_pitch: list[tuple[int, float]] = []  # (actuator, sign): a speed anchor's
         for j in ch.roles("spine"):
             hs = self._hinges(ch, j)
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                base[hs["y"].act] = g.spine_pitch * sign(rest.xaxis[hs["y"].jnt], up, fwd)
+                s_y = sign(rest.xaxis[hs["y"].jnt], up, fwd)
+                base[hs["y"].act] = g.spine_pitch * s_y
+                self._spine_pitch.append((hs["y"].act, s_y))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():
@@ -492,6 +495,8 @@ class Simbicon:
         q[sw["knee"].act] = sw["knee_flex"] * p.swing_knee
         q[st["ankle"]["y"].act] = st["ankle_dorsi"] * p.stance_ankle
         q[sw["ankle"]["y"].act] = sw["ankle_dorsi"] * p.swing_ankle
+        for a, s in self._spine_pitch:  # a speed command may move it (ANCHOR_FIELDS)
+            q[a] = self.gait.spine_pitch * s
         # arms swing against the legs: the stance side's arm forward, the swing side's back
         for leg, sgn in ((st, 1.0), (sw, -1.0)):
             if leg["side"] in self._arm_swing:
