@@ -368,6 +368,20 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
+def test_walks_60s_at_1_2_from_seeded_starts(seed):
+    """Issue 14's 60 s at 5 seeds, at its comparison speed: no fall, no root force, steady speed
+    (last 10 s) within 0.15 m/s (measured 1.159 at every seed)."""
+    from controllers.core.terrain import walk
+
+    ch = Character()
+    r = walk(ch, make_ipm(ch, speed=1.2), duration=60.0, seed=seed)
+    assert not r.fell, r.fall_reason
+    assert r.root_force_max_N == 0.0
+    assert abs(r.extra["steady_speed_mps"] - 1.2) < 0.15, r.extra
+
+
+@pytest.mark.slow
 def test_speed_schedule_slow_fast_slow(character):
     """0.5 -> 1.5 -> 0.5 m/s in one run (commands at 15 and 35 s): no fall, each speed reached."""
     c = make_ipm(character, speed=lambda t: 0.5 if t < 15.0 else 1.5 if t < 35.0 else 0.5)
