@@ -28,6 +28,7 @@ import numpy as np
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
+from ..core.geometry import smoothstep
 from ..core.pd import StablePDController
 from ..core.registry import ControllerSpec, register
 
@@ -37,18 +38,14 @@ def squat_profile(depth: float = 0.2, start: float = 1.0, down: float = 1.5, hol
     """A COM height offset ``t -> dz`` (m): 0 until ``start``, smoothly down to ``-depth`` over
     ``down`` s, held ``hold`` s, back to 0 over ``up`` s (smoothstep ramps)."""
 
-    def smooth(x: float) -> float:
-        x = min(max(x, 0.0), 1.0)
-        return x * x * (3 - 2 * x)
-
     def dz(t: float) -> float:
         if t < start:
             return 0.0
         if t < start + down:
-            return -depth * smooth((t - start) / down)
+            return -depth * smoothstep((t - start) / down)
         if t < start + down + hold:
             return -depth
-        return -depth * (1 - smooth((t - start - down - hold) / up))
+        return -depth * (1 - smoothstep((t - start - down - hold) / up))
 
     dz.duration = start + down + hold + up  # type: ignore[attr-defined]
     return dz

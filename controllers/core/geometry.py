@@ -8,6 +8,12 @@ import math
 import numpy as np
 
 
+def smoothstep(x: float) -> float:
+    """``3 x^2 - 2 x^3`` of ``x`` clipped to [0, 1]: 0 at 0, 1 at 1, zero slope at both ends."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
 def convex_hull_2d(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull ``(K, 2)`` of ``(N, 2)`` points (Andrew's monotone chain).
 

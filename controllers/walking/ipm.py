@@ -119,7 +119,7 @@ import numpy as np
 from ..balance.static_balance import StaticBalance
 from ..core.base import Action
 from ..core.character import Character
-from ..core.geometry import point_in_polygon_margin
+from ..core.geometry import point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .leg import Leg, inverse3, rotation_error, wrap_angle, yaw_of
@@ -604,7 +604,7 @@ class IPMController:
         if self._foot > 0 and p.human_toe_up > 0 and self.phase < p.toe_up_phase:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
             x = self.phase / p.toe_up_phase
-            toe_up = self._foot * p.human_toe_up * (1.0 - x * x * (3.0 - 2.0 * x))
+            toe_up = self._foot * p.human_toe_up * (1.0 - smoothstep(x))
             R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
         hip_pos = d.xanchor[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
@@ -633,7 +633,7 @@ class IPMController:
         knee_target = p.stance_knee
         if self._knee_ramp > 0:  # from the landing flexion to stance_knee, no impulse
             x = min(self.phase / self._knee_ramp, 1.0)
-            knee_target += (self._knee0 - p.stance_knee) * (1.0 - x * x * (3.0 - 2.0 * x))
+            knee_target += (self._knee0 - p.stance_knee) * (1.0 - smoothstep(x))
         tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
         for leg, R_des, kp, kd in ((sw, R_sw_foot, p.swing_ankle_kp, p.swing_ankle_kd),
@@ -654,7 +654,7 @@ class IPMController:
         self._push_w = 0.0
         if self._foot > 0 and p.human_push_off > 0 and self.phase > p.push_off_phase:
             x = min((self.phase - p.push_off_phase) / (1.0 - p.push_off_phase), 1.0)
-            self._push_w = self._foot * x * x * (3.0 - 2.0 * x)
+            self._push_w = self._foot * smoothstep(x)
             R_foot = d.xmat[st.foot].reshape(3, 3)
             moment = p.human_push_off * self._push_w * self.mass * GRAVITY
             tau[st.ankle] += d.xaxis[st.ankle_jnt] @ (R_foot[:, 1] * moment)

@@ -392,15 +392,14 @@ class Simbicon:
             group[leg["knee"].act] = "knee"
             for h in leg["ankle"].values():
                 group[h.act] = "ankle"
-        self._spine_pitch: list[tuple[int, float]] = []  # (actuator, sign): a speed anchor's
+        # (actuator, sign) of the spine's pitch hinges: their targets follow the gait in use
+        self._spine_pitch: list[tuple[int, float]] = []
         for j in ch.roles("spine"):
             hs = self._hinges(ch, j)
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                s_y = sign(rest.xaxis[hs["y"].jnt], up, fwd)
-                base[hs["y"].act] = g.spine_pitch * s_y
-                self._spine_pitch.append((hs["y"].act, s_y))
+                self._spine_pitch.append((hs["y"].act, sign(rest.xaxis[hs["y"].jnt], up, fwd)))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.base import ControllerError
+from ..core.geometry import smoothstep
 
 
 class SwingError(ControllerError):
@@ -104,10 +105,9 @@ class SwingTrajectory:
         """Weight of the lift-off offset (0 from phase 1 on): ``t = (1 - phase)^2`` (the paper's
         blend) or, with ``blend="smooth"``, ``1 - smoothstep(phase)`` (the target starts and ends
         at rest)."""
-        p = min(max(phase, 0.0), 1.0)
         if self.blend == "smooth":
-            return 1.0 - p * p * (3.0 - 2.0 * p)
-        return (1.0 - p) ** 2
+            return 1.0 - smoothstep(phase)
+        return (1.0 - min(max(phase, 0.0), 1.0)) ** 2
 
     def horizontal(self, phase: float, liftoff: np.ndarray, target: np.ndarray) -> np.ndarray:
         """``(2,)`` horizontal foot offset: ``t * liftoff + (1 - t) * target``, both ``(2,)`` m
