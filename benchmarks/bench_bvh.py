@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from bvh_variants import SHARED_BVH, big_motion  # noqa: E402
 
-import bvh  # noqa: E402
+from mjchar import bvh  # noqa: E402
 
 DOCS = ROOT / "docs" / "bvh.md"
 BEGIN, END = "<!-- bench:begin -->", "<!-- bench:end -->"

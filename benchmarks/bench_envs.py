@@ -40,7 +40,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-import envs  # noqa: E402, F401  (registers mjchar/...)
+from mjchar import envs  # noqa: E402, F401  (registers mjchar/...)
 from mjchar.perf import random_env_steps  # noqa: E402
 
 DOC = ROOT / "docs" / "envs.md"

@@ -34,10 +34,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from controllers.core.character import Character  # noqa: E402
-from controllers.core.registry import make_controller  # noqa: E402
-from controllers.core.scenarios import push, simulate, standing_pose  # noqa: E402
-from controllers.walking.ipm import make_ipm  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
+from mjchar.controllers.core.registry import make_controller  # noqa: E402
+from mjchar.controllers.core.scenarios import push, simulate, standing_pose  # noqa: E402
+from mjchar.controllers.walking.ipm import make_ipm  # noqa: E402
 
 SECTIONS = ("walk", "stop", "turn", "push", "cost")
 DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)

@@ -5,7 +5,8 @@ with every part; the real-time factor is simulated seconds per wall second of th
 
 - ``--clips``: the four shared clips tracked at the default settings (fall, mean joint error,
   root force, real-time factor).
-- ``--loop``: walk60 made cyclic (``bvh.editing.make_cyclic``) and tracked for ``--loop-duration``
+- ``--loop``: walk60 made cyclic (``mjchar.bvh.editing.clips.make_cyclic``) and tracked for
+  ``--loop-duration``
   (60) s.
 - ``--pushes``: 100 N x 0.2 s at the pelvis, at 4 moments of the gait cycle x 4 directions, while
   tracking cyclic walk60 (MPC, hand-of-god) and on the SAMCON replay of walk60: falls, and the
@@ -36,14 +37,14 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-import bvh  # noqa: E402
-from bvh.editing import make_cyclic  # noqa: E402
-from bvh.reference import ReferenceMotion  # noqa: E402
-from controllers.core import scenarios as S  # noqa: E402
-from controllers.core.character import Character  # noqa: E402
-from controllers.core.registry import make_controller  # noqa: E402
-from controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep  # noqa: E402
-from controllers.sampling.trajectory import (  # noqa: E402
+from mjchar import bvh  # noqa: E402
+from mjchar.bvh.editing.clips import make_cyclic  # noqa: E402
+from mjchar.bvh.reference.reference_motion import ReferenceMotion  # noqa: E402
+from mjchar.controllers.core import scenarios as S  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
+from mjchar.controllers.core.registry import make_controller  # noqa: E402
+from mjchar.controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep  # noqa: E402
+from mjchar.controllers.sampling.trajectory import (  # noqa: E402
     ReplayController,
     StoredReference,
     load_trajectory,

@@ -8,10 +8,10 @@ Usage::
 
 1. **Stability envelope.** For kp in {300, 1000, 3000} (kd = kp/10, uniform on every actuated dof)
    and each PD variant (explicit ``pd``, stable ``spd``, ``native_pd``): the largest time step at
-   which :func:`controllers.core.scenarios.hold_pose` holds the bundled humanoid's standing pose
-   with the root welded (0.2 rad random initial error, 5 s), scanning 1/2000 s .. 1/30 s; a variant
-   that fails at 1/2000 s is scanned further down (to 1/8000 s). "Largest" means every step of
-   the grid up to it holds. Torque limits are lifted (the default) so that the table is about
+   which :func:`mjchar.controllers.core.scenarios.hold_pose` holds the bundled humanoid's standing
+   pose with the root welded (0.2 rad random initial error, 5 s), scanning 1/2000 s .. 1/30 s; a
+   variant that fails at 1/2000 s is scanned further down (to 1/8000 s). "Largest" means every step
+   of the grid up to it holds. Torque limits are lifted (the default) so that the table is about
    integrating the PD law; ``--limits`` also measures with the model's torque limits.
 2. **Per-step cost.** Each controller's cost per physics step (``act`` + ``Character.step``),
    divided by the cost of a bare ``mujoco.mj_step`` loop on the same model, measured interleaved in
@@ -33,9 +33,9 @@ sys.path.insert(0, str(ROOT))
 
 import mujoco  # noqa: E402
 
-from controllers.core import scenarios as S  # noqa: E402
-from controllers.core.character import Character  # noqa: E402
-from controllers.core.registry import make_controller  # noqa: E402
+from mjchar.controllers.core import scenarios as S  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
+from mjchar.controllers.core.registry import make_controller  # noqa: E402
 
 DOC = ROOT / "docs" / "controllers.md"
 KPS = (300.0, 1000.0, 3000.0)
@@ -110,9 +110,9 @@ def step_cost(character: Character, n: int, repeats: int, log) -> dict:
     the standing PD targets) alternate in blocks of ``BLOCK`` steps, timed with the process CPU
     clock, so that load from other processes affects both alike.
     """
-    import bvh
-    from bvh.assets import humanoid_path, motion_path
-    from bvh.reference import ReferenceMotion
+    from mjchar import bvh
+    from mjchar.bvh.bundled.assets import humanoid_path, motion_path
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")))
     pose = S.standing_pose(character)

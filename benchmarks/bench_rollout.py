@@ -6,7 +6,8 @@ Measures, in one run and on one model (``assets/mjcf/humanoid.xml``, dt 2 ms, na
 - ``mj_step`` in a single-threaded Python loop over the same samples (``mj_setState``, ctrl,
   ``mj_step`` x 50), on the plain model and on the model with the rollout sensors (their cost);
 - bare ``mujoco.rollout`` calls (plain model, states only) with 1 and 2 threads;
-- :class:`controllers.sampling.executors.LocalExecutor` (sensors, contacts, divergence checks,
+- :class:`mjchar.controllers.sampling.executors.LocalExecutor` (sensors, contacts, divergence
+  checks,
   result assembly) with 1 and 2 threads, and optionally the Ray executor.
 
 Every batch is B samples of one 0.1 s SAMCON slice (one PD-target vector held for 50 steps) from
@@ -36,9 +37,9 @@ import mujoco  # noqa: E402
 import mujoco.rollout  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bvh.assets import humanoid_path  # noqa: E402
-from controllers.sampling.executors import LocalExecutor, make_executor  # noqa: E402
-from controllers.sampling.rollout import RolloutModel, RolloutRequest  # noqa: E402
+from mjchar.bvh.bundled.assets import humanoid_path  # noqa: E402
+from mjchar.controllers.sampling.executors import LocalExecutor, make_executor  # noqa: E402
+from mjchar.controllers.sampling.rollout import RolloutModel, RolloutRequest  # noqa: E402
 from mjchar.perf import python_rollout_loop  # noqa: E402
 
 DOC = ROOT / "docs" / "rollouts.md"

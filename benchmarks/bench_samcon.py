@@ -8,8 +8,8 @@ average is printed with each part; read ratios rather than absolute timings).
   ``mujoco.rollout`` (plain model, states only) and the ``LocalExecutor`` that SAMCON calls.
   Rounds are interleaved and the best of each case kept; process CPU time is reported too.
 - ``--reconstruct CLIP ...``: full SAMCON reconstructions (default options
-  :data:`controllers.sampling.samcon.RECONSTRUCTION_OPTIONS`) of shared clips; each trajectory is
-  saved, replayed open-loop twice (determinism) and its metrics reported.
+  :data:`mjchar.controllers.sampling.samcon.RECONSTRUCTION_OPTIONS`) of shared clips; each
+  trajectory is saved, replayed open-loop twice (determinism) and its metrics reported.
 - ``--cmaes``: CMA-ES tracking of walk60's first 1.5 s vs plain native PD of the raw reference
   (mean tracking cost and the replays' tracking error).
 - ``--jump``: the CMA-ES standing vertical jump (clearance, landing).
@@ -35,16 +35,16 @@ import mujoco  # noqa: E402
 import mujoco.rollout  # noqa: E402
 import numpy as np  # noqa: E402
 
-import bvh  # noqa: E402
-from bvh.assets import humanoid_path  # noqa: E402
-from bvh.reference import ReferenceMotion  # noqa: E402
-from controllers.core.character import Character  # noqa: E402
-from controllers.sampling.executors import LocalExecutor  # noqa: E402
-from controllers.sampling.rollout import FULLPHYSICS, RolloutRequest  # noqa: E402
-from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions  # noqa: E402
-from controllers.sampling.tracking import CostWeights  # noqa: E402
-from controllers.sampling.trajectory import replay  # noqa: E402
-from controllers.sampling.trajopt import (  # noqa: E402
+from mjchar import bvh  # noqa: E402
+from mjchar.bvh.bundled.assets import humanoid_path  # noqa: E402
+from mjchar.bvh.reference.reference_motion import ReferenceMotion  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
+from mjchar.controllers.sampling.executors import LocalExecutor  # noqa: E402
+from mjchar.controllers.sampling.rollout import FULLPHYSICS, RolloutRequest  # noqa: E402
+from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions  # noqa: E402
+from mjchar.controllers.sampling.tracking import CostWeights  # noqa: E402
+from mjchar.controllers.sampling.trajectory import replay  # noqa: E402
+from mjchar.controllers.sampling.trajopt import (  # noqa: E402
     JUMP_OPTIONS,
     TrajoptOptions,
     optimise_jump,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .errors import SkeletonError
+from mjchar.bvh.errors import SkeletonError
 
 AXES = {"x": 0, "y": 1, "z": 2}
 

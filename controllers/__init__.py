@@ -1,14 +1,16 @@
 """mjchar's dynamic layer: everything that simulates, in subpackages by concern.
 
-- :mod:`controllers.core`: the :class:`~controllers.core.character.Character` (the one door to
+- :mod:`mjchar.controllers.core`: the :class:`~mjchar.controllers.core.character.Character` (the one
+  door to
   MuJoCo), the Controller protocol, actions and gains, the controller registry, the PD family,
   scenarios, metrics, pushes and terrain.
-- :mod:`controllers.balance`: hand-of-god and static balance.
-- :mod:`controllers.walking`: SIMBICON and its gaits, IPM stepping, swing-foot trajectories.
-- :mod:`controllers.sampling`: batched rollouts, executors, saved trajectories, SAMCON, CMA-ES.
+- :mod:`mjchar.controllers.balance`: hand-of-god and static balance.
+- :mod:`mjchar.controllers.walking`: SIMBICON and its gaits, IPM stepping, swing-foot trajectories.
+- :mod:`mjchar.controllers.sampling`: batched rollouts, executors, saved trajectories, SAMCON,
+  CMA-ES.
 
 Importing the package imports the four subpackages, which registers every controller
-(:mod:`controllers.core.registry`). The most used names are re-exported here.
+(:mod:`mjchar.controllers.core.registry`). The most used names are re-exported here.
 """
 
 # Registration order is the order of the CLI's choices and the bench's rows:

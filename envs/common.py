@@ -1,19 +1,19 @@
 """Shared pieces of the mjchar Gymnasium environments.
 
-Both environments (:mod:`envs.imitation`, :mod:`envs.stand`) drive one
-:class:`~controllers.core.character.Character` with MuJoCo's native PD (``<position>`` actuators,
-:class:`~controllers.core.pd.NativePDController`); the policy's action is an offset added to the PD
-set-points the controller computes. This module holds what they share:
+Both environments (:mod:`mjchar.envs.imitation`, :mod:`mjchar.envs.stand`) drive one
+:class:`~mjchar.controllers.core.character.Character` with MuJoCo's native PD (``<position>``
+actuators, :class:`~mjchar.controllers.core.pd.NativePDController`); the policy's action is an
+offset added to the PD set-points the controller computes. This module holds what they share:
 
 - :class:`BodyObserver`: DeepMimic-style body features in the character's *heading frame* (the
   world rotated about z by the root's yaw, origin at the root): root height, body positions,
   6-D tangent-normal rotations, linear and angular velocities.
 - :class:`CharacterEnv`: the ``gymnasium.Env`` skeleton: control timing (several physics steps per
   action), the normalised action box and its per-joint scale, seeding through ``np_random`` only,
-  fall detection (:class:`~controllers.core.metrics.FallDetector`), metrics
-  (:class:`~controllers.core.metrics.Recorder`), clean handling of a
-  :class:`~controllers.core.character.SimulationDiverged`, and rendering (``"rgb_array"`` with a
-  headless ``mujoco.Renderer``, ``"human"`` with ``mujoco.viewer``).
+  fall detection (:class:`~mjchar.controllers.core.metrics.FallDetector`), metrics
+  (:class:`~mjchar.controllers.core.metrics.Recorder`), clean handling of a
+  :class:`~mjchar.controllers.core.character.SimulationDiverged`, and rendering (``"rgb_array"``
+  with a headless ``mujoco.Renderer``, ``"human"`` with ``mujoco.viewer``).
 
 Subclasses provide the start state, the PD controller and the reward.
 """
@@ -34,12 +34,12 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 
-from bvh.errors import MjcharError  # noqa: E402
-from controllers.core.base import Action  # noqa: E402
-from controllers.core.character import Character  # noqa: E402
-from controllers.core.errors import SimulationDiverged  # noqa: E402
-from controllers.core.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
-from controllers.core.registry import make_controller  # noqa: E402
+from mjchar.bvh.errors import MjcharError  # noqa: E402
+from mjchar.controllers.core.base import Action  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
+from mjchar.controllers.core.errors import SimulationDiverged  # noqa: E402
+from mjchar.controllers.core.metrics import STEP_DISTANCE, FallDetector, Recorder  # noqa: E402
+from mjchar.controllers.core.registry import make_controller  # noqa: E402
 
 __all__ = [
     "EnvError",
@@ -450,7 +450,8 @@ class CharacterEnv(gym.Env):
         return x.astype(np.float32)
 
     def _info(self) -> dict:
-        """Metrics named like :class:`controllers.core.metrics.Result`'s fields, plus extras."""
+        """Metrics named like the fields of :class:`~mjchar.controllers.core.metrics.Result`, plus
+        extras."""
         ch = self.character
         rec = self._recorder
         # Recorder.aggregates() rebuilds arrays over the whole episode; its two fields needed

@@ -1,10 +1,10 @@
 """``mjchar/Imitation-v0``: imitate a reference motion (DeepMimic, Peng et al. 2018).
 
 The policy acts at ``control_freq`` (30 Hz) on MuJoCo's native PD: the set-points are the
-reference pose sampled by :class:`~controllers.core.pd.NativePDController` (``u = q_bar + (kd/kp)
-qdot_bar``, with the reference taken at the *end* of the step, where the character should be when
-the next action comes) plus the action times a per-joint scale (see
-:class:`~envs.common.CharacterEnv`). A zero action is therefore plain PD tracking.
+reference pose sampled by :class:`~mjchar.controllers.core.pd.NativePDController` (``u = q_bar +
+(kd/kp) qdot_bar``, with the reference taken at the *end* of the step, where the character should be
+when the next action comes) plus the action times a per-joint scale (see
+:class:`~mjchar.envs.common.CharacterEnv`). A zero action is therefore plain PD tracking.
 
 Reward (weights ``w`` and scales ``k`` configurable), after each step at reference time ``t``::
 
@@ -26,11 +26,11 @@ terminate on a fall (a body other than the feet on the floor, or the root below 
 when the mean joint position error exceeds ``max_tracking_error`` m, or on a simulation
 divergence; they are truncated after ``episode_seconds`` or at the end of a non-cyclic clip.
 
-Observation: :class:`~envs.common.BodyObserver`'s body features, then the phase ``phi`` as
+Observation: :class:`~mjchar.envs.common.BodyObserver`'s body features, then the phase ``phi`` as
 ``(cos 2 pi phi, sin 2 pi phi)`` (cyclic clip; ``(cos pi phi, sin pi phi)`` otherwise), then for
 each ``k`` in ``future_steps`` the reference pose ``k`` control steps ahead
-(:meth:`BodyObserver.pose <envs.common.BodyObserver.pose>`): every body's position relative to
-the *simulated* root, then every body's x axis, then its z axis, in the simulated character's
+(:meth:`BodyObserver.pose <mjchar.envs.common.BodyObserver.pose>`): every body's position relative
+to the *simulated* root, then every body's x axis, then its z axis, in the simulated character's
 heading frame.
 """
 
@@ -42,10 +42,10 @@ import os
 import mujoco
 import numpy as np
 
-import bvh
-from bvh.assets import motion_path
-from bvh.reference import ReferenceMotion
-from controllers.core.base import ReferenceTarget
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import motion_path
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core.base import ReferenceTarget
 
 from .common import OBS_POSITION_LIMIT, CharacterEnv, EnvError, heading_rotation, merge_terms
 
@@ -65,7 +65,7 @@ class _EpisodeReference:
     ``qpos(t)``/``qvel(t)`` look such times up in tables filled :data:`CHUNK` steps at a time by
     one vectorised :class:`ReferenceMotion` call each (a scalar call costs about as much as a
     chunk's row); any other time is sampled directly. It has what
-    :class:`~controllers.core.base.ReferenceTarget` needs (``qpos``, ``qvel``, ``duration``,
+    :class:`~mjchar.controllers.core.base.ReferenceTarget` needs (``qpos``, ``qvel``, ``duration``,
     ``model``).
     """
 
@@ -108,7 +108,7 @@ class ImitationEnv(CharacterEnv):
     Args:
         motion: the clip to imitate: ``None`` (the bundled walk), a bundled motion name
             (``"walk"``, ``"idle"``), a BVH path, a ``bvh.Motion``, or a
-            ``bvh.reference.ReferenceMotion`` built for the same model.
+            ``mjchar.bvh.reference.reference_motion.ReferenceMotion`` built for the same model.
         cyclic: loop the clip (``None``: detected by :class:`ReferenceMotion`).
         random_start: reference state initialisation (random start phase) at every reset.
         max_tracking_error: mean joint position error (m) that ends the episode (``None``: no
@@ -118,7 +118,7 @@ class ImitationEnv(CharacterEnv):
             ``com``).
         future_steps: control steps ahead at which reference poses join the observation
             (e.g. ``(1, 2)``; default none, DeepMimic's phase-only observation).
-        **kwargs: :class:`~envs.common.CharacterEnv`'s options (``model``, ``control_freq``,
+        **kwargs: :class:`~mjchar.envs.common.CharacterEnv`'s options (``model``, ``control_freq``,
             ``timestep``, ``action_scale``, ``episode_seconds``, ``early_termination``,
             ``fall_height``, ``max_velocity``, ``render_mode``, ``width``, ``height``).
     """

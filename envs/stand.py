@@ -1,14 +1,14 @@
 """``mjchar/Stand-v0``: stand, and recover from random pushes.
 
 The policy acts at ``control_freq`` (30 Hz) on MuJoCo's native PD: the set-points are the
-standing pose (:func:`controllers.core.scenarios.standing_pose`, held by
+standing pose (:func:`mjchar.controllers.core.scenarios.standing_pose`, held by
 the registered ``native_pd`` controller,
-:class:`~controllers.core.pd.NativePDController`) plus the action times a per-joint scale (see
-:class:`~envs.common.CharacterEnv`). A zero action is plain PD holding the pose.
+:class:`~mjchar.controllers.core.pd.NativePDController`) plus the action times a per-joint scale
+(see :class:`~mjchar.envs.common.CharacterEnv`). A zero action is plain PD holding the pose.
 
 Pushes: horizontal forces on ``push_body`` (default the pelvis), applied through
-:meth:`Character.push <controllers.core.character.Character.push>`. The first comes after a random
-interval, then one after each further interval; magnitude, duration and interval are drawn
+:meth:`Character.push <mjchar.controllers.core.character.Character.push>`. The first comes after a
+random interval, then one after each further interval; magnitude, duration and interval are drawn
 uniformly from their ranges, the direction uniformly from ``push_directions`` (degrees in the
 character's heading frame at the push: 0 forward, 90 left) or from the whole circle. All draws
 use ``np_random``.
@@ -24,7 +24,7 @@ with (w, k) = upright (0.4, 5), pose (0.2, 1), com (0.2, 50), effort (0.2, 10); 
 the actuated joints (rad), ``c_xy`` the horizontal centre of mass, ``f_xy`` the midpoint of the
 two foot soles (m), ``tau_a`` the actuator torques and ``tau_max_a`` their limits.
 Episodes terminate on a fall or a divergence and are truncated after ``episode_seconds``.
-Observation: :class:`~envs.common.BodyObserver`'s body features only.
+Observation: :class:`~mjchar.envs.common.BodyObserver`'s body features only.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from controllers.core.scenarios import heading_frame_direction, standing_pose
+from mjchar.controllers.core.scenarios import heading_frame_direction, standing_pose
 
 from .common import CharacterEnv, EnvError, as_range, merge_terms
 
@@ -57,7 +57,7 @@ class StandEnv(CharacterEnv):
             then put back on the floor).
         reward_weights, reward_scales: dicts overriding :data:`DEFAULT_REWARD_WEIGHTS` /
             :data:`DEFAULT_REWARD_SCALES` (keys ``upright``, ``pose``, ``com``, ``effort``).
-        **kwargs: :class:`~envs.common.CharacterEnv`'s options.
+        **kwargs: :class:`~mjchar.envs.common.CharacterEnv`'s options.
     """
 
     def __init__(self, *, push_force=(20.0, 120.0), push_duration=0.2,

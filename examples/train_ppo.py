@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
-import envs  # noqa: E402, F401  (registers mjchar/...)
+from mjchar import envs  # noqa: E402, F401  (registers mjchar/...)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -56,8 +56,8 @@ def main(argv: list[str] | None = None) -> int:
 
     torch.set_num_threads(max(1, a.threads))
     if a.envs > 1:
-        # "envs:<id>" makes each fresh worker process import envs (the registration) itself
-        train_env = make_vec_env(f"envs:{a.env}", n_envs=a.envs, seed=a.seed,
+        # "mjchar.envs:<id>" makes each fresh worker process import the registration itself
+        train_env = make_vec_env(f"mjchar.envs:{a.env}", n_envs=a.envs, seed=a.seed,
                                  vec_env_cls=SubprocVecEnv)
     else:
         train_env = gym.make(a.env)

@@ -1,18 +1,35 @@
-"""mjchar: the application layer on top of the library packages.
+"""mjchar: physics-based character control on MuJoCo.
 
-``bvh`` (kinematics, the BVH -> MJCF converter) <- ``controllers`` (dynamics) <- ``envs``
-(Gymnasium) <- ``mjchar``: the ``mjchar`` command line (:mod:`mjchar.cli`, one module per
-subcommand in :mod:`mjchar.commands`), the benchmark (:mod:`mjchar.bench`), performance
-measurement (:mod:`mjchar.perf`) and video rendering (:mod:`mjchar.render`).
+One import namespace, in layers (each imports only from those below it):
 
-``python -m mjchar ...`` is the same as the ``mjchar`` console script.
+- :mod:`mjchar.bvh`: everything kinematic (BVH files, skeletons, the BVH -> MJCF converter,
+  reference motions), no simulation;
+- :mod:`mjchar.controllers`: everything dynamic (the Character, the controllers, scenarios and
+  the run builder);
+- :mod:`mjchar.envs`: Gymnasium environments, registered as ``mjchar/...``;
+- the application: the ``mjchar`` command line (:mod:`mjchar.cli`, one module per subcommand in
+  :mod:`mjchar.commands`), the benchmark (:mod:`mjchar.bench`), measurement
+  (:mod:`mjchar.perf`) and video rendering (:mod:`mjchar.render`);
+- :mod:`mjchar.assets`: the bundled data (humanoid, motions, trajectories), no code.
+
+``import mjchar`` is light: it registers the Gymnasium ids (``gymnasium.make("mjchar/...")``
+works after it) and imports nothing else. ``python -m mjchar ...`` is the ``mjchar`` command.
 """
 
 import os
 import sys
+from importlib.metadata import PackageNotFoundError, version
 
 if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
                                              or os.environ.get("WAYLAND_DISPLAY")):
     # headless: render with EGL. MuJoCo picks its OpenGL backend when it is first imported,
-    # and the CLI imports the controllers (hence MuJoCo) to list them, so decide it here.
+    # so decide it before anything imports MuJoCo.
     os.environ.setdefault("MUJOCO_GL", "egl")
+
+try:
+    __version__ = version("mjchar")
+except PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
+
+
+from mjchar import envs as _envs  # noqa: E402, F401  (registers the Gymnasium ids, lightly)

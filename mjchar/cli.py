@@ -11,7 +11,7 @@ import argparse
 import importlib
 import sys
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .commands import COMMANDS
 

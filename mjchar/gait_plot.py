@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 #: curves plotted, with their axis labels
 PANELS = (("left_knee_flexion", "knee flexion (deg)"), ("left_hip_flexion", "hip flexion (deg)"),
@@ -77,8 +77,9 @@ def plot_filmstrip(walks: list, path: str | os.PathLike, frames: int = FILMSTRIP
     """One row per walk, ``frames`` side views evenly over one stride (:func:`stride_window`),
     so a simulated walk can be set against the mocap's pose for pose.
 
-    ``walks``: ``(stats, model, times, qpos)`` tuples (a :class:`~bvh.gait.GaitStats` and the
-    trajectory it was measured on). Rendering needs OpenGL (``MUJOCO_GL=egl`` headless)."""
+    ``walks``: ``(stats, model, times, qpos)`` tuples (a
+    :class:`~mjchar.bvh.gait.analysis.GaitStats` and the trajectory it was measured on). Rendering
+    needs OpenGL (``MUJOCO_GL=egl`` headless)."""
     plt = _pyplot()
     from .render import render_poses
 

@@ -6,14 +6,15 @@ the same run, on the same machine load, so that the numbers compare with each ot
 - :func:`step_cost`: a controller's cost per physics step (``act`` + ``Character.step``) over a
   bare ``mj_step`` on a pristine copy of the same model at the same time step, in interleaved
   blocks timed with the process CPU clock (load from other processes affects both alike).
-- :func:`rollout_throughput`: batched open-loop rollouts (:mod:`controllers.sampling.rollout`, in C
+- :func:`rollout_throughput`: batched open-loop rollouts
+  (:mod:`mjchar.controllers.sampling.rollout`, in C
   on a thread pool) against a Python ``mj_step`` loop over the same samples.
 - :func:`env_throughput`: mjchar's Gymnasium envs against Gymnasium's ``Humanoid-v5``, random
   actions, interleaved rounds.
 - :func:`bvh_parse_speed`: ``bvh.load`` against ``bvhio.readAsBvh`` on the same files, in
   alternating rounds.
 - :func:`stability_envelope`: the largest time step at which each PD variant holds the standing
-  pose (:func:`controllers.core.scenarios.hold_pose`) per gain.
+  pose (:func:`mjchar.controllers.core.scenarios.hold_pose`) per gain.
 
 The scripts in ``benchmarks/`` measure the same things at greater length and write their tables
 into the docs; these functions are the measurement done once, importable (``bench_pd.py`` could
@@ -38,9 +39,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from bvh.errors import MjcharError
-from controllers.core.character import Character
-from controllers.core.errors import SimulationDiverged
+from mjchar.bvh.errors import MjcharError
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.errors import SimulationDiverged
 
 __all__ = [
     "PerfError", "PerfUnavailable", "StepCost", "raw_step_rate", "step_cost",
@@ -180,7 +181,7 @@ def step_cost(character: Character, make_controller: Callable[[], object], *,
         steps: physics steps per repeat; repeats: repeats (the median ratio is reported).
         block: physics steps per timing block (rounded to whole control steps).
     """
-    from controllers.core.metrics import FallDetector
+    from mjchar.controllers.core.metrics import FallDetector
 
     steps, repeats = _positive_int(steps, "steps"), _positive_int(repeats, "repeats")
     block = _positive_int(block, "block")
@@ -233,7 +234,7 @@ def python_rollout_loop(model: mujoco.MjModel, data: mujoco.MjData, state: np.nd
                         targets: np.ndarray, steps: int) -> None:
     """The plain-Python baseline of a batched rollout: for each sample ``b``, restore ``state``
     (full physics, cleared warm start), hold ``targets[b, 0]`` and ``mj_step`` ``steps`` times."""
-    from controllers.sampling.rollout import FULLPHYSICS
+    from mjchar.controllers.sampling.rollout import FULLPHYSICS
 
     for b in range(len(targets)):
         mujoco.mj_setState(model, data, state, FULLPHYSICS)
@@ -266,16 +267,16 @@ def rollout_throughput(model_path: str | Path | None = None, *, samples: int = 2
     Every case simulates the same ``samples`` slices of ``steps`` physics steps (one PD-target
     vector per slice, the rest pose plus seeded Gaussian offsets of 0.1 rad) from the rest pose:
     a single-threaded Python loop (``mj_setState``, ``ctrl``, ``mj_step`` x ``steps``) and
-    :func:`controllers.sampling.rollout.rollout` with each thread count in ``threads``. Cases take
-    turns in ``repeats`` rounds; the best wall time per case is kept, with the process CPU time of
-    that run.
+    :func:`mjchar.controllers.sampling.rollout.rollout` with each thread count in ``threads``. Cases
+    take turns in ``repeats`` rounds; the best wall time per case is kept, with the process CPU time
+    of that run.
 
     Returns:
         ``{"samples", "steps_per_sample", "timestep_s", "repeats", "cases": [{"case", "threads",
         "steps_per_s", "steps_per_cpu_s", "cores_busy", "speedup_vs_python_loop"}]}``.
     """
-    from bvh.assets import humanoid_path
-    from controllers.sampling.rollout import RolloutModel, RolloutRequest, RolloutRunner
+    from mjchar.bvh.bundled.assets import humanoid_path
+    from mjchar.controllers.sampling.rollout import RolloutModel, RolloutRequest, RolloutRunner
 
     samples, steps = _positive_int(samples, "samples"), _positive_int(steps, "steps")
     repeats = _positive_int(repeats, "repeats")
@@ -298,7 +299,7 @@ def rollout_throughput(model_path: str | Path | None = None, *, samples: int = 2
         for n in threads:
             r = RolloutRunner(rm, threads=_positive_int(n, "threads"))
             runners.append(r)
-            cases.append((f"controllers.sampling.rollout, {n} thread(s)", n,
+            cases.append((f"mjchar.controllers.sampling.rollout, {n} thread(s)", n,
                           lambda r=r: r.run(request)))
         for _, _, fn in cases:
             fn()  # warm-up
@@ -341,11 +342,9 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
     """
     steps, repeats = _positive_int(steps, "steps"), _positive_int(repeats, "repeats")
     try:
-        import gymnasium as gym
-
-        import envs  # noqa: F401  (registers mjchar/...)
-    except Exception as e:  # a broken or missing envs package: report, do not crash the bench
-        raise PerfUnavailable(f"the envs do not import ({type(e).__name__}: {e})") from None
+        import gymnasium as gym  # importing mjchar registered the mjchar/... ids
+    except Exception as e:  # a broken Gymnasium: report, do not crash the bench
+        raise PerfUnavailable(f"gymnasium does not import ({type(e).__name__}: {e})") from None
     made = {}
     try:
         for eid in env_ids:
@@ -422,7 +421,7 @@ def bvh_parse_speed(paths: Sequence[str | Path], *, budget: float = 1.0) -> dict
     Raises:
         PerfUnavailable: ``bvhio`` is not installed (``pip install 'mjchar[bench]'``).
     """
-    import bvh
+    from mjchar import bvh
 
     try:
         import bvhio
@@ -457,18 +456,18 @@ def stability_envelope(*, kps: Sequence[float] = ENVELOPE_KPS,
                        progress: Callable[[str], None] | None = None) -> dict:
     """Largest time step at which each PD variant holds the standing pose, per gain.
 
-    For each ``kp`` (kd = kp/10, uniform) and variant, :func:`controllers.core.scenarios.hold_pose`
-    (root welded, 0.2 rad seeded initial errors, ``duration`` s) at every step ``1/hz`` of
-    ``grid``; a variant that does not hold at the grid's smallest step is scanned further down
-    ``finer``. "Largest held" = the largest step such that it and every smaller step scanned
-    held.
+    For each ``kp`` (kd = kp/10, uniform) and variant,
+    :func:`mjchar.controllers.core.scenarios.hold_pose` (root welded, 0.2 rad seeded initial errors,
+    ``duration`` s) at every step ``1/hz`` of ``grid``; a variant that does not hold at the grid's
+    smallest step is scanned further down ``finer``. "Largest held" = the largest step such that it
+    and every smaller step scanned held.
 
     Returns:
         ``{"duration_s", "torque_limits", "kps", "variants", "rows": [{"variant", "kp",
         "largest_held_hz" (None if none), "status": {hz: "held" | "oscillates" |
         "diverged"}}]}`` (status keys are strings of the step rate in Hz).
     """
-    from controllers.core.scenarios import hold_pose
+    from mjchar.controllers.core.scenarios import hold_pose
 
     if not (math.isfinite(duration) and duration > 1.0):
         raise PerfError(f"envelope duration must be more than 1 s (the last second is judged), "

@@ -14,8 +14,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bvh.errors import MjcharError  # noqa: E402
-from controllers.core.character import Character  # noqa: E402
+from mjchar.bvh.errors import MjcharError  # noqa: E402
+from mjchar.controllers.core.character import Character  # noqa: E402
 
 
 class RenderError(MjcharError):

@@ -18,11 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
-import bvh
-from bvh.rotations import quat_from_euler, quat_rotate
-from bvh.skeleton import Skeleton
-from bvh.units import transform_motion, up_axis_rotation
-from bvh.zoo import CONVENTIONS, all_channels, insert_zero_length_joint, rename, with_channels
+from mjchar import bvh
+from mjchar.bvh.bundled.zoo import (
+    CONVENTIONS,
+    all_channels,
+    insert_zero_length_joint,
+    rename,
+    with_channels,
+)
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import quat_from_euler, quat_rotate
 
 SHARED_BVH = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
 XYZ_POS = ("Xposition", "Yposition", "Zposition")

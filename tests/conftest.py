@@ -39,7 +39,7 @@ def walk60() -> Path:
 @pytest.fixture(scope="module")
 def character():
     """The bundled humanoid (a module's tests share it; modules may define their own)."""
-    from controllers.core.character import Character
+    from mjchar.controllers.core.character import Character
 
     return Character()
 
@@ -47,9 +47,9 @@ def character():
 @pytest.fixture(scope="module")
 def walk_ref(character):
     """The bundled walk motion as a reference for ``character``."""
-    import bvh
-    from bvh.assets import motion_path
-    from bvh.reference import ReferenceMotion
+    from mjchar import bvh
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     return ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info)
 
@@ -57,7 +57,7 @@ def walk_ref(character):
 @pytest.fixture(scope="module")
 def executor():
     """A two-thread local rollout executor."""
-    from controllers.sampling.executors import LocalExecutor
+    from mjchar.controllers.sampling.executors import LocalExecutor
 
     with LocalExecutor(threads=2) as ex:
         yield ex
@@ -76,9 +76,9 @@ def run_command(argv: list[str]):
 def zoo_humanoids(tmp_path_factory) -> dict[float, str]:
     """The zoo's humanoids: the bundled humanoid's skeleton scaled to 1.5 m / 50 kg and 1.95 m /
     100 kg, converted with their masses as the bench's skeletons section does: {height: xml}."""
-    import bvh
-    from bvh.mjcf import convert
-    from bvh.zoo import _humanoids
+    from mjchar import bvh
+    from mjchar.bvh.bundled.zoo import _humanoids
+    from mjchar.bvh.mjcf import convert
 
     out = {}
     for rig in _humanoids():

@@ -1,11 +1,18 @@
 """The tree shows the architecture (docs/architecture.md).
 
-- Layers: ``bvh`` <- ``controllers`` <- ``envs`` <- ``mjchar``; each package imports only from
-  the layers below it, and inside ``controllers`` the subpackages keep their own order
-  (``core`` <- ``balance`` <- ``walking``; ``core`` <- ``sampling``).
+- One import namespace: the card's folders are ``mjchar.bvh`` (``bvh/``), ``mjchar.controllers``
+  (``controllers/``), ``mjchar.envs`` (``envs/``), ``mjchar.assets`` (``assets/``, data) and the
+  application ``mjchar`` (``mjchar/``); nothing imports the folders by their own names.
+- Layers: ``mjchar.bvh`` <- ``mjchar.controllers`` <- ``mjchar.envs`` <- the application; each
+  imports only from the layers below it (the namespace root ``mjchar/__init__`` registers the
+  envs and is below nothing). Inside ``mjchar.controllers`` the subpackages keep their own order
+  (``core`` <- ``balance`` <- ``walking``; ``core`` <- ``sampling``), and inside ``mjchar.bvh``
+  the subpackages by concern theirs (io <- kinematics <- rigs <- editing <- mjcf <- reference <-
+  gait <- bundled).
 - No import circle between files (every import counts: module level, inside functions, and
   under ``TYPE_CHECKING``).
-- No module over 800 lines.
+- No module over 800 lines; every module of ``bvh/`` lives in a subpackage or is one of its
+  documented top-level modules.
 - The controller registry is the one list of controllers: a throwaway registration shows up in
   ``mjchar run``, in ``make_controller`` and in a one-cell bench matrix with no other edit, and
   every registered controller passes the same smoke test.
@@ -15,36 +22,47 @@ from __future__ import annotations
 
 import ast
 import json
+import re
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from bvh.assets import TRAJECTORIES
-from controllers.core import registry
-from controllers.core.action import Action
-from controllers.core.registry import ControllerSpec, RegistryError
 from mjchar import bench as B
+from mjchar.bvh.bundled.assets import TRAJECTORIES
 from mjchar.cli import main
+from mjchar.controllers.core import registry
+from mjchar.controllers.core.action import Action
+from mjchar.controllers.core.registry import ControllerSpec, RegistryError
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("bvh", "controllers", "envs", "mjchar")
+#: the repository's folders and the namespace each is mapped to (pyproject's package-dir)
+FOLDERS = {"bvh": "mjchar.bvh", "controllers": "mjchar.controllers", "envs": "mjchar.envs",
+           "mjchar": "mjchar"}
+#: the layers, lowest first (the application is every other module under ``mjchar``)
+LAYERS = ("mjchar.bvh", "mjchar.controllers", "mjchar.envs", "mjchar")
 #: inside controllers: what each subpackage may import from its siblings
 CONTROLLER_DEPS = {"core": set(), "balance": {"core"}, "walking": {"core", "balance"},
                    "sampling": {"core"}}
+#: inside bvh: the subpackages by concern, lowest first (each may import those before it)
+BVH_ORDER = ("io", "kinematics", "rigs", "editing", "mjcf", "reference", "gait", "bundled")
+#: modules of bvh/ at its top level: the package, and the two every concern builds on
+BVH_TOP = {"mjchar.bvh", "mjchar.bvh.errors", "mjchar.bvh.rotations"}
 MAX_LINES = 800
 
 
 def _modules() -> dict[str, Path]:
-    """``{dotted module name: file}`` for every module of the four packages."""
+    """``{dotted module name: file}`` for every module of the four folders."""
     out = {}
-    for top in LAYERS:
-        for f in sorted((ROOT / top).rglob("*.py")):
-            parts = list(f.relative_to(ROOT).with_suffix("").parts)
+    for folder, namespace in FOLDERS.items():
+        for f in sorted((ROOT / folder).rglob("*.py")):
+            parts = list(f.relative_to(ROOT / folder).with_suffix("").parts)
             if parts[-1] == "__init__":
                 parts = parts[:-1]
-            out[".".join(parts)] = f
+            out[".".join([namespace, *parts])] = f
     return out
 
 
@@ -69,11 +87,20 @@ def _imports(name: str, path: Path) -> set[str]:
             for a in node.names:
                 sub = f"{target}.{a.name}"
                 found.add(sub if sub in MODULES else target)
-    return {m for m in found if m.split(".")[0] in LAYERS and m != name}
+    return {m for m in found if m.split(".")[0] == "mjchar" and m != name}
+
+
+def _layer(module: str) -> int:
+    for i, top in enumerate(LAYERS[:-1]):
+        if module == top or module.startswith(top + "."):
+            return i
+    return len(LAYERS) - 1
 
 
 GRAPH = {name: {m if m in MODULES else m.rsplit(".", 1)[0] for m in _imports(name, path)}
          for name, path in MODULES.items()}
+#: an import of the folders by their own names (``import bvh``, ``from controllers.x import``)
+OLD_NAME = re.compile(r"^\s*(from|import)\s+(bvh|controllers|envs|assets)\b", re.M)
 
 
 def test_every_import_resolves_to_a_project_module():
@@ -81,26 +108,72 @@ def test_every_import_resolves_to_a_project_module():
     assert not unknown
 
 
+def test_nothing_imports_the_folders_by_their_own_names():
+    """The folders exist only as ``mjchar.*`` (an installed wheel has no ``bvh``, ``envs``...):
+    no module, test, benchmark or example imports them otherwise."""
+    files = [*MODULES.values(), *(ROOT / "tests").rglob("*.py"),
+             *(ROOT / "benchmarks").rglob("*.py"), *(ROOT / "examples").rglob("*.py")]
+    bad = [f"{f.relative_to(ROOT)}: {m.group(0).strip()}" for f in files
+           for m in OLD_NAME.finditer(f.read_text())]
+    assert not bad, "\n".join(bad)
+
+
 def test_layers_import_only_from_below():
     upward = []
     for a, deps in GRAPH.items():
+        if a == "mjchar":  # the namespace root registers the envs (lightly)
+            continue
         for b in deps:
-            if LAYERS.index(b.split(".")[0]) > LAYERS.index(a.split(".")[0]):
+            if b != "mjchar" and _layer(b) > _layer(a):
                 upward.append(f"{a} imports {b}")
     assert not upward, "\n".join(upward)
+
+
+def test_import_mjchar_registers_the_envs_and_stays_light():
+    """``import mjchar`` registers the Gymnasium ids and loads nothing else of the project (no
+    MuJoCo): the env classes load when ``gymnasium.make`` asks for them."""
+    code = ("import sys, mjchar, gymnasium as gym; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('mjchar', 'mujoco'))); "
+            "print(gym.spec('mjchar/Imitation-v0').entry_point)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT.parent).stdout.splitlines()
+    assert out[0] == "['mjchar', 'mjchar.envs']"
+    assert out[1] == "mjchar.envs.imitation:ImitationEnv"
 
 
 def test_controller_subpackages_keep_their_order():
     wrong = []
     for a, deps in GRAPH.items():
         pa = a.split(".")
-        if pa[0] != "controllers" or len(pa) < 3:
+        if pa[:2] != ["mjchar", "controllers"] or len(pa) < 4:
             continue
         for b in deps:
             pb = b.split(".")
-            if pb[0] == "controllers" and len(pb) > 1 and pb[1] != pa[1]:
-                if pb[1] not in CONTROLLER_DEPS[pa[1]]:
+            if pb[:2] == ["mjchar", "controllers"] and len(pb) > 2 and pb[2] != pa[2]:
+                if pb[2] not in CONTROLLER_DEPS[pa[2]]:
                     wrong.append(f"{a} imports {b}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_bvh_lives_in_subpackages_by_concern():
+    loose = [m for m in MODULES if m.startswith("mjchar.bvh.") and m not in BVH_TOP
+             and m.split(".")[2] not in BVH_ORDER]
+    assert not loose, f"modules of bvh/ outside its subpackages: {loose}"
+    assert {m.split(".")[2] for m in MODULES if m.count(".") >= 3
+            and m.startswith("mjchar.bvh.")} == set(BVH_ORDER)
+
+
+def test_bvh_subpackages_keep_their_order():
+    wrong = []
+    for a, deps in GRAPH.items():
+        pa = a.split(".")
+        if pa[:2] != ["mjchar", "bvh"] or len(pa) < 4 or pa[2] not in BVH_ORDER:
+            continue
+        for b in deps:
+            pb = b.split(".")
+            if (pb[:2] == ["mjchar", "bvh"] and len(pb) > 2 and pb[2] in BVH_ORDER
+                    and BVH_ORDER.index(pb[2]) > BVH_ORDER.index(pa[2])):
+                wrong.append(f"{a} imports {b}")
     assert not wrong, "\n".join(wrong)
 
 
@@ -141,9 +214,10 @@ def test_no_import_circles_between_files():
 
 def test_the_graph_sees_real_edges():
     # the checks above are only as good as the graph: spot-check edges that must be there
-    assert "controllers.core.character" in GRAPH["controllers.core.base"]
-    assert "controllers.core.registry" in GRAPH["controllers.balance.hand_of_god"]
-    assert "controllers" in GRAPH["mjchar.bench.matrix"]  # `from controllers import registry`
+    assert "mjchar.controllers.core.character" in GRAPH["mjchar.controllers.core.base"]
+    assert "mjchar.controllers.core.registry" in GRAPH["mjchar.controllers.balance.hand_of_god"]
+    assert "mjchar.controllers" in GRAPH["mjchar.bench.matrix"]  # from mjchar.controllers import
+    assert "mjchar.bvh.io.motion" in GRAPH["mjchar.bvh.io.reader"]
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))
@@ -234,7 +308,7 @@ def test_every_registered_controller_runs_its_default_scenario(name, capsys):
 
 def test_reference_floor_by_controller():
     """Only a controller with a root force follows a floating clip; the rest track it grounded."""
-    from controllers.core import registry
+    from mjchar.controllers.core import registry
 
     floors = {n: registry.get(n).floor for n in registry.names()}
     assert floors["hand_of_god"] == "clip"

@@ -1,4 +1,5 @@
-"""The bundled default humanoid (bvh.humanoid_skeleton, bvh.assets, assets/mjcf/humanoid.xml)."""
+"""The bundled default humanoid (mjchar.bvh.bundled.humanoid_skeleton, mjchar.bvh.bundled.assets,
+assets/mjcf/humanoid.xml)."""
 
 from __future__ import annotations
 
@@ -6,15 +7,20 @@ import mujoco
 import numpy as np
 import pytest
 
-import bvh
-from bvh import assets
-from bvh.humanoid_skeleton import ROOT_HEIGHT, humanoid_rest_motion, humanoid_skeleton
-from bvh.mjcf import ModelInfo
+from mjchar import bvh
+from mjchar.bvh.bundled import assets
+from mjchar.bvh.bundled.humanoid_skeleton import (
+    ROOT_HEIGHT,
+    humanoid_rest_motion,
+    humanoid_skeleton,
+)
+from mjchar.bvh.mjcf import ModelInfo
+from mjchar.bvh.rigs import units
 
 
 def test_checked_in_model_is_the_converters_output():
     """assets/mjcf/humanoid.xml equals a fresh conversion byte for byte
-    (regenerate with `python -m bvh.assets` after changing the converter)."""
+    (regenerate with `python -m mjchar.bvh.bundled.assets` after changing the converter)."""
     on_disk = assets.humanoid_path().read_bytes()
     assert on_disk == assets.build_humanoid().xml.encode("utf-8")
 
@@ -51,7 +57,7 @@ def test_skeleton_layout():
     assert sk.channels[0] == ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation",
                               "Zrotation")
     assert all(len(c) == 3 for c in sk.channels[1:])
-    assert bvh.units.guess_up_axis(sk) == "y" and bvh.units.guess_unit_scale(sk) == 1.0
+    assert units.guess_up_axis(sk) == "y" and units.guess_unit_scale(sk) == 1.0
     rest = sk.rest_positions()
     assert rest[sk.index("lHip")][0] > 0  # left is +X: it faces +Z
     assert rest[sk.index("lToeJoint")][2] > rest[sk.index("lAnkle")][2]
@@ -73,14 +79,13 @@ def test_regenerate_into_a_folder(tmp_path):
 
 
 def test_assets_found_through_the_package():
-    """The bundled files are package data of ``assets`` (what the wheel ships), found with
+    """The bundled files are package data of ``mjchar.assets`` (what the wheel ships), found with
     importlib.resources, not from the checkout's layout."""
     import importlib.resources
 
-    import assets
-    import bvh.assets as ba
+    import mjchar.bvh.bundled.assets as ba
+    from mjchar import assets
 
-    assert assets.MJCHAR_ASSETS
     folder = importlib.resources.files(assets)
     assert ba.ASSETS == folder
     assert ba.humanoid_path() == folder / "mjcf" / "humanoid.xml"
@@ -90,29 +95,34 @@ def test_assets_found_through_the_package():
 
 
 def test_missing_motion_lists_the_bundled_ones():
-    import bvh.assets as ba
+    import mjchar.bvh.bundled.assets as ba
 
     with pytest.raises(ba.AssetError, match="available: idle, walk"):
         ba.motion_path("moonwalk")
 
 
-def test_a_foreign_assets_package_is_named(tmp_path, monkeypatch):
-    """Another ``assets`` package shadowing mjchar's is one clear error naming where it is."""
+def test_a_users_own_assets_package_does_not_shadow_mjchars(tmp_path, monkeypatch):
+    """A project with its own top-level ``assets`` package (common) keeps using it, and mjchar
+    still finds its own bundled files."""
     import sys
 
-    import bvh.assets as ba
+    import mjchar.bvh.bundled.assets as ba
 
     (tmp_path / "assets").mkdir()
-    (tmp_path / "assets" / "__init__.py").write_text("")
+    (tmp_path / "assets" / "__init__.py").write_text("MINE = True\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delitem(sys.modules, "assets", raising=False)
-    with pytest.raises(ba.AssetError, match=f"{tmp_path}.*not mjchar's"):
-        ba.humanoid_path()
+    import importlib
+
+    assert importlib.import_module("assets").MINE  # the user's own
+    assert ba.humanoid_path().is_file()
+    assert ba.humanoid_path().parts[-3:] == ("assets", "mjcf", "humanoid.xml")
+    assert tmp_path not in ba.humanoid_path().parents
     monkeypatch.delitem(sys.modules, "assets")
 
 
 def test_broken_mujoco_warns():
-    from controllers.core.model import check_mujoco_version
+    from mjchar.controllers.core.model import check_mujoco_version
 
     with pytest.warns(RuntimeWarning, match="mujoco-core>=4.0.1"):
         assert not check_mujoco_version("4.0.0")

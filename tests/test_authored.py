@@ -1,4 +1,5 @@
-"""The project-authored bundled motions (bvh.authored): idle and walk on the default skeleton.
+"""The project-authored bundled motions (mjchar.bvh.bundled.authored): idle and walk on the default
+skeleton.
 
 Measured figures are printed with ``pytest -s``.
 """
@@ -9,8 +10,8 @@ import mujoco
 import numpy as np
 import pytest
 
-import bvh
-from bvh.authored import (
+from mjchar import bvh
+from mjchar.bvh.bundled.authored import (
     AuthoringError,
     IdleStyle,
     WalkStyle,
@@ -18,13 +19,13 @@ from bvh.authored import (
     walk_motion,
     write_bundled_motions,
 )
-from bvh.humanoid_skeleton import humanoid_skeleton
-from bvh.mjcf import convert
-from bvh.motion import Motion
-from bvh.reference import ReferenceMotion, replay_errors
-from bvh.rotations import quat_conj, quat_mul, quat_to_rotvec
-from bvh.skeleton import Skeleton
-from bvh.units import transform_motion, up_axis_rotation
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import convert
+from mjchar.bvh.reference.reference_motion import ReferenceMotion, replay_errors
+from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import quat_conj, quat_mul, quat_to_rotvec
 
 _CACHE: dict = {}
 

@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.balance.static_balance import StaticBalance, squat_profile
-from controllers.core import scenarios as S
-from controllers.core.base import Action
-from controllers.core.character import Character
-from controllers.core.push_protocol import PushProtocol, survival_rates
-from controllers.core.registry import make_controller
+from mjchar.controllers.balance.static_balance import StaticBalance, squat_profile
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.base import Action
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates
+from mjchar.controllers.core.registry import make_controller
 
 
 @pytest.fixture(scope="module")

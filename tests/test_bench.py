@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.core import registry
 from mjchar import bench as B
 from mjchar import cli, perf
 from mjchar.bench.config import SHARED_BVH
+from mjchar.controllers.core import registry
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -221,9 +221,9 @@ def test_cli_rejects_bad_options(main, capsys):
 # -- replays --------------------------------------------------------------------------------------
 def _standing_trajectory(path: Path) -> Path:
     """A trivial saved trajectory: hold the standing pose's targets for 0.6 s."""
-    from controllers.core import scenarios as S
-    from controllers.core.character import Character
-    from controllers.sampling.trajectory import Trajectory
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.sampling.trajectory import Trajectory
 
     ch = Character()
     q = S.standing_pose(ch)
@@ -391,8 +391,8 @@ def test_envelope_separates_explicit_from_stable_pd():
 
 
 def test_step_cost_and_raw_rate_report_positive_finite_numbers():
-    from controllers.core import scenarios as S
-    from controllers.core.character import Character
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
 
     ch = Character()
     pose = S.standing_pose(ch)
@@ -409,8 +409,8 @@ def test_optional_parts_report_unavailable(monkeypatch):
     monkeypatch.setitem(sys.modules, "bvhio", None)
     with pytest.raises(perf.PerfUnavailable, match="bvhio"):
         perf.bvh_parse_speed([])
-    monkeypatch.setitem(sys.modules, "envs", None)
-    with pytest.raises(perf.PerfUnavailable, match="envs"):
+    monkeypatch.setitem(sys.modules, "mjchar.envs.imitation", None)  # a broken env module
+    with pytest.raises(perf.PerfUnavailable, match="Imitation-v0"):
         perf.env_throughput(steps=1, repeats=1)
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from bvh.assets import TRAJECTORIES as TRAJECTORY_DIR
-from controllers.sampling.trajectory import load_trajectory, replay
 from mjchar.bench import find_trajectories
+from mjchar.bvh.bundled.assets import TRAJECTORIES as TRAJECTORY_DIR
+from mjchar.controllers.sampling.trajectory import load_trajectory, replay
 
 
 def test_the_bench_finds_one_trajectory_per_replay_row():

@@ -13,11 +13,11 @@ import pytest
 from bvh_variants import TAIT_BRYAN, Variant, all_variants, rot_channels
 from scipy.spatial.transform import Rotation
 
-import bvh
-from bvh import io as bvh_io
-from bvh.motion import _continuous_euler
-from bvh.rotations import quat_from_euler, to_rotation
-from bvh.skeleton import Skeleton
+from mjchar import bvh
+from mjchar.bvh.io import reader as bvh_io
+from mjchar.bvh.io.motion import _continuous_euler
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rotations import quat_from_euler, to_rotation
 
 VARIANTS = all_variants()
 

@@ -10,10 +10,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.core.base import Action
-from controllers.core.character import Character
-from controllers.core.errors import CharacterError, SimulationDiverged
-from controllers.core.geometry import convex_hull_2d, point_in_polygon_margin
+from mjchar.controllers.core.base import Action
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.errors import CharacterError, SimulationDiverged
+from mjchar.controllers.core.geometry import convex_hull_2d, point_in_polygon_margin
 
 
 def mini_humanoid_xml() -> str:

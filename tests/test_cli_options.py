@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import pytest
 
-from bvh.assets import TRAJECTORIES, motion_path
-from controllers import registry
+from mjchar.bvh.bundled.assets import TRAJECTORIES, motion_path
 from mjchar.cli import main
 from mjchar.commands.run_options import OPTIONS, PUSH_DETAILS, check_applicable
+from mjchar.controllers import registry
 
 #: a valid value for each option (flags take none)
 VALUES = {
@@ -152,8 +152,8 @@ def test_speed_limits_scale_with_the_body():
 
 
 def test_leg_length_follows_the_body(zoo_humanoids):
-    from controllers.core.character import Character
-    from controllers.walking.gaits import BUNDLED_LEG_LENGTH
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.walking.gaits import BUNDLED_LEG_LENGTH
 
     assert Character().leg_length() == pytest.approx(BUNDLED_LEG_LENGTH, abs=1e-9)
     small, tall = (Character(zoo_humanoids[h]).leg_length() for h in (1.5, 1.95))
@@ -164,7 +164,7 @@ def test_leg_length_follows_the_body(zoo_humanoids):
 def test_speed_range_on_another_body_is_checked_in_its_units(zoo_humanoids, capsys):
     """The 1.95 m body's SIMBICON range is 0.66-1.77 m/s: 0.62 m/s, inside the bundled
     humanoid's 0.6-1.6, is refused on it, naming the body's range; 1.7 m/s is taken."""
-    from controllers.core.character import Character
+    from mjchar.controllers.core.character import Character
 
     xml = zoo_humanoids[1.95]
     assert registry.get("simbicon").limit("speed", Character(xml).leg_length()) == (0.66, 1.77)

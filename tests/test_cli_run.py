@@ -145,7 +145,7 @@ def test_floor_modes_place_the_reference(capsys):
 
 
 def test_run_offers_every_registered_controller_and_scenario(capsys):
-    from controllers.core import registry
+    from mjchar.controllers.core import registry
 
     with pytest.raises(SystemExit):
         main(["run", "--help"])

@@ -1,4 +1,4 @@
-"""BVH -> MJCF conversion (bvh.mjcf) and the `mjchar convert` command."""
+"""BVH -> MJCF conversion (mjchar.bvh.mjcf) and the `mjchar convert` command."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 from test_naming import anonymous_skeleton, cmu_skeleton, mixamo_skeleton, zup_skeleton
 
-import bvh
-from bvh.humanoid_skeleton import humanoid_skeleton
-from bvh.kinematics import forward_kinematics
-from bvh.mjcf import ConversionError, ConvertedModel, ModelInfo, convert
-from bvh.rotations import from_rotation, quat_conj, quat_mul, to_rotation
-from bvh.skeleton import Skeleton
-from bvh.units import transform_motion
+from mjchar import bvh
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.fk import forward_kinematics
+from mjchar.bvh.mjcf import ConversionError, ConvertedModel, ModelInfo, convert
+from mjchar.bvh.rigs.units import transform_motion
+from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, to_rotation
 from mjchar.cli import main as cli_main
 
 
@@ -199,7 +199,8 @@ def test_deterministic_output():
 
 
 # ------------------------------------------------------------------------------------------------
-# replay exactness (the contract's kinematics, checked without bvh.reference)
+# replay exactness (the contract's kinematics, checked without
+# mjchar.bvh.reference.reference_motion)
 # ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("make", [humanoid_skeleton, cmu_skeleton, mixamo_skeleton, zup_skeleton,
                                   anonymous_skeleton])
@@ -261,7 +262,7 @@ def test_full_model_has_no_limits(walk60):
 
 
 def test_replay_errors_via_reference(walk60):
-    reference = pytest.importorskip("bvh.reference")
+    reference = pytest.importorskip("mjchar.bvh.reference.reference_motion")
     full = convert(walk60, joint_model="full")
     e = reference.replay_errors(full, full.motion)
     assert e["max_mm"] < 1e-3 and e["end_effector_max_mm"] < 1e-3
@@ -465,7 +466,7 @@ def test_cli_convert_shared_clip(walk60, tmp_path, capsys):
 
 
 def test_cli_json_verify(walk60, tmp_path, capsys):
-    pytest.importorskip("bvh.reference")
+    pytest.importorskip("mjchar.bvh.reference.reference_motion")
     out = tmp_path / "walk.xml"
     assert cli_main(["convert", str(walk60), "-o", str(out), "--joint-model", "full",
                      "--verify", "--json"]) == 0

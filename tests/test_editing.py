@@ -1,4 +1,4 @@
-"""Tests of bvh.editing: mirror, retarget between rest poses, align, concatenate."""
+"""Tests of mjchar.bvh.editing.clips: mirror, retarget between rest poses, align, concatenate."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from conftest import shared_clip
 
-import bvh
-from bvh.editing import (
+from mjchar import bvh
+from mjchar.bvh.editing.clips import (
     EditingError,
     align,
     concatenate,
@@ -19,8 +19,8 @@ from bvh.editing import (
     mirror_pairs,
     retarget,
 )
-from bvh.errors import MjcharError
-from bvh.rotations import (
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.rotations import (
     heading_angle,
     quat_conj,
     quat_from_rotvec,

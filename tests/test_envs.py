@@ -16,13 +16,13 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 from gymnasium.utils.passive_env_checker import env_render_passive_checker
 
-import envs
-from controllers.core.metrics import Result
-from envs.common import EnvError, display_available
+from mjchar import envs
+from mjchar.controllers.core.metrics import Result
+from mjchar.envs.common import EnvError, display_available
 
 IDS = list(envs.ENV_IDS)
 IMITATION, STAND = "mjchar/Imitation-v0", "mjchar/Stand-v0"
-#: info keys that name a scenario metric (controllers.core.metrics.Result field)
+#: info keys that name a scenario metric (mjchar.controllers.core.metrics.Result field)
 RESULT_KEYS = {"sim_time_s", "fell", "fall_time_s", "fall_reason", "diverged", "distance_m",
                "mean_speed_mps", "foot_travel_m", "stepped", "n_steps", "timestep_s",
                "control_dt_s"}
@@ -60,7 +60,7 @@ def test_registered_ids_make_both_forms():
     assert set(IDS) == {IMITATION, STAND}
     for eid in IDS:
         assert eid in gym.registry
-        env = gym.make(f"envs:{eid}")  # the module:id form imports the package itself
+        env = gym.make(f"mjchar.envs:{eid}")  # the module:id form imports the package itself
         assert env.unwrapped.spec.id == eid
         env.close()
 
@@ -99,7 +99,7 @@ def test_rgb_array_rendering(env_id):
 
 
 def test_human_mode_without_display_fails_clearly(monkeypatch):
-    monkeypatch.setattr("envs.common.display_available", lambda: False)
+    monkeypatch.setattr("mjchar.envs.common.display_available", lambda: False)
     with pytest.raises(EnvError, match="needs a display"):
         gym.make(STAND, render_mode="human")
     with pytest.raises(EnvError, match="render_mode"):

@@ -1,5 +1,5 @@
-"""Executors (controllers.sampling.executors): local threads and Ray give the same results as a
-direct rollout; bad names, options and Ray addresses raise project errors instead of hanging."""
+"""Executors (mjchar.controllers.sampling.executors): local threads and Ray give the same results as
+a direct rollout; bad names, options and Ray addresses raise project errors instead of hanging."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bvh.assets import humanoid_path
-from bvh.errors import MjcharError
-from controllers.sampling.executors import (
+from mjchar.bvh.bundled.assets import humanoid_path
+from mjchar.bvh.errors import MjcharError
+from mjchar.controllers.sampling.executors import (
     ExecutorError,
     LocalExecutor,
     RayConnectionError,
@@ -24,7 +24,7 @@ from controllers.sampling.executors import (
     executor_from_args,
     make_executor,
 )
-from controllers.sampling.rollout import RolloutModel, RolloutRequest, rollout
+from mjchar.controllers.sampling.rollout import RolloutModel, RolloutRequest, rollout
 
 ROOT = Path(__file__).resolve().parents[1]
 FIELDS = ("states", "com", "com_vel", "sites", "contacts", "ok", "failed_step")
@@ -121,7 +121,7 @@ def test_silent_ray_address_times_out():
     pytest.importorskip("ray", reason="ray is not installed (pip install 'mjchar[ray]')")
     script = textwrap.dedent("""
         import os, socket, sys
-        from controllers.sampling.executors import RayConnectionError, make_executor
+        from mjchar.controllers.sampling.executors import RayConnectionError, make_executor
         server = socket.socket()
         server.bind(("127.0.0.1", 0))
         server.listen()

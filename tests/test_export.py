@@ -1,4 +1,5 @@
-"""Simulated motion exported as BVH (bvh.export, controllers.core.recording, ``--export-bvh``).
+"""Simulated motion exported as BVH (mjchar.bvh.reference.export, mjchar.controllers.core.recording,
+``--export-bvh``).
 
 The bar: the exported clip is on the skeleton the model was converted from (its joint names,
 channel orders, units, frame rate), and converting it back with ``joint_model="full"`` and
@@ -16,16 +17,16 @@ import pytest
 from bvh_variants import CMU_NAMES, cmu_style
 from conftest import shared_clip
 
-import bvh
-from bvh.assets import TRAJECTORIES, humanoid_path, motion_path
-from bvh.export import ExportError, qpos_to_motion, resample_qpos
-from bvh.mjcf import ConversionError, ModelInfo, convert
-from bvh.reference import ReferenceMotion
-from controllers import registry
-from controllers.core import scenarios as S
-from controllers.core.character import Character
-from controllers.core.recording import MotionRecorder
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import TRAJECTORIES, humanoid_path, motion_path
+from mjchar.bvh.mjcf import ConversionError, ModelInfo, convert
+from mjchar.bvh.reference.export import ExportError, qpos_to_motion, resample_qpos
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.cli import main
+from mjchar.controllers import registry
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.recording import MotionRecorder
 
 TOLERANCE_M = 1e-3
 
@@ -94,7 +95,7 @@ def cmu_rig(tmp_path_factory):
 
 
 def test_the_bundled_humanoid_keeps_its_source_skeleton():
-    from bvh.humanoid_skeleton import humanoid_skeleton
+    from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
 
     info = ModelInfo.from_model(mujoco.MjModel.from_xml_path(str(humanoid_path())))
     skeleton, frame_time = info.source()
@@ -189,7 +190,7 @@ def _walk(model, controller="simbicon", duration=5.0) -> MotionRecorder:
 
 
 def _replay(trajectory, model=None) -> MotionRecorder:
-    from controllers.sampling.trajectory import replay
+    from mjchar.controllers.sampling.trajectory import replay
 
     rec = MotionRecorder()
     result = replay(trajectory, model=model, frame_callback=rec)
@@ -208,7 +209,7 @@ def test_bundled_acceptance_round_trips(tmp_path):
 
 @pytest.mark.slow
 def test_cmu_rig_acceptance_round_trips(cmu_rig, tmp_path):
-    from controllers.sampling.samcon import Samcon, SamconOptions
+    from mjchar.controllers.sampling.samcon import Samcon, SamconOptions
 
     clip, xml = cmu_rig
     character = Character(str(xml))
@@ -226,7 +227,7 @@ def test_cmu_rig_acceptance_round_trips(cmu_rig, tmp_path):
 def rerooted_rig(tmp_path_factory):
     """The zoo's Unreal-style rig (a static ``root`` node above ``pelvis``, bones along local
     axes, so the converter folds the root and takes a new rest pose), as a file and its model."""
-    from bvh.zoo import zoo_rigs
+    from mjchar.bvh.bundled.zoo import zoo_rigs
 
     shared_clip("walk60.bvh")
     rig = next(r for r in zoo_rigs(shared_clip("walk60.bvh").parent) if r.name.startswith("unreal"))

@@ -3,8 +3,8 @@
 The reference below is written from the BVH definition alone: per joint, a translation (the
 OFFSET, with any position channels replacing its components) times the product of elemental
 rotation matrices in the order the rotation channels are listed, chained from the root.
-It reads the raw channel values with bvh.read_channels and shares no code with bvh.kinematics
-or bvh.rotations.
+It reads the raw channel values with bvh.read_channels and shares no code with
+mjchar.bvh.kinematics.fk or mjchar.bvh.rotations.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from bvh_variants import all_variants
 
-import bvh
+from mjchar import bvh
 
 VARIANTS = all_variants()
 

@@ -19,8 +19,8 @@ from bvh_variants import SHARED_BVH, games_like_skeleton, synthetic_motion
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import bvh
-from bvh import io as bvh_io
+from mjchar import bvh
+from mjchar.bvh.io import reader as bvh_io
 
 _BREAK = re.compile(r"\r\n|\r|\n")
 

@@ -1,6 +1,6 @@
-"""Gait analysis (bvh.gait, ``mjchar gait``): the statistics of the mocap walks agree with an
-independent calculation from the clip's own forward kinematics, simulated walks are measured by
-the same probe, and the command refuses what does not apply."""
+"""Gait analysis (mjchar.bvh.gait.analysis, ``mjchar gait``): the statistics of the mocap walks
+agree with an independent calculation from the clip's own forward kinematics, simulated walks are
+measured by the same probe, and the command refuses what does not apply."""
 
 from __future__ import annotations
 
@@ -11,13 +11,14 @@ import numpy as np
 import pytest
 from conftest import shared_clip
 
-import bvh
-from bvh.gait import GaitError, _pelvis_rotation, analyse, analyse_clip, table
-from controllers import registry
-from controllers.core import scenarios as S
-from controllers.core.character import Character
-from controllers.core.recording import MotionRecorder
+from mjchar import bvh
+from mjchar.bvh.gait.analysis import GaitError, _pelvis_rotation, analyse, analyse_clip, table
+from mjchar.bvh.rigs import units
 from mjchar.cli import main
+from mjchar.controllers import registry
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.recording import MotionRecorder
 
 
 def _clip_fk(path):
@@ -25,7 +26,7 @@ def _clip_fk(path):
     rule): ``fk (T, J, 3)`` in metres, ``strikes`` ``[(frame, side)]`` in time order, the local
     minima of each ankle's horizontal speed, at least 0.5 s apart."""
     motion = bvh.load(path)
-    fk = bvh.forward_kinematics(motion).positions * bvh.units.guess_unit_scale(motion.skeleton)
+    fk = bvh.forward_kinematics(motion).positions * units.guess_unit_scale(motion.skeleton)
     t = motion.times
     names = motion.skeleton.names
     root = fk[:, 0][:, [0, 2]]                                  # Y-up clips: the XZ plane

@@ -1,4 +1,4 @@
-"""Inverse kinematics (bvh.ik): CCD, Jacobian transpose and damped least squares.
+"""Inverse kinematics (mjchar.bvh.kinematics.ik): CCD, Jacobian transpose and damped least squares.
 
 Every scenario runs on two skeletons: a synthetic humanoid built here (with a zero-length bone,
 so IK is covered without ../shared) and the shared walk60.bvh clip (skipped when absent).
@@ -16,8 +16,9 @@ from conftest import shared_clip
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import bvh
-from bvh.ik import (
+from mjchar import bvh
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.ik import (
     METHODS,
     Effector,
     IKError,
@@ -28,8 +29,7 @@ from bvh.ik import (
     solve_dls,
     solve_frames,
 )
-from bvh.rotations import quat_from_rotvec
-from bvh.skeleton import Skeleton
+from mjchar.bvh.rotations import quat_from_rotvec
 
 N_FRAMES = 20
 MAX_ANGLE = 0.5
@@ -99,7 +99,8 @@ def case(request) -> Case:
                 ["lShoulder", "lElbow", "lWrist"], "lElbow")
 
 
-# -- measuring, independently of bvh.ik ----------------------------------------------------------
+# -- measuring, independently of mjchar.bvh.kinematics.ik
+# ----------------------------------------------------------
 def joint_positions(pose: Pose) -> np.ndarray:
     return bvh.forward_kinematics(pose.to_motion()).positions[0]
 

@@ -1,4 +1,5 @@
-"""Tests of bvh.interpolation: position splines, quaternion splines, sampling and resampling."""
+"""Tests of mjchar.bvh.editing.interpolation: position splines, quaternion splines, sampling and
+resampling."""
 
 from __future__ import annotations
 
@@ -6,9 +7,8 @@ import numpy as np
 import pytest
 from conftest import shared_clip
 
-import bvh
-from bvh.errors import MjcharError
-from bvh.interpolation import (
+from mjchar import bvh
+from mjchar.bvh.editing.interpolation import (
     InterpolationError,
     catmull_rom,
     catmull_rom_tangents,
@@ -22,7 +22,8 @@ from bvh.interpolation import (
     sample,
     slerp_keys,
 )
-from bvh.rotations import quat_conj, quat_from_rotvec, quat_mul, quat_to_rotvec
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.rotations import quat_conj, quat_from_rotvec, quat_mul, quat_to_rotvec
 
 EPS = 1e-6
 

@@ -14,11 +14,22 @@ import math
 import numpy as np
 import pytest
 
-from controllers.core.character import Character
-from controllers.core.registry import make_controller
-from controllers.core.scenarios import push, simulate, standing_pose, survived
-from controllers.walking.ipm import IPMController, IPMError, IPMParams, ipm_step_offset, make_ipm
-from controllers.walking.swing import SwingError, SwingTrajectory, rotation_about, two_link_ik
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.registry import make_controller
+from mjchar.controllers.core.scenarios import push, simulate, standing_pose, survived
+from mjchar.controllers.walking.ipm import (
+    IPMController,
+    IPMError,
+    IPMParams,
+    ipm_step_offset,
+    make_ipm,
+)
+from mjchar.controllers.walking.swing import (
+    SwingError,
+    SwingTrajectory,
+    rotation_about,
+    two_link_ik,
+)
 
 
 @pytest.fixture(scope="module")
@@ -225,11 +236,11 @@ def test_walks_fast_with_quicker_steps(character):
 
 def test_gait_at_1_2_mps_is_human_like(character):
     """Issue 14's gait bars at 1.2 m/s (12 s walk from standing, analysed from 3 s with
-    bvh.gait, the probe of ``mjchar gait``): trunk lean < 8 deg, step width 0.05-0.15 m, step
-    length 0.55-0.80 m, cadence 95-130 steps/min, mean knee flexion 15-35 deg, stance slip
-    < 1 cm per step (docs/ipm.md: the human band's lift-off and stance ankle)."""
-    from bvh.gait import analyse
-    from controllers.core.recording import MotionRecorder
+    mjchar.bvh.gait.analysis, the probe of ``mjchar gait``): trunk lean < 8 deg, step width
+    0.05-0.15 m, step length 0.55-0.80 m, cadence 95-130 steps/min, mean knee flexion 15-35 deg,
+    stance slip < 1 cm per step (docs/ipm.md: the human band's lift-off and stance ankle)."""
+    from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers.core.recording import MotionRecorder
 
     rec = MotionRecorder()
     r = simulate(character, make_ipm(character, speed=1.2), duration=12.0, scenario="walk",
@@ -246,12 +257,12 @@ def test_gait_at_1_2_mps_is_human_like(character):
 
 @pytest.mark.parametrize("speed", [1.0, 1.4])
 def test_stance_slip_under_1cm_off_1_2_mps(character, speed):
-    """Issue 14's slip bar (< 1 cm per step, bvh.gait's probe) away from 1.2 m/s too: 15 s walks
-    from standing, analysed from 3 s (docs/ipm.md, stance slip across speeds: 1.29 and 1.71 cm
-    before the stance ankle's toe-up limit below the band, the swing foot's toes-up lift-off and
-    the feet's measures held above it; 0.63 and 0.95 cm after)."""
-    from bvh.gait import analyse
-    from controllers.core.recording import MotionRecorder
+    """Issue 14's slip bar (< 1 cm per step, mjchar.bvh.gait.analysis's probe) away from 1.2 m/s
+    too: 15 s walks from standing, analysed from 3 s (docs/ipm.md, stance slip across speeds: 1.29
+    and 1.71 cm before the stance ankle's toe-up limit below the band, the swing foot's toes-up
+    lift-off and the feet's measures held above it; 0.63 and 0.95 cm after)."""
+    from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers.core.recording import MotionRecorder
 
     rec = MotionRecorder()
     r = simulate(character, make_ipm(character, speed=speed), duration=15.0, scenario="walk",
@@ -299,7 +310,7 @@ def test_recovery_step_is_not_widened_while_the_com_moves_sideways():
     """The push protocol's one 150 N failure before the fix (backward, moment 1.625 s, seed 2):
     the recovery steps drift sideways, a step of the zero command was widened to the standing
     width across the COM's motion, and the COM fell over the far side of the new stance foot."""
-    from controllers.core.push_protocol import PushProtocol, PushTask, simulate_push
+    from mjchar.controllers.core.push_protocol import PushProtocol, PushTask, simulate_push
 
     protocol = PushProtocol(forces=(150.0,), phases=8, seeds=(2,)).check()
     task = PushTask("ipm", "backward", 150.0, protocol.phase_values()[5], 2, protocol, None,
@@ -356,8 +367,8 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
     """On the zoo's 1.5 m and 1.95 m humanoids the range is the same Froude speeds (the
     registered limits scale with the leg length, as the parameters do): 60 s at the Froude
     speeds of 0.3 m/s (the slowest walk of the 60 s range; 0 stands) and 1.6 m/s."""
-    from controllers import registry
-    from controllers.core.terrain import walk
+    from mjchar.controllers import registry
+    from mjchar.controllers.core.terrain import walk
 
     ch = Character(zoo_humanoids[height])
     speed = end * (ch.leg_length() / registry.get("ipm").speed_leg_length) ** 0.5
@@ -372,7 +383,7 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
 def test_walks_60s_at_1_2_from_seeded_starts(seed):
     """Issue 14's 60 s at 5 seeds, at its comparison speed: no fall, no root force, steady speed
     (last 10 s) within 0.15 m/s (measured 1.159 at every seed)."""
-    from controllers.core.terrain import walk
+    from mjchar.controllers.core.terrain import walk
 
     ch = Character()
     r = walk(ch, make_ipm(ch, speed=1.2), duration=60.0, seed=seed)
@@ -408,7 +419,7 @@ def test_turns_90_degrees(character, speed, heading):
 def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
     """It fell at 7.6 s (a strict xfail) until the feet's measures were held above the human
     band (session 16, docs/ipm.md)."""
-    from controllers.core import terrain
+    from mjchar.controllers.core import terrain
 
     c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else -90.0)
     r = terrain.walk(character, c, duration=18.0, seed=0)
@@ -420,7 +431,7 @@ def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
                    "the seeded start falls at 5.9 s (1 of 24 turns of the 1.0-1.6 m/s grid at seed "
                    "0, 0 of 24 at seed 1; docs/ipm.md, stance slip across speeds)")
 def test_turns_90_degrees_left_at_1_6_from_a_seeded_start(character):
-    from controllers.core import terrain
+    from mjchar.controllers.core import terrain
 
     c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else 90.0)
     r = terrain.walk(character, c, duration=18.0, seed=0)
@@ -482,7 +493,7 @@ def test_parameters_follow_the_body_by_similarity():
     import dataclasses
     import math
 
-    from controllers.walking import ipm_params as P
+    from mjchar.controllers.walking import ipm_params as P
 
     groups = (P._LENGTH + P._TIME + P._SPEED + P._RATE + P._RATE2 + P._TORQUE_GAIN
               + P._DAMPING_GAIN + P._FORCE + P._TORQUE + P._DIMENSIONLESS)

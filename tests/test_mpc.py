@@ -11,15 +11,21 @@ import numpy as np
 import pytest
 from conftest import run_command, shared_clip
 
-import bvh
-from bvh.editing import EditingError, make_cyclic
-from bvh.errors import MjcharError
-from bvh.reference import ReferenceMotion
-from controllers.core import scenarios as S
-from controllers.core.character import Character
-from controllers.core.registry import get, make_controller
-from controllers.sampling.mpc import MpcController, MpcError, MpcOptions, make_mpc, shift_matrix
-from controllers.sampling.rollout import RolloutRequest, get_state
+from mjchar import bvh
+from mjchar.bvh.editing.clips import EditingError, make_cyclic
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.registry import get, make_controller
+from mjchar.controllers.sampling.mpc import (
+    MpcController,
+    MpcError,
+    MpcOptions,
+    make_mpc,
+    shift_matrix,
+)
+from mjchar.controllers.sampling.rollout import RolloutRequest, get_state
 
 #: small, fast settings (about 1 s of wall time per 0.1 s simulated on 2 cores)
 FAST = {"samples": 8, "horizon": 0.2, "knots": 2, "replan": 0.04, "threads": 2}
@@ -70,7 +76,7 @@ def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     """plan_timestep changes the rollout model's step only: the character keeps its own, the
     rest of the physics is checked to be the character's. By default it is twice the
     character's; the character's own step makes the rollouts exact."""
-    from controllers.sampling.trajectory import model_fingerprint
+    from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     c = make_mpc(character, walk_ref, progress=False, **FAST)
     c.reset(character)
@@ -92,7 +98,7 @@ def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     (0.002, 0.002, 0.002),  # one physics step per control: the character's own
 ])
 def test_default_planning_step_follows_the_model(timestep, control_dt, expected):
-    from controllers.sampling.mpc import plan_timestep
+    from mjchar.controllers.sampling.mpc import plan_timestep
 
     o = MpcOptions(control_dt=control_dt, horizon=10 * control_dt, replan=control_dt)
     assert plan_timestep(o, timestep) == pytest.approx(expected)
@@ -125,9 +131,12 @@ def test_shift_matrix_moves_the_knots_and_holds_the_last():
 
 def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
     """Base targets computed in blocks (with a smoothing margin) match a one-shot computation."""
-    from bvh.foot_points import CONTACT_HEIGHT
-    from controllers.sampling.mpc import MPC_STANCE_HEIGHT, ReferenceGrid
-    from controllers.sampling.tracking import inverse_dynamics_targets, tracking_rollout_model
+    from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT
+    from mjchar.controllers.sampling.mpc import MPC_STANCE_HEIGHT, ReferenceGrid
+    from mjchar.controllers.sampling.tracking import (
+        inverse_dynamics_targets,
+        tracking_rollout_model,
+    )
 
     rm = tracking_rollout_model(character.source, character)
     n = np.arange(-10, 70)
@@ -143,11 +152,11 @@ def test_reference_grid_blocks_join_without_a_seam(character, walk_ref):
 
 def test_stance_height_default_follows_the_reference_floor(character, walk_ref):
     """Grounded labels on a contact-floor reference, the raw-mocap rule on a floating clip."""
-    import bvh
-    from bvh.assets import motion_path
-    from bvh.foot_points import CONTACT_HEIGHT
-    from bvh.reference import ReferenceMotion
-    from controllers.sampling.mpc import MPC_STANCE_HEIGHT, stance_height
+    from mjchar import bvh
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
+    from mjchar.controllers.sampling.mpc import MPC_STANCE_HEIGHT, stance_height
 
     clip_ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")),
                                info=character.info, floor="clip")

@@ -1,4 +1,4 @@
-"""Joint role recognition (bvh.naming) on the naming styles found in the wild.
+"""Joint role recognition (mjchar.bvh.rigs.naming) on the naming styles found in the wild.
 
 The test skeletons below are authored here (numbers made up to look like each rig family):
 a CMU-style 31-joint rig in inches with zero-length helper bones and ZYX channels, a
@@ -11,11 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import bvh
-from bvh.humanoid_skeleton import humanoid_skeleton
-from bvh.naming import is_end, is_finger, recognise, side_of, tokens
-from bvh.skeleton import Skeleton
-from bvh.units import transform_motion, up_axis_rotation
+from mjchar import bvh
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rigs import units
+from mjchar.bvh.rigs.naming import is_end, is_finger, recognise, side_of, tokens
+from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
 
 ZYX = ("Zrotation", "Yrotation", "Xrotation")
 ZXY = ("Zrotation", "Xrotation", "Yrotation")
@@ -177,7 +178,7 @@ def test_mixamo_naming():
 
 def test_zup_naming():
     sk = zup_skeleton()
-    assert bvh.units.guess_up_axis(sk) == "z"
+    assert units.guess_up_axis(sk) == "z"
     rec = recognise(sk)
     assert rec.roles["left_knee"] == "lKnee" and rec.roles["head"] == "torso_head"
     np.testing.assert_allclose(rec.left_axis, [1, 0, 0], atol=1e-9)

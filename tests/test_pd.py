@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from conftest import shared_clip
 
-import bvh
-from bvh.reference import ReferenceMotion
-from controllers.balance.hand_of_god import HandOfGod
-from controllers.core import scenarios as S
-from controllers.core.base import Action, ControllerError, Gains, PoseTarget, joint_error
-from controllers.core.character import Character
-from controllers.core.pd import NativePDController, PDController, StablePDController
-from controllers.core.registry import make_controller
+from mjchar import bvh
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.balance.hand_of_god import HandOfGod
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.base import Action, ControllerError, Gains, PoseTarget, joint_error
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.pd import NativePDController, PDController, StablePDController
+from mjchar.controllers.core.registry import make_controller
 
 
 @pytest.fixture(scope="module")

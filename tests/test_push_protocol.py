@@ -8,8 +8,8 @@ import json
 
 import pytest
 
-from controllers.core import push_protocol as P
-from controllers.core.push_protocol import (
+from mjchar.controllers.core import push_protocol as P
+from mjchar.controllers.core.push_protocol import (
     PushProtocol,
     PushProtocolError,
     largest_force,

@@ -1,4 +1,4 @@
-"""Reference motions in a converted model's coordinates (bvh.reference).
+"""Reference motions in a converted model's coordinates (mjchar.bvh.reference.reference_motion).
 
 Measured figures (worst errors per clip) are printed with ``pytest -s``; the assertions hold the
 limits: exact replay within 1 mm on the ``full`` model, and on the default ``hinge`` model end
@@ -12,20 +12,20 @@ import numpy as np
 import pytest
 from conftest import SHARED_CLIPS, shared_clip
 
-import bvh
-from bvh.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
-from bvh.mjcf import convert
-from bvh.motion import Motion
-from bvh.reference import (
+from mjchar import bvh
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import convert
+from mjchar.bvh.reference.reference_motion import (
     ReferenceMotion,
     ReferenceMotionError,
     _geom_local_points,
     _QposAlgebra,
     replay_errors,
 )
-from bvh.rotations import heading_angle, quat_from_rotvec, quat_mul
-from bvh.skeleton import Skeleton
-from bvh.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import heading_angle, quat_from_rotvec, quat_mul
 
 EXACT_MM = 1.0
 EE_LIMIT_MM = 10.0

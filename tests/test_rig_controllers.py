@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, run_command, shared_clip
 
-import bvh
-from bvh.assets import HUMANOID_XML, motion_path
-from bvh.mjcf import convert
-from bvh.zoo import all_channels, rename
-from controllers import registry
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import HUMANOID_XML, motion_path
+from mjchar.bvh.bundled.zoo import all_channels, rename
+from mjchar.bvh.mjcf import convert
+from mjchar.controllers import registry
 
 OPAQUE_HEIGHT_M = 1.75
 
@@ -41,7 +41,7 @@ def _names(model: mujoco.MjModel) -> set[str]:
 @pytest.fixture(scope="module")
 def opaque_rig(tmp_path_factory):
     """``(bvh path, xml path)`` of the opaque-named rig."""
-    from bvh.zoo import _units_axes, stature
+    from mjchar.bvh.bundled.zoo import _units_axes, stature
 
     m = bvh.load(motion_path("walk"))
     m = rename(m, {n: f"seg{i:02d}" for i, n in enumerate(m.skeleton.names)})
@@ -129,9 +129,9 @@ def test_a_re_rested_rig_stands_on_its_hips_width(name):
     legs are made to hang straight and the feet flat, so the rest is a standing pose (before:
     one foot 0.6 m ahead of the other, both on the midline, static balance fell at 2.5 s)."""
     shared_clip("walk60.bvh")
-    from bvh.zoo import zoo_rigs
-    from controllers.core.character import Character
-    from controllers.core.scenarios import standing_pose
+    from mjchar.bvh.bundled.zoo import zoo_rigs
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.scenarios import standing_pose
 
     rig = next(r for r in zoo_rigs(SHARED_BVH, humanoid=False) if r.name == name)
     c = convert(bvh.loads(bvh.dumps(rig.motion)))

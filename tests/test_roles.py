@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import bvh
-from bvh.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
-from bvh.mjcf import ConversionError, convert
-from bvh.mjcf.roles import load_roles
-from bvh.naming import recognise
-from bvh.skeleton import Skeleton
-from bvh.zoo import CONVENTIONS, rename
+from mjchar import bvh
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
+from mjchar.bvh.bundled.zoo import CONVENTIONS, rename
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import ConversionError, ModelInfo, convert
+from mjchar.bvh.mjcf.roles import load_roles
+from mjchar.bvh.rigs.naming import recognise
 from mjchar.cli import main as cli_main
 
 
@@ -97,7 +97,7 @@ def test_roles_file_rescues_a_rig(tmp_path, capsys):
     code, err = _cli(["convert", str(path), "-o", str(tmp_path / "x.xml"), "--roles",
                       str(roles)], capsys)
     assert code == 0, err
-    info = bvh.mjcf.ModelInfo.from_xml_path(tmp_path / "x.xml")
+    info = ModelInfo.from_xml_path(tmp_path / "x.xml")
     assert info.roles["left_knee"] == "j13" and info.roles["left_hip"] == "j12"
     assert info.roles["right_ankle"] == "j18" and info.roles["spine"] == ["j1", "j2"]
 

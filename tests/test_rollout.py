@@ -1,5 +1,6 @@
-"""Batched rollouts (controllers.sampling.rollout) on the bundled humanoid: determinism, equality
-with a plain mj_step loop, cost quantities, contacts, divergence reporting, input validation."""
+"""Batched rollouts (mjchar.controllers.sampling.rollout) on the bundled humanoid: determinism,
+equality with a plain mj_step loop, cost quantities, contacts, divergence reporting, input
+validation."""
 
 from __future__ import annotations
 
@@ -9,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from bvh.assets import humanoid_path
-from bvh.errors import MjcharError
-from controllers.sampling.rollout import (
+from mjchar.bvh.bundled.assets import humanoid_path
+from mjchar.bvh.errors import MjcharError
+from mjchar.controllers.sampling.rollout import (
     RolloutError,
     RolloutModel,
     RolloutRequest,

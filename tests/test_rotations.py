@@ -1,4 +1,5 @@
-"""Tests of the bvh.rotations helpers, checked against scipy's Rotation (scalar_first=True)."""
+"""Tests of the mjchar.bvh.rotations helpers, checked against scipy's Rotation
+(scalar_first=True)."""
 
 from __future__ import annotations
 
@@ -6,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from bvh.errors import MjcharError
-from bvh.rotations import (
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.rotations import (
     decompose_facing,
     from_rotation,
     heading_angle,

@@ -14,23 +14,28 @@ import numpy as np
 import pytest
 from conftest import run_command, shared_clip
 
-import bvh
-from bvh.assets import motion_path
-from bvh.errors import MjcharError
-from bvh.reference import ReferenceMotion
-from controllers.core.character import Character
-from controllers.core.scenarios import simulate
-from controllers.sampling.executors import LocalExecutor
-from controllers.sampling.rollout import RolloutRequest
-from controllers.sampling.samcon import (
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import motion_path
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.scenarios import simulate
+from mjchar.controllers.sampling.executors import LocalExecutor
+from mjchar.controllers.sampling.rollout import RolloutRequest
+from mjchar.controllers.sampling.samcon import (
     Samcon,
     SamconError,
     SamconOptions,
     select_diverse,
     slice_layout,
 )
-from controllers.sampling.tracking import CostWeights, TrackingCost, TrackingError, sampling_widths
-from controllers.sampling.trajectory import (
+from mjchar.controllers.sampling.tracking import (
+    CostWeights,
+    TrackingCost,
+    TrackingError,
+    sampling_widths,
+)
+from mjchar.controllers.sampling.trajectory import (
     ReplayController,
     Trajectory,
     TrajectoryError,
@@ -103,8 +108,8 @@ class _Labelled:
 def test_stance_labels_scale_with_the_body(character, walk_ref):
     """The stance feet of the inverse dynamics use the contact floor's Froude-scaled thresholds
     (a fraction of the clip's mean root height, and of sqrt(g x that height))."""
-    from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
-    from controllers.sampling.tracking import stance_labels
+    from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
+    from mjchar.controllers.sampling.tracking import stance_labels
 
     ref = _Labelled(walk_ref)
     t = np.arange(0.0, 0.5, 0.02)
@@ -119,7 +124,7 @@ def test_stance_labels_on_the_contact_floor_are_feet_on_the_floor(character):
     """On a contact-floor reference of real mocap, a labelled foot touches the floor (within
     GROUNDED_STANCE_HEIGHT of the root height); the raw-mocap height would label feet that
     are centimetres up (walk60: a descending swing foot up to 5 cm above the floor)."""
-    from controllers.sampling.tracking import GROUNDED_STANCE_HEIGHT, stance_labels
+    from mjchar.controllers.sampling.tracking import GROUNDED_STANCE_HEIGHT, stance_labels
 
     ref = ReferenceMotion(character.model, bvh.load(shared_clip("walk60.bvh")),
                           info=character.info)
@@ -138,7 +143,7 @@ def test_stance_labels_on_the_contact_floor_are_feet_on_the_floor(character):
 
 @pytest.mark.parametrize("bad", [0.0, -0.1, float("nan"), "low"])
 def test_stance_labels_refuse_a_bad_height(character, walk_ref, bad):
-    from controllers.sampling.tracking import stance_labels
+    from mjchar.controllers.sampling.tracking import stance_labels
 
     with pytest.raises(TrackingError, match="stance height"):
         stance_labels(character, walk_ref, np.zeros(1), height=bad)
@@ -149,7 +154,7 @@ def test_inverse_dynamics_without_labels_loads_the_lowest_foot(character, walk_r
     half to a swing foot in the air): the same targets as labelling that foot."""
     import mujoco
 
-    from controllers.sampling.tracking import inverse_dynamics_targets
+    from mjchar.controllers.sampling.tracking import inverse_dynamics_targets
 
     t = np.arange(0.0, 0.6, 0.02) + 0.01
     m, d = character.model, mujoco.MjData(character.model)
@@ -178,7 +183,7 @@ def test_inverse_dynamics_does_not_read_a_clip_start_as_a_jump_from_rest(charact
     """Near the ends of a non-cyclic clip the accelerations are one-sided differences inside the
     clip: differencing across the start (where the reference's velocity is zero) would read the
     walk's 1.05 m/s as a 30 m/s^2 forward acceleration of the root."""
-    from controllers.sampling.tracking import _reference_acceleration
+    from mjchar.controllers.sampling.tracking import _reference_acceleration
 
     ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info,
                           cyclic=False)
@@ -196,7 +201,7 @@ def test_inverse_dynamics_does_not_read_a_clip_start_as_a_jump_from_rest(charact
 
 
 def test_inverse_dynamics_refuses_an_unknown_fallback(character, walk_ref):
-    from controllers.sampling.tracking import TrackingError, inverse_dynamics_targets
+    from mjchar.controllers.sampling.tracking import TrackingError, inverse_dynamics_targets
 
     with pytest.raises(TrackingError, match="unlabelled must be 'lowest' or 'both', not 'none'"):
         inverse_dynamics_targets(character, walk_ref, np.array([0.1]), unlabelled="none")
@@ -205,7 +210,7 @@ def test_inverse_dynamics_refuses_an_unknown_fallback(character, walk_ref):
 def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(character):
     """Static inverse dynamics adds the gravity compensation plain PD lacks: held open loop
     (no root force), the joints stay much closer to the pose (arms out in the T-pose sag)."""
-    from controllers.sampling.trajopt import (
+    from mjchar.controllers.sampling.trajopt import (
         standing_targets,  # inverse dynamics of the standing pose
     )
 
@@ -225,8 +230,8 @@ def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(ch
 
 
 def test_cost_is_zero_on_the_reference_and_grows_with_error(character, walk_ref):
-    from bvh.assets import humanoid_path
-    from controllers.sampling.tracking import reference_features, tracking_rollout_model
+    from mjchar.bvh.bundled.assets import humanoid_path
+    from mjchar.controllers.sampling.tracking import reference_features, tracking_rollout_model
 
     rm = tracking_rollout_model(humanoid_path(), character)
     feats = reference_features(rm, walk_ref, [0.3])
@@ -299,9 +304,9 @@ def test_bad_options_raise(walk_ref, bad, match):
 def test_a_duration_past_the_end_of_a_clip_is_refused(character):
     """A clip that does not loop cannot be reconstructed past its end (it used to hold the last
     frame: a 2 s SAMCON on a 1 s clip tracked a figure frozen mid-stride, 27-33 cm error)."""
-    import bvh
-    from bvh.assets import motion_path
-    from bvh.reference import ReferenceMotion
+    from mjchar import bvh
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     ref = ReferenceMotion(character.model, bvh.load(motion_path("walk")), info=character.info,
                           cyclic=False)
@@ -352,7 +357,7 @@ def test_trajectory_for_another_model_or_time_step_is_refused(short_run):
 def test_fingerprint_covers_contact_and_solver_settings():
     """Version 2 of the fingerprint sees what the first left out (the foot contacts' condim, the
     friction cone's impratio, the solver's iterations), and the time step still not."""
-    from controllers.sampling.trajectory import model_fingerprint
+    from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     base = Character().model
     fp, fp1 = model_fingerprint(base), model_fingerprint(base, version=1)
@@ -374,7 +379,7 @@ def test_fingerprint_covers_contact_and_solver_settings():
 def test_trajectory_saved_with_the_first_fingerprint_still_replays(short_run):
     """A file saved before version 2 carries the version-1 digest: accepted on a model whose
     version-1 physics match, with a warning to save it again."""
-    from controllers.sampling.trajectory import model_fingerprint
+    from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     _, res = short_run
     tr = copy.deepcopy(res.trajectory)
@@ -409,7 +414,7 @@ def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
 
 
 def test_cli_errors_are_one_line(tmp_path):
-    from controllers.sampling.executors import RayConnectionError, RayUnavailableError
+    from mjchar.controllers.sampling.executors import RayConnectionError, RayUnavailableError
 
     bad = tmp_path / "tiny.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition "
@@ -433,7 +438,7 @@ def test_cli_errors_are_one_line(tmp_path):
 def test_samcon_reconstructs_walk60(character):
     """walk60 (~3 s) with no root force: the open-loop replay never falls, tracks within 5 cm
     and ends within 15 cm of the clip's root (minutes; see benchmarks/bench_samcon.py)."""
-    from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS
+    from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS
 
     path = shared_clip("walk60.bvh")
     ref = ReferenceMotion(character.model, bvh.load(path), info=character.info)

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from conftest import shared_clip
 
-import bvh
-from bvh.reference import ReferenceMotion
-from controllers.core import scenarios as S
-from controllers.core.base import Action
-from controllers.core.character import Character
-from controllers.core.metrics import FallDetector, Result
-from controllers.core.registry import RegistryError, default_timestep, make_controller
+from mjchar import bvh
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.base import Action
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.metrics import FallDetector, Result
+from mjchar.controllers.core.registry import RegistryError, default_timestep, make_controller
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +145,7 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
     assert ipm.name == "ipm" and ipm.speed(3.0) == 0.7
     sim = make_controller("simbicon", ch, gait="crouch")
     assert sim.name == "simbicon" and sim.gait.name == "crouch"
-    from controllers.walking.simbicon import DEFAULT_TIMESTEP
+    from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP
 
     assert default_timestep("simbicon") == DEFAULT_TIMESTEP
     assert default_timestep("pd") == 1 / 2000
@@ -157,7 +157,7 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
 def test_walk_seeds_perturb_a_walker_without_its_own_start_state():
     """IPM has no ``start_state``: the walk scenario's seed still perturbs its standing start
     (so the seeds of a robustness rate are different runs), and the same seed repeats."""
-    from controllers.core.terrain import walk
+    from mjchar.controllers.core.terrain import walk
 
     ch = Character()
     if default_timestep("ipm"):

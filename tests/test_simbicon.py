@@ -14,11 +14,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers import registry
-from controllers.core.base import ControllerError
-from controllers.core.character import Character
-from controllers.core.push_protocol import PushProtocol, survival_rates
-from controllers.core.terrain import (
+from mjchar.cli import main
+from mjchar.controllers import registry
+from mjchar.controllers.core.base import ControllerError
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates
+from mjchar.controllers.core.terrain import (
     TerrainError,
     floor_height,
     place_on_floor,
@@ -28,9 +29,8 @@ from controllers.core.terrain import (
     tilt_floor,
     walk,
 )
-from controllers.walking.gaits import GAITS, Gait, GaitError, get_gait
-from controllers.walking.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
-from mjchar.cli import main
+from mjchar.controllers.walking.gaits import GAITS, Gait, GaitError, get_gait
+from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon
 
 SPEED_RANGE = (0.7, 1.5)
 #: a commanded speed's steady speed (last 10 s of 60 s) is this close to the command (m/s)
@@ -211,10 +211,10 @@ def test_fast_command_ends_the_swing_state_when_the_foot_lands(ch):
 def test_arms_hang_the_same_from_an_a_pose(tmp_path):
     """The arms are lowered from a T-pose: a rig whose rest pose already lowers them (an
     A-pose) is lowered by the rest, so the standing arm ends where the T-pose rig's does."""
-    import bvh
-    from bvh.assets import motion_path
-    from bvh.mjcf import convert
-    from bvh.zoo import a_pose
+    from mjchar import bvh
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.bundled.zoo import a_pose
+    from mjchar.bvh.mjcf import convert
 
     t_pose = bvh.load(motion_path("walk"))
     drops = []
@@ -288,7 +288,8 @@ def test_crouch_gait_walks(ch):
 
 
 # -- the natural gait (issue 14) -----------------------------------------------------------------
-#: issue 14's bars for walking at 1.2 m/s (bvh.gait statistics): (low, high), None = open
+#: issue 14's bars for walking at 1.2 m/s (mjchar.bvh.gait.analysis statistics): (low, high), None =
+#open
 NATURAL_BARS = {
     "trunk_lean_deg": (None, 8.0),
     "step_width_m": (0.05, 0.15),
@@ -302,9 +303,9 @@ def natural_stats(ch, speed, duration, seed=None, start=3.0):
     """The natural gait's run and statistics as ``mjchar gait simbicon --gait natural`` measures
     them: the walk scenario (from the standing pose; with ``seed``, from the terrain walks'
     seeded perturbation of it, as ``--seed``), analysed from ``start`` s on."""
-    from bvh.gait import analyse
-    from controllers.core.recording import MotionRecorder
-    from controllers.core.scenarios import run_scenario
+    from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.controllers.core.scenarios import run_scenario
 
     rec = MotionRecorder()
     c = make_simbicon(gait="natural", speed=speed)

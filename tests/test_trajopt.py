@@ -14,16 +14,16 @@ import numpy as np
 import pytest
 from conftest import run_command, shared_clip
 
-import bvh
-from bvh.assets import humanoid_path, motion_path
-from bvh.errors import MjcharError
-from bvh.reference import ReferenceMotion
-from controllers.core.character import Character
-from controllers.sampling.executors import LocalExecutor
-from controllers.sampling.rollout import RolloutRequest
-from controllers.sampling.tracking import FALL_COST, tracking_rollout_model
-from controllers.sampling.trajectory import replay
-from controllers.sampling.trajopt import (
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import humanoid_path, motion_path
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.sampling.executors import LocalExecutor
+from mjchar.controllers.sampling.rollout import RolloutRequest
+from mjchar.controllers.sampling.tracking import FALL_COST, tracking_rollout_model
+from mjchar.controllers.sampling.trajectory import replay
+from mjchar.controllers.sampling.trajopt import (
     JumpObjective,
     KnotSpline,
     TrajoptError,
@@ -54,7 +54,7 @@ def test_knot_spline_interpolates_linearly_between_knots():
 
 
 def test_windows_overlap_and_commit_everything(character, walk_ref, executor):
-    from controllers.sampling.trajopt import TrackingObjective, TrajectoryOptimizer
+    from mjchar.controllers.sampling.trajopt import TrackingObjective, TrajectoryOptimizer
 
     rm = tracking_rollout_model(humanoid_path(), character)
     o = TrajoptOptions(window=0.5, commit=0.2)
@@ -191,7 +191,7 @@ def test_cmaes_halves_the_tracking_cost_of_plain_pd_on_walk60(character):
 
 @pytest.mark.slow
 def test_jump_leaves_the_ground_by_10cm_and_lands_standing():
-    from controllers.sampling.trajopt import JUMP_OPTIONS
+    from mjchar.controllers.sampling.trajopt import JUMP_OPTIONS
 
     res = optimise_jump(options=TrajoptOptions(**JUMP_OPTIONS), progress=False)
     tr = res.trajectory

@@ -7,9 +7,8 @@ import pytest
 from bvh_variants import all_variants, base_motion
 from scipy.spatial.transform import Rotation
 
-import bvh
-from bvh.rotations import quat_conj, quat_mul, quat_rotate
-from bvh.units import (
+from mjchar import bvh
+from mjchar.bvh.rigs.units import (
     guess_unit_scale,
     guess_up_axis,
     to_metres,
@@ -17,6 +16,7 @@ from bvh.units import (
     unit_scale,
     up_axis_rotation,
 )
+from mjchar.bvh.rotations import quat_conj, quat_mul, quat_rotate
 
 GUESSABLE = [v for v in all_variants() if v.unit_scale is not None and not v.format_of]
 

@@ -13,7 +13,9 @@ import json
 import os
 import subprocess
 import sys
+import tomllib
 import venv
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -78,16 +80,65 @@ def test_the_wheel_ships_the_assets(installed):
     """``pip show -f`` lists the humanoid, the motions and the trajectories; they are loaded from
     the environment, not from the checkout."""
     listed = installed.run(installed.python, "-m", "pip", "show", "-f", "mjchar").stdout
-    for f in ("assets/mjcf/humanoid.xml", "assets/motions/walk.bvh", "assets/motions/idle.bvh",
-              "assets/trajectories/samcon_walk60.npz", "assets/trajectories/cmaes_walk60_1.5s.npz",
-              "mjchar/bench/schema.json", "controllers/sampling/samcon.py",
-              "mjchar/commands/run.py"):
+    for f in ("mjchar/assets/mjcf/humanoid.xml", "mjchar/assets/motions/walk.bvh",
+              "mjchar/assets/motions/idle.bvh", "mjchar/assets/trajectories/samcon_walk60.npz",
+              "mjchar/assets/trajectories/cmaes_walk60_1.5s.npz", "mjchar/bench/schema.json",
+              "mjchar/controllers/sampling/samcon.py", "mjchar/bvh/io/reader.py",
+              "mjchar/envs/imitation.py", "mjchar/commands/run.py"):
         assert f in listed, f"{f} not in the installed wheel:\n{listed}"
-    where = installed.run(installed.python, "-c", "import bvh.assets as a; "
+    where = installed.run(installed.python, "-c", "import mjchar.bvh.bundled.assets as a; "
                           "print(a.humanoid_path()); print(a.TRAJECTORIES)").stdout.split()
     for p in where:
         assert Path(p).is_relative_to(installed.venv), p
         assert not Path(p).is_relative_to(ROOT), p
+
+
+def test_the_wheel_has_one_top_level_package(installed):
+    """The wheel installs ``mjchar`` and nothing else at the top level (no ``bvh``, ``envs``,
+    ``controllers`` or ``assets`` to clash with other distributions or a user's folders)."""
+    wheel = sorted(installed.dist.glob("mjchar-*.whl"))[0]
+    with zipfile.ZipFile(wheel) as z:
+        tops = {name.split("/")[0] for name in z.namelist()}
+    assert tops == {"mjchar", f"mjchar-{wheel.name.split('-')[1]}.dist-info"}, tops
+
+
+def test_pyproject_lists_every_package():
+    """pyproject's explicit package list (the folders mapped into ``mjchar``) is complete."""
+    with open(ROOT / "pyproject.toml", "rb") as fh:
+        tool = tomllib.load(fh)["tool"]["setuptools"]
+    found = set()
+    for name, folder in tool["package-dir"].items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / folder).parts
+            found.add(".".join([name, *rel]))
+    assert set(tool["packages"]) == found
+
+
+def test_a_users_own_envs_and_bvh_packages_do_not_shadow_mjchar(installed):
+    """In a project folder with its own ``envs/`` and ``bvh/`` packages (on ``sys.path`` first,
+    as the current folder is for ``python -m`` and ``python -c``), mjchar runs and its envs
+    make, and the user's packages stay theirs."""
+    for pkg in ("envs", "bvh"):
+        (installed.work / pkg).mkdir(exist_ok=True)
+        (installed.work / pkg / "__init__.py").write_text(f"OWNER = 'user {pkg}'\n")
+    try:
+        res = json.loads(installed.run(installed.python, "-m", "mjchar", "run", "static_balance",
+                                       "--duration", "1", "--json").stdout)
+        assert res["controller"] == "static_balance" and not res["fell"]
+        res = json.loads(installed.mjchar("run", "static_balance", "--duration", "1",
+                                          "--json").stdout)
+        assert not res["fell"]
+        code = ("import gymnasium as gym, envs, bvh, mjchar.envs\n"
+                "env = gym.make('mjchar/Imitation-v0')\n"
+                "obs, _ = env.reset(seed=0)\n"
+                "print(envs.OWNER, '/', bvh.OWNER, '/', obs.shape[0])")
+        out = installed.run(installed.python, "-c", code).stdout.strip()
+        user_envs, user_bvh, n_obs = (s.strip() for s in out.split("/"))
+        assert (user_envs, user_bvh) == ("user envs", "user bvh") and int(n_obs) > 0
+    finally:
+        for pkg in ("envs", "bvh"):
+            (installed.work / pkg / "__init__.py").unlink()
+            (installed.work / pkg).rmdir()
 
 
 def test_installed_mujoco_has_the_sparse_solver_fix(installed):
@@ -112,7 +163,7 @@ def test_convert_a_shared_clip_with_verify(installed):
 
 
 def test_replay_a_bundled_trajectory(installed):
-    traj = installed.run(installed.python, "-c", "import bvh.assets as a; "
+    traj = installed.run(installed.python, "-c", "import mjchar.bvh.bundled.assets as a; "
                          "print(a.TRAJECTORIES / 'samcon_walk60.npz')").stdout.strip()
     res = json.loads(installed.mjchar("run", "replay", traj, "--json").stdout)
     assert not res["fell"] and res["distance_m"] > 2.0
@@ -120,7 +171,7 @@ def test_replay_a_bundled_trajectory(installed):
 
 
 def test_gymnasium_env(installed):
-    code = ("import gymnasium as gym, envs\n"
+    code = ("import gymnasium as gym, mjchar\n"
             "env = gym.make('mjchar/Imitation-v0')\n"
             "obs, _ = env.reset(seed=0)\n"
             "obs2, r, term, trunc, _ = env.step(env.action_space.sample())\n"

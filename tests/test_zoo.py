@@ -1,4 +1,5 @@
-"""The rig zoo (bvh.zoo): real-world layouts of the shared clips, converted and replayed.
+"""The rig zoo (mjchar.bvh.bundled.zoo): real-world layouts of the shared clips, converted and
+replayed.
 
 Per rig: the file text round-trips, the converter guesses its unit and up axis, finds the
 essential roles, gives the requested mass, replays the clip within 1 mm in the ``full`` model
@@ -14,13 +15,13 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, shared_clip
 
-import bvh
-from bvh.assets import motion_path
-from bvh.mjcf import convert
-from bvh.reference import replay_errors
-from bvh.rotations import quat_rotate
-from bvh.units import up_axis_rotation
-from bvh.zoo import CONVENTIONS, stature, zoo_rigs
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import motion_path
+from mjchar.bvh.bundled.zoo import CONVENTIONS, stature, zoo_rigs
+from mjchar.bvh.mjcf import convert
+from mjchar.bvh.reference.reference_motion import replay_errors
+from mjchar.bvh.rigs.units import up_axis_rotation
+from mjchar.bvh.rotations import quat_rotate
 
 SHARED_RIGS = {  # rig -> the shared clip it is made from
     "cmu-in-yup": "walk60", "unreal-cm-zup": "walk60", "gamestudio-cm-yup": "walk60",

@@ -1,4 +1,4 @@
-"""BVH skeleton -> MJCF: the conversion pipeline behind :func:`bvh.mjcf.convert`.
+"""BVH skeleton -> MJCF: the conversion pipeline behind :func:`mjchar.bvh.mjcf.convert`.
 
 Steps (each a function; where it lives is said below):
 
@@ -37,29 +37,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..errors import MjcharError
-from ..io import load
-from ..motion import Motion
-from ..rotations import from_rotation
-from ..skeleton import Skeleton
-from ..units import AXIS_VECTORS, unit_scale
-from . import tables as T
-from .dynamics import _actuators, _joints, _masses
-from .geometry import _floor_offset, _geometry
-from .info import ConversionError, JointInfo, ModelInfo, source_record
-from .layout import (
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io import load
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import tables as T
+from mjchar.bvh.mjcf.dynamics import _actuators, _joints, _masses
+from mjchar.bvh.mjcf.geometry import _floor_offset, _geometry
+from mjchar.bvh.mjcf.info import ConversionError, JointInfo, ModelInfo, source_record
+from mjchar.bvh.mjcf.layout import (
     _basis_matrix,
     _layout,
     _select,
-    default_drop,  # noqa: F401  (public: bvh.mjcf imports it from here)
-    default_fuse,  # noqa: F401  (public: bvh.mjcf imports it from here)
+    default_drop,  # noqa: F401  (public: mjchar.bvh.mjcf imports it from here)
+    default_fuse,  # noqa: F401  (public: mjchar.bvh.mjcf imports it from here)
 )
-from .prepare import Prepared, prepare
-from .roles import load_roles
-from .writer import (
-    AXIS_INDEX,  # noqa: F401  (kept importable from bvh.mjcf.builder)
+from mjchar.bvh.mjcf.prepare import Prepared, prepare
+from mjchar.bvh.mjcf.roles import load_roles
+from mjchar.bvh.mjcf.writer import (
+    AXIS_INDEX,  # noqa: F401  (kept importable from mjchar.bvh.mjcf.builder)
     _write_xml,
 )
+from mjchar.bvh.rigs.units import AXIS_VECTORS, unit_scale
+from mjchar.bvh.rotations import from_rotation
 
 JOINT_MODELS = ("hinge", "full", "ball")
 
@@ -79,8 +79,8 @@ class ConvertedModel:
             normalisation of :mod:`.prepare`: folded root, bones from translation channels,
             standing rest pose).
         motion: the source motion as given (before normalisation), or ``None`` when converting
-            a bare skeleton; :class:`bvh.reference.ReferenceMotion` applies the model's ``rig``
-            record to it.
+            a bare skeleton; :class:`mjchar.bvh.reference.reference_motion.ReferenceMotion` applies
+            the model's ``rig`` record to it.
         prepared: the :class:`~.prepare.Prepared` rig (normalised motion, roles, guesses).
         summary: ``n_bodies``, ``n_dofs`` (incl. the 6 root dofs), ``n_actuators``,
             ``total_mass_kg``, ``height_m``, ``bodies`` (names).
@@ -129,9 +129,10 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     """Convert a BVH skeleton into a simulated MuJoCo humanoid (see docs/model-contract.md).
 
     Args:
-        source: a :class:`~bvh.motion.Motion`, a :class:`~bvh.skeleton.Skeleton` or a BVH path.
-        total_mass: kg; body masses sum to it exactly (to the 6 significant digits written).
-        joint_model: ``"hinge"`` (hinge triplets, one hinge for knees and elbows, anatomical
+        source: a :class:`~mjchar.bvh.io.motion.Motion`, a :class:`~mjchar.bvh.io.skeleton.Skeleton`
+        or a BVH path. total_mass: kg; body masses sum to it exactly (to the 6 significant digits
+        written). joint_model: ``"hinge"`` (hinge triplets, one hinge for knees and elbows,
+        anatomical
             ranges), ``"full"`` (hinge triplets everywhere, no ranges: any clip replays exactly)
             or ``"ball"`` (ball joints with motors; knees and elbows stay hinges).
         unit: metres per file unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or a number;

@@ -10,7 +10,7 @@
   subtree mass they move (N m/rad, N m s/rad, N m), ``<motor>`` triplets for balls; user
   overrides by joint name, role or base role.
 
-Part of :func:`bvh.mjcf.convert`.
+Part of :func:`mjchar.bvh.mjcf.convert`.
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ import warnings as _warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..kinematics import forward_kinematics
-from ..motion import Motion
-from ..rotations import from_rotation, quat_conj, quat_mul, quat_to_rotvec, to_rotation
-from ..skeleton import Skeleton
-from . import tables as T
-from .info import ConversionError
-from .layout import _Body
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.fk import forward_kinematics
+from mjchar.bvh.mjcf import tables as T
+from mjchar.bvh.mjcf.info import ConversionError
+from mjchar.bvh.mjcf.layout import _Body
+from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, quat_to_rotvec, to_rotation
 
 
 # ------------------------------------------------------------------------------------------------

@@ -5,7 +5,7 @@ its dropped children standing for the segment), with radii per role scaled by th
 height (:data:`tables.RADIUS`); the trunk is a pair of capsules side by side; feet and toes are
 boxes down to a shared sole level (:func:`_foot`, :func:`_toe`); head, hand, foot and toe sites
 are placed. :func:`_floor_offset` puts the root above the origin and the lowest geom at ``z = 0``.
-Lengths in metres, MuJoCo axes. Part of :func:`bvh.mjcf.convert`.
+Lengths in metres, MuJoCo axes. Part of :func:`mjchar.bvh.mjcf.convert`.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 
-from ..naming import Recognition
-from ..skeleton import Skeleton
-from . import tables as T
-from .layout import _Body, _Geom
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import tables as T
+from mjchar.bvh.mjcf.layout import _Body, _Geom
+from mjchar.bvh.rigs.naming import Recognition
 
 
 # ------------------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 #: name of the custom text element that carries the metadata
 TEXT_NAME = "mjchar"
@@ -23,8 +23,8 @@ def source_record(skeleton, motion=None) -> dict:
     """The metadata entry ``source`` (read back by :meth:`ModelInfo.source`): the skeleton's
     BVH hierarchy text, offsets to 9 decimals, and the clip's frame time (``None`` without a
     clip)."""
-    from ..io import dumps
-    from ..motion import Motion
+    from mjchar.bvh.io import dumps
+    from mjchar.bvh.io.motion import Motion
 
     frame_time = None if motion is None else float(motion.frame_time)
     text = dumps(Motion.rest(skeleton, 1, frame_time or 1.0), precision=9)
@@ -123,7 +123,7 @@ class ModelInfo:
         """Read the metadata from a compiled ``mujoco.MjModel``.
 
         Raises :class:`ConversionError` when the model has no ``mjchar`` text element (it was not
-        written by :func:`bvh.mjcf.convert`).
+        written by :func:`mjchar.bvh.mjcf.convert`).
         """
         import mujoco
 
@@ -131,7 +131,7 @@ class ModelInfo:
         if i < 0:
             raise ConversionError(
                 "model has no <custom><text name=\"mjchar\"> metadata; convert it with "
-                "`mjchar convert` or bvh.mjcf.convert()")
+                "`mjchar convert` or mjchar.bvh.mjcf.convert()")
         adr, size = int(model.text_adr[i]), int(model.text_size[i])
         raw = bytes(np.asarray(model.text_data[adr:adr + size]).tobytes()).rstrip(b"\x00")
         return cls.from_json(raw.decode("utf-8"))
@@ -180,7 +180,7 @@ class ModelInfo:
             raise ConversionError("the model's metadata does not hold the skeleton it was "
                                   "converted from (converted by an older mjchar); convert the "
                                   "BVH again")
-        from ..io import loads
+        from mjchar.bvh.io import loads
 
         motion = loads(rec["hierarchy"] + "MOTION\nFrames: 0\nFrame Time: 1\n")
         ft = rec.get("frame_time")
@@ -193,7 +193,7 @@ class ModelInfo:
         rig = self.extra.get("rig")
         if not isinstance(rig, dict) or "original" not in rig:
             return None
-        from ..io import loads
+        from mjchar.bvh.io import loads
 
         return loads(rig["original"] + "MOTION\nFrames: 0\nFrame Time: 1\n").skeleton
 

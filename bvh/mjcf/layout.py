@@ -5,7 +5,7 @@ y left, z up (units and the up axis come from :mod:`.prepare`).
 Step 2, :func:`_select`: which joints get bodies (dropped subtrees, fused joints; defaults
 :func:`default_drop` and :func:`default_fuse`), and :func:`_layout`: the kept joints as
 :class:`_Body` records (world rest positions in metres, MuJoCo axes), which the later steps fill
-with :class:`_Geom` geoms, masses, joints and sites. Part of :func:`bvh.mjcf.convert`.
+with :class:`_Geom` geoms, masses, joints and sites. Part of :func:`mjchar.bvh.mjcf.convert`.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..naming import Recognition
-from ..skeleton import Skeleton
-from ..units import AXIS_VECTORS
-from .info import ConversionError
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf.info import ConversionError
+from mjchar.bvh.rigs.naming import Recognition
+from mjchar.bvh.rigs.units import AXIS_VECTORS
 
 
 # ------------------------------------------------------------------------------------------------

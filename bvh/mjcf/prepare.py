@@ -1,7 +1,7 @@
 """The converter's step 0: a real export made into a standing rig in world axes.
 
 :func:`prepare` takes the file's clip (or bare skeleton) and, without moving any joint
-(:mod:`bvh.rigs`):
+(:mod:`mjchar.bvh.rigs.layouts`):
 
 1. **folds a static chain above the pelvis** (``Reference``, ``root``, ``joint_Root``: every
    joint above the joint where the legs part has a single child): the pelvis becomes the root
@@ -22,8 +22,10 @@
    essential ones (pelvis, hips, knees, ankles): one :class:`ConversionError` that lists what is
    missing and shows how to map it.
 
-What was done is kept in the model's metadata as ``rig`` (:func:`bvh.rigs.apply_record`), so
-:class:`bvh.reference.ReferenceMotion` replays the file's own clip through the same steps.
+What was done is kept in the model's metadata as ``rig``
+(:func:`mjchar.bvh.rigs.layouts.apply_record`), so
+:class:`mjchar.bvh.reference.reference_motion.ReferenceMotion` replays the file's own clip through
+the same steps.
 """
 
 from __future__ import annotations
@@ -32,15 +34,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kinematics import forward_kinematics
-from ..motion import Motion
-from ..naming import Recognition, recognise
-from ..rigs import bones_from_channels, fold_record, fold_root, rerest, static_chain_above
-from ..rotations import from_rotation, quat_conj, quat_mul
-from ..skeleton import Skeleton
-from ..units import AXIS_VECTORS, guess_up_axis, unit_for_height
-from .info import ConversionError
-from .roles import ESSENTIAL_ROLES, check_roles, missing_roles_error
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.fk import forward_kinematics
+from mjchar.bvh.mjcf.info import ConversionError
+from mjchar.bvh.mjcf.roles import ESSENTIAL_ROLES, check_roles, missing_roles_error
+from mjchar.bvh.rigs.layouts import (
+    bones_from_channels,
+    fold_record,
+    fold_root,
+    rerest,
+    static_chain_above,
+)
+from mjchar.bvh.rigs.naming import Recognition, recognise
+from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis, unit_for_height
+from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul
 
 #: metres: a non-root translation channel varying more than this from its mean is warned about
 BONE_TOLERANCE_M = 0.001

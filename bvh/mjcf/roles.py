@@ -22,7 +22,7 @@ from __future__ import annotations
 import os
 import tomllib
 
-from .info import ConversionError
+from mjchar.bvh.mjcf.info import ConversionError
 
 SIDED = ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
 #: role names a roles file may map

@@ -4,7 +4,7 @@
 (joints with armature and damping, capsule and box geoms with masses, sites, a tracking camera on
 the root), a disabled root weld, the actuators and the JSON joint map (``ModelInfo``) in
 ``<custom><text name="mjchar">``. Numbers are written with 6 significant digits (:func:`_f`),
-angles in radians. Part of :func:`bvh.mjcf.convert`.
+angles in radians. Part of :func:`mjchar.bvh.mjcf.convert`.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from ..skeleton import Skeleton
-from . import tables as T
-from .info import ModelInfo
-from .layout import _Body
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.mjcf import tables as T
+from mjchar.bvh.mjcf.info import ModelInfo
+from mjchar.bvh.mjcf.layout import _Body
 
 AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 

@@ -9,9 +9,9 @@ own coordinates::
 
 with ``(p_bar, q_bar, v_bar, w_bar)`` the reference root's position, orientation and velocities
 and ``lift`` an optional raise of the target. It is the tracker's own PD law with gains on the
-root rows (:meth:`controllers.core.pd._PDTracker.set_root_gains`): explicit for explicit and native
-PD, and inside the implicit prediction for stable PD. (An explicit root PD next to stable PD is
-unstable at ordinary time steps: stable PD's joint torques do not anticipate the root wrench, so
+root rows (:meth:`mjchar.controllers.core.pd._PDTracker.set_root_gains`): explicit for explicit and
+native PD, and inside the implicit prediction for stable PD. (An explicit root PD next to stable PD
+is unstable at ordinary time steps: stable PD's joint torques do not anticipate the root wrench, so
 the pelvis alone, with a small inertia, meets the explicit root damping.)
 
 It makes tracking work and looks like a puppet on a string: every other controller's goal is to

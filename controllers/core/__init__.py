@@ -1,21 +1,22 @@
 """The core of the dynamic layer, shared by every controller.
 
-- :mod:`~controllers.core.character`: :class:`Character`, one converted humanoid behind named
+- :mod:`~mjchar.controllers.core.character`: :class:`Character`, one converted humanoid behind named
   access (state, centre of mass, contacts, pushes, stepping), with its pieces:
-  :mod:`~controllers.core.model` (loading, metadata), :mod:`~controllers.core.pushes`
-  (scheduled external forces), :mod:`~controllers.core.poses` (kinematics on a scratch copy:
-  lowest point, body pose, IK), :mod:`~controllers.core.geometry` (support polygon) and
-  :mod:`~controllers.core.errors`.
-- :mod:`~controllers.core.action` and :mod:`~controllers.core.base`: :class:`Action`, the
+  :mod:`~mjchar.controllers.core.model` (loading, metadata), :mod:`~mjchar.controllers.core.pushes`
+  (scheduled external forces), :mod:`~mjchar.controllers.core.poses` (kinematics on a scratch copy:
+  lowest point, body pose, IK), :mod:`~mjchar.controllers.core.geometry` (support polygon) and
+  :mod:`~mjchar.controllers.core.errors`.
+- :mod:`~mjchar.controllers.core.action` and :mod:`~mjchar.controllers.core.base`: :class:`Action`,
+  the
   ``Controller`` protocol, :class:`Gains`, PD targets.
-- :mod:`~controllers.core.registry`: :class:`ControllerSpec`, :func:`register`,
+- :mod:`~mjchar.controllers.core.registry`: :class:`ControllerSpec`, :func:`register`,
   :func:`make_controller`.
-- :mod:`~controllers.core.pd`: explicit, stable and native PD (registered as ``pd``, ``spd``,
+- :mod:`~mjchar.controllers.core.pd`: explicit, stable and native PD (registered as ``pd``, ``spd``,
   ``native_pd``).
-- :mod:`~controllers.core.scenarios` (stand, push, push-search, random-push, track, walk),
-  :mod:`~controllers.core.terrain` (level and sloped walks, pushes at stride phases),
-  :mod:`~controllers.core.metrics` (:class:`Result`, fall detection, recording),
-  :mod:`~controllers.core.push_protocol` (push survival rates over phases, seeds and forces).
+- :mod:`~mjchar.controllers.core.scenarios` (stand, push, push-search, random-push, track, walk),
+  :mod:`~mjchar.controllers.core.terrain` (level and sloped walks, pushes at stride phases),
+  :mod:`~mjchar.controllers.core.metrics` (:class:`Result`, fall detection, recording),
+  :mod:`~mjchar.controllers.core.push_protocol` (push survival rates over phases, seeds and forces).
 """
 
 from . import pd as pd  # registers pd, spd, native_pd

@@ -1,6 +1,6 @@
-"""The :class:`Action`: what a controller hands the :class:`~controllers.core.character.Character`
-once per control step (its own module so that the Character and the Controller protocol can both
-use it without importing each other)."""
+"""The :class:`Action`: what a controller hands the
+:class:`~mjchar.controllers.core.character.Character` once per control step (its own module so that
+the Character and the Controller protocol can both use it without importing each other)."""
 
 from __future__ import annotations
 

@@ -1,14 +1,14 @@
 """The :class:`Controller` protocol and the pieces every controller shares.
 
-A controller is reset once on a :class:`~controllers.core.character.Character`, then asked once per
-control step for an :class:`Action`::
+A controller is reset once on a :class:`~mjchar.controllers.core.character.Character`, then asked
+once per control step for an :class:`Action`::
 
     controller.reset(character)
     while ...:
         action = controller.act(character, character.time)
         character.step(action, n_substeps)
 
-An :class:`~controllers.core.action.Action` is the minimal common form of what the PD family,
+An :class:`~mjchar.controllers.core.action.Action` is the minimal common form of what the PD family,
 hand-of-god and balance
 controllers produce:
 
@@ -31,7 +31,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .action import Action
 from .character import Character
@@ -183,7 +183,8 @@ class LiftedTarget:
 
 
 class ReferenceTarget:
-    """Targets sampled from a ``bvh.reference.ReferenceMotion``: ``(qpos(t), qvel(t))``.
+    """Targets sampled from a ``mjchar.bvh.reference.reference_motion.ReferenceMotion``: ``(qpos(t),
+    qvel(t))``.
 
     ``time_offset`` (s) shifts the clip: the target at simulated time ``t`` is the clip at
     ``t + time_offset``. Times on the physics grid (multiples of the character's time step) are

@@ -2,8 +2,8 @@
 
 Everything in :mod:`controllers` talks to MuJoCo through this class: controllers read the state
 (joint angles, centre of mass, contacts, mass matrix, Jacobians) and hand back an
-:class:`~controllers.core.action.Action`; the Character turns it into actuator controls and applied
-forces, steps the physics, applies scheduled pushes and watches for divergence.
+:class:`~mjchar.controllers.core.action.Action`; the Character turns it into actuator controls and
+applied forces, steps the physics, applies scheduled pushes and watches for divergence.
 
 It relies on the converted-model contract (``docs/model-contract.md``): bodies named like the BVH
 joints, a free joint ``root``, one actuator per actuated dof, the ``mjchar`` metadata (joint map
@@ -70,9 +70,9 @@ class Character:
     """A converted humanoid in simulation.
 
     Args:
-        model: ``None`` (the bundled humanoid, ``bvh.assets.humanoid_path()``), an MJCF path, or an
-            ``MjModel`` (copied: the Character edits its own model's actuator gains, time step
-            and weld).
+        model: ``None`` (the bundled humanoid, ``mjchar.bvh.bundled.assets.humanoid_path()``), an
+            MJCF path, or an ``MjModel`` (copied: the Character edits its own model's actuator
+            gains, time step and weld).
         info: the converter's ``ModelInfo``; read from the model's metadata when ``None``.
         timestep: physics time step in s (default: the model's).
         max_velocity: a generalised velocity above this (rad/s or m/s) counts as divergence.
@@ -637,7 +637,7 @@ class Character:
 
     @property
     def pushes(self) -> list[Push]:
-        """The scheduled pushes (:class:`~controllers.core.pushes.Push`), in order."""
+        """The scheduled pushes (:class:`~mjchar.controllers.core.pushes.Push`), in order."""
         return self._pushes.pushes
 
     def clear_pushes(self) -> None:
@@ -776,7 +776,7 @@ class Character:
     def solve_ik(self, qpos: np.ndarray, targets: list, dofs: np.ndarray, *,
                  iterations: int = 100, damping: float = 1e-3, tol: float = 1e-11) -> np.ndarray:
         """Damped least-squares IK on a scratch copy of the kinematics (the state is untouched):
-        :func:`controllers.core.poses.solve_ik` with body names resolved.
+        :func:`mjchar.controllers.core.poses.solve_ik` with body names resolved.
 
         Args:
             qpos: ``(nq,)`` starting pose.

@@ -3,7 +3,7 @@ model does not have) and :class:`SimulationDiverged` (the physics blew up)."""
 
 from __future__ import annotations
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 
 class CharacterError(MjcharError):

@@ -1,4 +1,4 @@
-"""Loading the model a :class:`~controllers.core.character.Character` drives, reading the
+"""Loading the model a :class:`~mjchar.controllers.core.character.Character` drives, reading the
 converter's metadata (joint map and roles) from it, and mapping its actuators to dofs."""
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ def check_mujoco_version(version: str = mujoco.__version__) -> bool:
 
 def model_info(model: mujoco.MjModel):
     """The converter's ``ModelInfo`` for ``model`` (joint map and roles), read from the
-    ``mjchar`` metadata with ``bvh.mjcf.ModelInfo.from_model``."""
-    from bvh.mjcf import ModelInfo
+    ``mjchar`` metadata with ``mjchar.bvh.mjcf.ModelInfo.from_model``."""
+    from mjchar.bvh.mjcf import ModelInfo
 
     return ModelInfo.from_model(model)
 
@@ -43,7 +43,7 @@ def load_model(model) -> mujoco.MjModel:
     when it is missing or MuJoCo cannot load it."""
     check_mujoco_version()
     if model is None:
-        from bvh.assets import humanoid_path
+        from mjchar.bvh.bundled.assets import humanoid_path
 
         model = humanoid_path()
     if isinstance(model, mujoco.MjModel):
@@ -64,7 +64,7 @@ def model_source(model) -> str | None:
     """The MJCF path :func:`load_model` loads ``model`` from (``None`` -> the bundled humanoid's),
     or ``None`` for an ``MjModel`` (no file behind it)."""
     if model is None:
-        from bvh.assets import humanoid_path
+        from mjchar.bvh.bundled.assets import humanoid_path
 
         return os.fspath(humanoid_path())
     if isinstance(model, (str, os.PathLike)):

@@ -1,9 +1,9 @@
 """The PD family: explicit PD, stable PD (Tan, Liu, Turk 2011) and MuJoCo's native PD.
 
 All three track a target ``(q_bar(t), qdot_bar(t))`` (a fixed pose or a reference motion, see
-:mod:`controllers.core.base`) with per-dof gains ``kp``, ``kd`` (default: the model's gains table).
-The floating base has zero gains: none of them pushes the root, unless the hand of god gives the
-root rows gains (:meth:`_PDTracker.set_root_gains`); the root rows of the torque are then an
+:mod:`mjchar.controllers.core.base`) with per-dof gains ``kp``, ``kd`` (default: the model's gains
+table). The floating base has zero gains: none of them pushes the root, unless the hand of god gives
+the root rows gains (:meth:`_PDTracker.set_root_gains`); the root rows of the torque are then an
 external wrench, reported by every scenario.
 
 - :class:`PDController`, explicit PD computed in Python, applied as torques::
@@ -64,8 +64,8 @@ class _PDTracker:
                        kd_rot: float) -> None:
         """Put gains on the root's six rows (after :meth:`reset`): the tracker then also pulls
         the root towards the target with an external wrench (the hand of god, see
-        :mod:`controllers.balance.hand_of_god`). Explicit PD applies it explicitly, stable PD inside
-        its implicit prediction, native PD explicitly on top of the actuators."""
+        :mod:`mjchar.controllers.balance.hand_of_god`). Explicit PD applies it explicitly, stable PD
+        inside its implicit prediction, native PD explicitly on top of the actuators."""
         self._require_reset()
         self.gains = self.gains.with_root(character, kp, kd, kp_rot, kd_rot)
 
@@ -85,7 +85,7 @@ class PDController(_PDTracker):
     Args:
         target: ``None`` (hold the pose at reset), a pose ``(nq,)``, a ReferenceMotion or a
             target callable ``t -> (q_bar, qdot_bar)``.
-        gains: :class:`~controllers.core.base.Gains` (default: the model's gains table).
+        gains: :class:`~mjchar.controllers.core.base.Gains` (default: the model's gains table).
     """
 
     name = "pd"

@@ -11,7 +11,7 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
 
    - Walking controllers (``spec.push == "walking"``): they walk from their own seeded start
      state; the push hits the chest at the given fraction of the first stride that starts after
-     ``warmup`` s (:func:`controllers.core.terrain.push_walk`). Survived: no fall, and still
+     ``warmup`` s (:func:`mjchar.controllers.core.terrain.push_walk`). Survived: no fall, and still
      walking (mean speed >= 0.3 m/s over the last 5 s).
    - Standing controllers: they start from the standing pose with seeded uniform joint offsets
      of at most ``perturbation`` rad; the push hits the pelvis at ``first_moment + phase`` s
@@ -47,7 +47,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .character import Character
 from .metrics import Result
@@ -68,7 +68,7 @@ class PushProtocol:
         forces: the force grid (N), ascending and positive; :meth:`grid` builds the usual one.
         phases: K, the phases of the stride (walkers) or moments (standing) pushed at.
         seeds: S seeds of the start-state perturbation.
-        directions: names from :data:`~controllers.core.scenarios.DIRECTIONS`.
+        directions: names from :data:`~mjchar.controllers.core.scenarios.DIRECTIONS`.
         push_duration: s.
         after: s simulated after the push ends.
         warmup: walkers: the push falls in the first stride starting after this many s.
@@ -170,7 +170,7 @@ class PushTask:
 
 def simulate_push(task: PushTask, frame_callback=None) -> tuple[Result, bool]:
     """Simulate one :class:`PushTask` (a fresh character and controller); returns the
-    :class:`~controllers.core.metrics.Result` and whether the push was survived (see the
+    :class:`~mjchar.controllers.core.metrics.Result` and whether the push was survived (see the
     module docstring). ``frame_callback(character)`` is called after every control step."""
     spec = get(task.controller)
     p = task.protocol

@@ -1,5 +1,5 @@
 """Pushes: external forces on a body for a time window, scheduled on a
-:class:`~controllers.core.character.Character` and written into MuJoCo's ``xfrc_applied``
+:class:`~mjchar.controllers.core.character.Character` and written into MuJoCo's ``xfrc_applied``
 (world-frame force at the body's centre of mass) for the physics steps they cover."""
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """Recording a simulated run and writing it as BVH on the skeleton the model came from.
 
-:class:`MotionRecorder` is a frame callback (every scenario, :func:`~controllers.sampling.
+:class:`MotionRecorder` is a frame callback (every scenario, :func:`~mjchar.controllers.sampling.
 trajectory.replay` and the push protocol take one) that keeps the simulated ``qpos`` at the start
 and after every control step; :meth:`MotionRecorder.save_bvh` resamples it to the source clip's
 frame rate and writes it with the source skeleton's joint names, channel orders, units and up
-axis (:mod:`bvh.export`)::
+axis (:mod:`mjchar.bvh.reference.export`)::
 
-    from controllers.core.recording import MotionRecorder
+    from mjchar.controllers.core.recording import MotionRecorder
 
     recorder = MotionRecorder()
     result = scenarios.run_scenario("walk", character, controller, frame_callback=recorder)
@@ -19,8 +19,8 @@ import os
 
 import numpy as np
 
-from bvh.export import ExportError, qpos_to_motion
-from bvh.io import save
+from mjchar.bvh.io import save
+from mjchar.bvh.reference.export import ExportError, qpos_to_motion
 
 __all__ = ["MotionRecorder", "chain_callbacks"]
 
@@ -49,7 +49,8 @@ class MotionRecorder:
 
     def to_motion(self, fps: float | None = None):
         """The recording as a :class:`bvh.Motion` on the model's source skeleton, at ``fps``
-        frames per second (default: the source clip's rate; see :func:`bvh.export.export_rate`)."""
+        frames per second (default: the source clip's rate; see
+        :func:`mjchar.bvh.reference.export.export_rate`)."""
         if len(self) < 1:
             raise ExportError("nothing was recorded (was the recorder passed as the run's "
                               "frame_callback?)")

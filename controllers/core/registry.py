@@ -6,7 +6,7 @@ A :class:`ControllerSpec` says how to build a controller and what it supports: t
 choices and help, the bench matrix and the environments read this registry, so adding a
 controller touches no list anywhere else::
 
-    from controllers.core.registry import ControllerSpec, register
+    from mjchar.controllers.core.registry import ControllerSpec, register
 
     register(ControllerSpec(
         name="my_balance", label="my balance controller", kind="balance",
@@ -25,10 +25,10 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bvh.errors import MjcharError
-from bvh.reference import FLOOR_MODES
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.reference_motion import FLOOR_MODES
 
-#: scenarios of ``mjchar run`` (see :mod:`controllers.core.scenarios`)
+#: scenarios of ``mjchar run`` (see :mod:`mjchar.controllers.core.scenarios`)
 SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
 #: scenarios of ``mjchar bench`` (``slopes``: walk up and down a slope)
 BENCH_SCENARIOS = ("stand", "random-push", "push-search", "walk", "track", "slopes")
@@ -202,7 +202,8 @@ def make_controller(name: str, character, target=None, **options):
 
     Args:
         name: a registered controller (:func:`names`).
-        character: the :class:`~controllers.core.character.Character` (used for defaults only;
+        character: the :class:`~mjchar.controllers.core.character.Character` (used for defaults
+        only;
             the controller is reset on it later).
         target: what trackers follow (a pose ``(nq,)`` or a ReferenceMotion); balance
             controllers hold it when it is a pose; walkers ignore it.

@@ -1,13 +1,14 @@
 """Scenarios shared by the tests, the CLI, the benchmarks and the environments.
 
-Each scenario puts a :class:`~controllers.core.character.Character` in a start state, schedules what
-happens to it (pushes), runs a controller and returns a :class:`~controllers.core.metrics.Result`:
+Each scenario puts a :class:`~mjchar.controllers.core.character.Character` in a start state,
+schedules what happens to it (pushes), runs a controller and returns a
+:class:`~mjchar.controllers.core.metrics.Result`:
 
 - ``stand``: from the standing pose, no disturbance.
 - ``push``: one horizontal push (default 0.2 s on the pelvis, 1 s in) of a given force and
   direction (degrees in the character's heading frame: 0 forward, 90 left, 180 back, 270 right).
 - ``push-search``: survival rates over phases, seeds and a force grid, per direction: the push
-  protocol of :mod:`controllers.core.push_protocol` (built on :func:`push`).
+  protocol of :mod:`mjchar.controllers.core.push_protocol` (built on :func:`push`).
 - ``random-push``: a 10 N horizontal push on the root whose direction changes every second
   (PKU MoCCA's standing test), random directions from the seed.
 - ``track``: start on the reference's first frame and follow it (tracking errors).
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .base import Gains
 from .character import Character
@@ -386,7 +387,7 @@ def run_scenario(name: str, character: Character, controller, *, reference=None,
         return push(character, controller, **kw)
     if name == "push-search":
         raise ScenarioError("push-search is measured by the push protocol: "
-                            "controllers.core.push_protocol.survival_rates")
+                            "mjchar.controllers.core.push_protocol.survival_rates")
     if name == "random-push":
         return random_push(character, controller, **kw)
     if name == "track":

@@ -4,19 +4,19 @@
   (``geom_quat``/``geom_pos``; no XML edit), :func:`floor_height` gives its height anywhere.
 - **Walks**: :func:`walk` runs a walking controller from its own start state (with small seeded
   perturbations), on flat ground or a slope, and reports the steady speed (over the last
-  ``steady_window`` s) besides the shared :class:`~controllers.core.metrics.Result`.
+  ``steady_window`` s) besides the shared :class:`~mjchar.controllers.core.metrics.Result`.
 - **Pushes at a phase of the stride**: :func:`push_walk` pushes the torso horizontally for
   0.2 s at a chosen fraction of the stride (a stride = two steps, from one entry into FSM state
   0 to the next; its length is the previous stride's) and direction (degrees in the heading
   frame: 0 forward, 90 left, 180 back, 270 right), after a warm-up, and checks that the
   walker is still walking ``after`` s later; :func:`stride_phases` spreads ``n`` phases over a
-  stride. Rates over phases, seeds and forces: :mod:`controllers.core.push_protocol`.
+  stride. Rates over phases, seeds and forces: :mod:`mjchar.controllers.core.push_protocol`.
 - **Slope walks**: :func:`slope_walk` walks up or down a tilted floor and checks the distance
   covered along the slope.
 
-Every run goes through :func:`controllers.core.scenarios.simulate` (falls, divergence, root force
-bookkeeping). On a slope the shared fall test (root height in world z, bodies touching the floor)
-is complemented by a terrain-relative one (root height above the floor under it), done by
+Every run goes through :func:`mjchar.controllers.core.scenarios.simulate` (falls, divergence, root
+force bookkeeping). On a slope the shared fall test (root height in world z, bodies touching the
+floor) is complemented by a terrain-relative one (root height above the floor under it), done by
 :class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
 
 A controller used here needs ``reset``/``act`` (the Controller protocol) and, for phase pushes,
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .character import Character
 from .metrics import FALL_HEIGHT_FRACTION, Result
@@ -305,7 +305,7 @@ def walk(
     On a slope, ``extra["slope_distance_m"]`` (along the slope) and, with ``target_distance``
     (m), ``extra["time_to_distance_s"]``: when the root had first covered that much along the
     slope (``None`` if never). Other keyword arguments go to
-    :func:`~controllers.core.scenarios.simulate`.
+    :func:`~mjchar.controllers.core.scenarios.simulate`.
     """
     driver = GaitDriver(controller)
     with _slope(character, slope, duration):

@@ -1,11 +1,11 @@
 """Where batches of rollouts run: this machine's cores, or a Ray cluster.
 
-An :class:`Executor` turns a :class:`~controllers.sampling.rollout.RolloutRequest` into a
-:class:`~controllers.sampling.rollout.RolloutResult`; SAMCON and CMA-ES only ever call
+An :class:`Executor` turns a :class:`~mjchar.controllers.sampling.rollout.RolloutRequest` into a
+:class:`~mjchar.controllers.sampling.rollout.RolloutResult`; SAMCON and CMA-ES only ever call
 ``executor.evaluate(request)`` and read ``executor.parallelism`` to size their batches. Every
 executor gives bit-identical results for the same request, because each sample is simulated
 independently from its own initial state by the same C rollout (see
-:mod:`controllers.sampling.rollout`).
+:mod:`mjchar.controllers.sampling.rollout`).
 
 - :class:`LocalExecutor` (the default): ``mujoco.rollout``'s own thread pool, GIL released.
 - :class:`RayExecutor` (optional ``ray`` extra): ships the compiled model once per model (MJB
@@ -30,7 +30,7 @@ import uuid
 from pathlib import Path
 from typing import Any
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner
 
@@ -85,7 +85,7 @@ class Executor(abc.ABC):
 class LocalExecutor(Executor):
     """Rollouts on this machine's cores through ``mujoco.rollout``'s thread pool.
 
-    Keeps one :class:`~controllers.sampling.rollout.RolloutRunner` (thread pool, per-thread
+    Keeps one :class:`~mjchar.controllers.sampling.rollout.RolloutRunner` (thread pool, per-thread
     ``MjData``) per model it has seen. Use it from one Python thread at a time.
 
     Args:

@@ -12,10 +12,10 @@ The plan, with MJPC's symbols:
 
 - **Decision variables.** ``K`` spline knots ``X (K, nu)`` spread evenly over a horizon ``H``
   (a few tenths of a second): PD-target offsets in units of the per-joint role widths ``w``
-  (:func:`~controllers.sampling.tracking.sampling_widths`), linearly interpolated to the controls
-  (``control_dt``; :class:`~controllers.sampling.trajopt.KnotSpline`) and added to the base targets
-  ``q_hat`` (inverse dynamics on the reference,
-  :func:`~controllers.sampling.tracking.inverse_dynamics_targets`)::
+  (:func:`~mjchar.controllers.sampling.tracking.sampling_widths`), linearly interpolated to the
+  controls (``control_dt``; :class:`~mjchar.controllers.sampling.trajopt.KnotSpline`) and added to
+  the base targets ``q_hat`` (inverse dynamics on the reference,
+  :func:`~mjchar.controllers.sampling.tracking.inverse_dynamics_targets`)::
 
       u(t) = q_hat(t) + w * (B X)(t)
 
@@ -24,16 +24,16 @@ The plan, with MJPC's symbols:
   and ``N - 1`` candidates ``X + b sigma eps`` (``eps ~ N(0, 1)``, ``sigma = noise``) are drawn;
   the nominal is candidate 0. ``b``, in ``[1, max_boost]``, is the last plan's cost over its
   running mean: the search widens after a disturbance (a push) raises the cost. All ``N`` are
-  simulated from the current state in one batch (:mod:`controllers.sampling.rollout`, every
+  simulated from the current state in one batch (:mod:`mjchar.controllers.sampling.rollout`, every
   core, deterministic) on the *planning model*: the character's physics (checked by
-  :func:`~controllers.sampling.trajectory.model_fingerprint`) at the time step
+  :func:`~mjchar.controllers.sampling.trajectory.model_fingerprint`) at the time step
   ``plan_timestep``, by default twice the character's (half the rollout physics).
 - **Cost** of a candidate: the SAMCON tracking cost
-  (:class:`~controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance, COM,
-  joint positions) averaged over the control ends of the horizon, plus
+  (:class:`~mjchar.controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance,
+  COM, joint positions) averaged over the control ends of the horizon, plus
   ``smoothness * sum_t mean_u ((Delta u_t) / w)^2`` over the offset changes (the first against
   the offset being applied now), plus a fall penalty graded by how early the candidate fell
-  (:func:`~controllers.sampling.tracking.fall_penalty`).
+  (:func:`~mjchar.controllers.sampling.tracking.fall_penalty`).
 - **Update** (``update``): ``"sampling"`` (predictive sampling) keeps the cheapest candidate;
   ``"mppi"`` averages the candidates with weights ``exp(-(c - c_min) / lambda)``, ``lambda =
   temperature * (median(c) - c_min)`` (scale-free); ``"cem"`` moves the mean to the elite
@@ -61,8 +61,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from bvh.errors import MjcharError
-from bvh.foot_points import CONTACT_HEIGHT
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
@@ -144,7 +144,7 @@ class MpcOptions:
         stance_height: a foot carries the body in the base targets' inverse dynamics when its
             lowest point is within this fraction of the root height of the floor (and it is
             slow); ``None``: :data:`MPC_STANCE_HEIGHT` on a contact-floor reference, else the
-            raw-mocap :data:`~bvh.foot_points.CONTACT_HEIGHT`.
+            raw-mocap :data:`~mjchar.bvh.reference.foot_points.CONTACT_HEIGHT`.
         seed: random seed; threads: rollout threads (``None``: every core).
     """
 
@@ -548,7 +548,7 @@ def _model_file(character: Character) -> str:
         return character.source
     import mujoco
 
-    from bvh.assets import humanoid_path
+    from mjchar.bvh.bundled.assets import humanoid_path
 
     path = os.fspath(humanoid_path())
     if model_fingerprint(mujoco.MjModel.from_xml_path(path)) == model_fingerprint(

@@ -7,10 +7,11 @@ the outcomes. This module does that simulation with MuJoCo's native ``<position>
 
 The pieces::
 
-    rmodel = RolloutModel.from_source(bvh.assets.humanoid_path())  # model + cost sensors
-    request = RolloutRequest(rmodel, states0, targets, steps_per_control=50)
-    result = rollout(request, threads=2)        # or an Executor (controllers.sampling.executors)
-    result.final_states, result.com, result.sites, result.non_foot_contact, result.ok
+    rmodel = RolloutModel.from_source(mjchar.bvh.bundled.assets.humanoid_path())  # model + cost
+    sensors request = RolloutRequest(rmodel, states0, targets, steps_per_control=50)
+    result = rollout(request, threads=2)        # or an Executor
+    (mjchar.controllers.sampling.executors) result.final_states, result.com, result.sites,
+    result.non_foot_contact, result.ok
 
 Semantics (what a plain Python loop does, bit for bit; :func:`reference_rollout` is that loop):
 
@@ -49,7 +50,7 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 __all__ = [
     "FULLPHYSICS", "RolloutError", "RolloutModel", "RolloutRequest", "RolloutResult",
@@ -645,8 +646,8 @@ def rollout(request: RolloutRequest, *, threads: int | None = None,
             chunk: int = 256) -> RolloutResult:
     """Simulate ``request`` on a temporary :class:`RolloutRunner` (``threads=None``: all cores).
 
-    For repeated calls keep a runner (or an executor from :mod:`controllers.sampling.executors`): it
-    reuses its thread pool and buffers.
+    For repeated calls keep a runner (or an executor from
+    :mod:`mjchar.controllers.sampling.executors`): it reuses its thread pool and buffers.
     """
     with RolloutRunner(request.model, threads=threads, chunk=chunk) as runner:
         return runner.run(request)

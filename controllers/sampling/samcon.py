@@ -8,7 +8,8 @@ pushes the root.
 
 The algorithm, with the paper's symbols:
 
-1. **Base targets.** The clip (a ``bvh.reference.ReferenceMotion``) is cut into slices of
+1. **Base targets.** The clip (a ``mjchar.bvh.reference.reference_motion.ReferenceMotion``) is cut
+   into slices of
    ``slice_dt`` (~0.1 s), each made of controls of ``control_dt``. The base PD target of each
    control comes from inverse dynamics on the reference (:func:`inverse_dynamics_targets`):
    ``q_hat = q + (tau_ID + kd qdot) / kp``, where ``tau_ID`` is ``mj_inverse``'s joint torque
@@ -19,7 +20,7 @@ The algorithm, with the paper's symbols:
    offset ``Delta`` per actuator added to the slice's base targets, drawn from a uniform
    (``[mu - w, mu + w]``) or Gaussian (``N(mu, (w/2)^2)``) distribution with per-joint widths
    ``w`` by role (:data:`ROLE_WIDTHS`). All samples of a slice are simulated in one batch with
-   :mod:`controllers.sampling.rollout` through an executor (local threads or Ray).
+   :mod:`mjchar.controllers.sampling.rollout` through an executor (local threads or Ray).
 3. **Cost** at the end of each slice (:class:`TrackingCost`)::
 
        E = wp Ep + wr Er + we Ee + wb Eb + wc Ec + wj Ej
@@ -39,10 +40,10 @@ The algorithm, with the paper's symbols:
    then the rest drawn at random from the next ranks, with at most ``max_children`` children per
    parent state, so the saved set does not collapse onto one parent (the 2010 paper's concern).
 5. **Result**: the lowest total-cost path, traced back through the parents from the last slice;
-   its targets (base + offsets) are the :class:`~controllers.sampling.trajectory.Trajectory`.
+   its targets (base + offsets) are the :class:`~mjchar.controllers.sampling.trajectory.Trajectory`.
 
 The pieces SAMCON shares with CMA-ES (widths by role, inverse-dynamics base targets, the
-rollout model with joint sites, the cost) live in :mod:`controllers.sampling.tracking`.
+rollout model with joint sites, the cost) live in :mod:`mjchar.controllers.sampling.tracking`.
 
 2015 options: ``adapt`` updates each slice's sampling mean and per-dof width from its elite
 samples with a CMA-style weighted rank-mu update (``iterations`` > 1 reuses the adapted
@@ -60,7 +61,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
@@ -277,7 +278,7 @@ class SamconResult:
     """What :meth:`Samcon.run` returns.
 
     Attributes:
-        trajectory: the reconstructed :class:`~controllers.sampling.trajectory.Trajectory`.
+        trajectory: the reconstructed :class:`~mjchar.controllers.sampling.trajectory.Trajectory`.
         slice_costs: ``(n_slices,)`` cost of the chosen path at each slice end.
         total_cost: their sum; fell: the chosen path contains a fallen slice.
         samples_simulated: sample-slices simulated (a window sample counts its slices);
@@ -305,7 +306,7 @@ class Samcon:
     """SAMCON reconstruction of ``reference`` on ``character``'s model.
 
     Args:
-        reference: a ``bvh.reference.ReferenceMotion`` built on the model.
+        reference: a ``mjchar.bvh.reference.reference_motion.ReferenceMotion`` built on the model.
         model: the model source (MJCF path; ``None``: the bundled humanoid) the character and
             the rollout model are compiled from.
         options: :class:`SamconOptions`.
@@ -315,7 +316,7 @@ class Samcon:
 
     def __init__(self, reference, *, model=None, options: SamconOptions | None = None,
                  executor: Executor | None = None, source_motion: str = ""):
-        from bvh.assets import humanoid_path
+        from mjchar.bvh.bundled.assets import humanoid_path
 
         self.options = options or SamconOptions()
         src = humanoid_path() if model is None else model

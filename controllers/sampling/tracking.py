@@ -10,7 +10,7 @@
 
       E = wp Ep + wr Er + we Ee + wb Eb + wc Ec + wj Ej
 
-  with :data:`FALL_COST` added to a sample that falls (see :mod:`controllers.sampling.samcon`
+  with :data:`FALL_COST` added to a sample that falls (see :mod:`mjchar.controllers.sampling.samcon`
   for every term), or graded by how early it fell (:func:`fall_penalty`).
 - A constant pose as a reference (:class:`PoseReference`), for standing and pushes.
 """
@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
 from .rollout import RolloutModel, RolloutResult
@@ -100,10 +100,10 @@ JOINT_SITE_PREFIX = "mjchar_joint/"
 
 
 def tracking_rollout_model(source, character: Character) -> RolloutModel:
-    """A :class:`~controllers.sampling.rollout.RolloutModel` of ``source`` that records the model's
-    own sites (head, hands, feet, toes) and, through massless sites added at every BVH joint body's
-    origin (named :data:`JOINT_SITE_PREFIX` + joint), the joint positions the tracking metric
-    compares (``controllers.core.metrics``). Sites change no physics."""
+    """A :class:`~mjchar.controllers.sampling.rollout.RolloutModel` of ``source`` that records the
+    model's own sites (head, hands, feet, toes) and, through massless sites added at every BVH joint
+    body's origin (named :data:`JOINT_SITE_PREFIX` + joint), the joint positions the tracking metric
+    compares (``mjchar.controllers.core.metrics``). Sites change no physics."""
     from .rollout import RolloutError
 
     try:
@@ -181,15 +181,16 @@ def stance_labels(character: Character, reference, times: np.ndarray, *,
                   height: float | None = None) -> np.ndarray:
     """``(N, 2)`` bool: the feet (left, right) that carry the body at ``times``: a foot point
     lower than a fraction of the clip's mean root height and slower than
-    :data:`~bvh.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)`` (Froude-scaled, so a
-    2 m figure walking at 1.6 m/s gets the labels a 1.6 m one gets at 1.2 m/s; fixed
+    :data:`~mjchar.bvh.reference.foot_points.CONTACT_SPEED` x ``sqrt(g x root height)``
+    (Froude-scaled, so a 2 m figure walking at 1.6 m/s gets the labels a 1.6 m one gets at 1.2 m/s;
+    fixed
     0.1 m / 0.5 m/s thresholds leave a tall rig without a stance foot in 13 % of its walk).
     The height fraction is :data:`GROUNDED_STANCE_HEIGHT` on a contact-floor reference, whose
     supporting feet are on the floor, and otherwise the contact floor's own
-    :data:`~bvh.foot_points.CONTACT_HEIGHT` (:func:`bvh.foot_points.contact_grounding`), which
-    allows for the floating feet of raw mocap. ``height`` (a fraction of the root height)
-    overrides the choice."""
-    from bvh.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
+    :data:`~mjchar.bvh.reference.foot_points.CONTACT_HEIGHT`
+    (:func:`mjchar.bvh.reference.foot_points.contact_grounding`), which allows for the floating feet
+    of raw mocap. ``height`` (a fraction of the root height) overrides the choice."""
+    from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT, CONTACT_SPEED
 
     times = np.asarray(times, dtype=float).reshape(-1)
     clip_t = getattr(reference, "times", None)

@@ -1,10 +1,11 @@
 """Saved open-loop PD-target trajectories (what SAMCON and CMA-ES produce) and their replay.
 
-SAMCON (:mod:`controllers.sampling.samcon`) and CMA-ES trajectory optimisation
-(:mod:`controllers.sampling.trajopt`) both end with a sequence of set-points for the humanoid's
-native ``<position>`` actuators, one vector per control interval, that drives the character from a
-given start state without any feedback and without any force on the root. This module is that result
-as a file, and the controller that plays it back through the shared scenarios and metrics.
+SAMCON (:mod:`mjchar.controllers.sampling.samcon`) and CMA-ES trajectory optimisation
+(:mod:`mjchar.controllers.sampling.trajopt`) both end with a sequence of set-points for the
+humanoid's native ``<position>`` actuators, one vector per control interval, that drives the
+character from a given start state without any feedback and without any force on the root. This
+module is that result as a file, and the controller that plays it back through the shared scenarios
+and metrics.
 
 File format (``numpy`` ``.npz`` archive, no pickles; read with :func:`load_trajectory`):
 
@@ -27,10 +28,10 @@ key                           content
 ``metadata``                  JSON text: method, options, costs, seeds, timings
 ============================  ======================================================================
 
-Why ``warmstart_resets``: the batched rollouts (:mod:`controllers.sampling.rollout`) start every
-sample with ``qacc_warmstart = 0``, while a simulation that runs straight through carries the warm
-start over; the two differ at the solver-tolerance level and contact-rich motion amplifies that.
-The :class:`ReplayController` clears the warm start exactly where the optimiser's rollouts
+Why ``warmstart_resets``: the batched rollouts (:mod:`mjchar.controllers.sampling.rollout`) start
+every sample with ``qacc_warmstart = 0``, while a simulation that runs straight through carries the
+warm start over; the two differ at the solver-tolerance level and contact-rich motion amplifies
+that. The :class:`ReplayController` clears the warm start exactly where the optimiser's rollouts
 started, so a replay reproduces the optimised path bit for bit (and is deterministic).
 """
 
@@ -49,7 +50,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
@@ -351,7 +352,7 @@ def find_trajectory(prefixes: tuple[str, ...], directory: str | os.PathLike | No
     """The first saved trajectory (``*.npz``, sorted by name) in ``directory`` (default: the
     bundled ``assets/trajectories``) whose file name starts with one of ``prefixes`` (case
     insensitive), or ``None``."""
-    from bvh.assets import TRAJECTORIES
+    from mjchar.bvh.bundled.assets import TRAJECTORIES
 
     d = Path(TRAJECTORIES if directory is None else directory)
     if not prefixes or not d.is_dir():
@@ -363,10 +364,10 @@ def find_trajectory(prefixes: tuple[str, ...], directory: str | os.PathLike | No
 class StoredReference:
     """The reference a trajectory was optimised against, from its ``reference_qpos`` rows.
 
-    Quacks like the parts of ``bvh.reference.ReferenceMotion`` the metrics use: ``qpos(t)``,
-    ``body_positions(t)``, ``joint_body_ids`` and ``duration``. Poses between control
-    boundaries are interpolated with ``mj_differentiatePos``/``mj_integratePos``; times outside
-    ``[0, duration]`` hold the end poses.
+    Quacks like the parts of ``mjchar.bvh.reference.reference_motion.ReferenceMotion`` the metrics
+    use: ``qpos(t)``, ``body_positions(t)``, ``joint_body_ids`` and ``duration``. Poses between
+    control boundaries are interpolated with ``mj_differentiatePos``/``mj_integratePos``; times
+    outside ``[0, duration]`` hold the end poses.
 
     Args:
         model: the model (for kinematics).
@@ -480,11 +481,11 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         frame_callback: called after every control step (video capture).
         reference: a ReferenceMotion to measure tracking against (default: the stored
             reference rows; none for a task trajectory).
-        push: one push during the replay (a ``controllers.core.scenarios.PushEvent``).
+        push: one push during the replay (a ``mjchar.controllers.core.scenarios.PushEvent``).
 
     Returns:
-        a :class:`~controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra`` holds
-        ``final_root_error_m`` (3-D distance between the simulated and reference root at the
+        a :class:`~mjchar.controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra``
+        holds ``final_root_error_m`` (3-D distance between the simulated and reference root at the
         end, m), ``min_root_height_m``, ``max_clearance_m`` (largest height of the character's
         lowest point above the floor, m: flight) and ``final_root_height_m``.
     """

@@ -2,22 +2,25 @@
 
 The decision variables are PD-target offsets at spline knots every ``knot_dt`` (~0.1 s),
 linearly interpolated to the controls (``control_dt``) and added to base targets (inverse
-dynamics on the clip, :func:`controllers.sampling.tracking.inverse_dynamics_targets`, or a standing
-pose). Like SAMCON, the result is a :class:`~controllers.sampling.trajectory.Trajectory` for the
-native ``<position>`` actuators, replayed open-loop with no force on the root.
+dynamics on the clip, :func:`mjchar.controllers.sampling.tracking.inverse_dynamics_targets`, or a
+standing pose). Like SAMCON, the result is a
+:class:`~mjchar.controllers.sampling.trajectory.Trajectory` for the native ``<position>`` actuators,
+replayed open-loop with no force on the root.
 
 CMA-ES (Hansen's ``cma`` package, ``ask``/``tell``) optimises overlapping windows (``window``
 ~0.5 s): the knots that act inside the window are free, those already committed are frozen; the
 whole population of a generation is simulated as one batch of rollouts
-(:mod:`controllers.sampling.rollout`) from the state at the window start, and after ``generations``
-the first ``commit`` seconds of the window are fixed, simulated once more to get the next window's
-start state, and the window slides on (the un-committed knots warm-start the next window). A window
-as long as the horizon gives a single whole-trajectory optimisation (what the jump uses).
+(:mod:`mjchar.controllers.sampling.rollout`) from the state at the window start, and after
+``generations`` the first ``commit`` seconds of the window are fixed, simulated once more to get the
+next window's start state, and the window slides on (the un-committed knots warm-start the next
+window). A window as long as the horizon gives a single whole-trajectory optimisation (what the jump
+uses).
 
-Objectives (lower is better; a fall adds :data:`~controllers.sampling.tracking.FALL_COST` scaled by
-how early it happened, so CMA-ES still sees a gradient among falling candidates):
+Objectives (lower is better; a fall adds :data:`~mjchar.controllers.sampling.tracking.FALL_COST`
+scaled by how early it happened, so CMA-ES still sees a gradient among falling candidates):
 
-- :class:`TrackingObjective`: the SAMCON cost (:class:`~controllers.sampling.tracking.TrackingCost`)
+- :class:`TrackingObjective`: the SAMCON cost
+  (:class:`~mjchar.controllers.sampling.tracking.TrackingCost`)
   averaged over every control end in the window.
 - :class:`JumpObjective`: a standing vertical jump, no clip: reward the peak clearance of the
   feet (lowest foot/toe sole site) up to ``target_clearance`` plus a margin, then land and stand:
@@ -36,7 +39,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
@@ -125,7 +128,7 @@ class TrackingObjective:
     Args:
         character: model structure; reference: a ``ReferenceMotion``; rmodel: the rollout model;
         control_dt: seconds per control; start: clip time of control 0; n_controls: T;
-        weights: :class:`~controllers.sampling.tracking.CostWeights`.
+        weights: :class:`~mjchar.controllers.sampling.tracking.CostWeights`.
     """
 
     def __init__(self, character: Character, reference, rmodel: RolloutModel,
@@ -438,7 +441,7 @@ class TrajectoryOptimizer:
 
 
 def _setup(model):
-    from bvh.assets import humanoid_path
+    from mjchar.bvh.bundled.assets import humanoid_path
 
     src = humanoid_path() if model is None else model
     ch = Character(src)
@@ -582,7 +585,7 @@ def plain_pd_trajectory(reference, *, model=None, duration: float | None = None,
                         start: float = 0.0) -> Trajectory:
     """Plain native PD tracking of the raw reference as a trajectory: every physics step the
     target ``u = q_bar + (kd / kp) qdot_bar`` of
-    :class:`~controllers.core.pd.NativePDController`."""
+    :class:`~mjchar.controllers.core.pd.NativePDController`."""
     ch, _ = _setup(model)
     dt = ch.timestep
     duration = (reference.duration - start) if duration is None else duration
@@ -600,7 +603,7 @@ def plain_pd_trajectory(reference, *, model=None, duration: float | None = None,
 def trajectory_cost(trajectory: Trajectory, reference, *, model=None,
                     weights: CostWeights | None = None, every: float = 0.02,
                     start: float = 0.0) -> float:
-    """The mean tracking cost (:class:`~controllers.sampling.tracking.TrackingCost`, no fall
+    """The mean tracking cost (:class:`~mjchar.controllers.sampling.tracking.TrackingCost`, no fall
     penalty) of a trajectory's open-loop rollout, sampled every ``every`` s: the number compared
     between plain PD tracking and CMA-ES. The rollout restarts the solver warm start at the
     trajectory's ``warmstart_resets`` (as its replay does)."""

@@ -8,7 +8,7 @@ PD gains, all JSON round-trippable (:meth:`Gait.to_dict` / :meth:`Gait.from_dict
 (0/2, timed) and the swing state (1/3, ended by the swing foot's contact or a timeout).
 
 Angle conventions (anatomical, independent of any model's hinge axes; the controller finds the
-sign of each hinge on the model itself, see :mod:`controllers.walking.simbicon`):
+sign of each hinge on the model itself, see :mod:`mjchar.controllers.walking.simbicon`):
 
 - hip: ``+`` = flexion (thigh forward); ``coronal`` ``+`` = abduction (thigh away from the
   body's midline). The swing hip's angles are in the *heading* frame (world-aligned, yawed with
@@ -31,7 +31,7 @@ import dataclasses
 import json
 from dataclasses import dataclass, field
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 from .similarity import similarity_factors
 
@@ -334,7 +334,7 @@ def _interp(x: float, xs: list[float], ys: list[float]) -> float:
 
 
 #: leg length (m, hips' height over the soles at rest) and mass (kg) of the bundled humanoid,
-#: the body the gaits below were tuned on, as :class:`~controllers.walking.simbicon.Simbicon`
+#: the body the gaits below were tuned on, as :class:`~mjchar.controllers.walking.simbicon.Simbicon`
 #: measures them
 BUNDLED_LEG_LENGTH, BUNDLED_MASS = 0.878, 70.00001
 

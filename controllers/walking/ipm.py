@@ -19,11 +19,11 @@ ends when the swing foot touches the ground after half the step):
    width when coming to a stop with the COM's sideways speed under ``stop_speed``: a step
    widened across a sideways drift puts the COM outside the new stance foot), each axis
    clamped to +-0.4 leg length.
-2. **Swing foot** (:class:`~controllers.walking.swing.SwingTrajectory`): sole height through
+2. **Swing foot** (:class:`~mjchar.controllers.walking.swing.SwingTrajectory`): sole height through
    ``swing_heights`` at phases 0, 0.5, 1 (then sinking until contact); the horizontal offset from
    the COM blends from the lift-off offset to the IPM point. Hip and knee come from analytic
-   two-link IK (:func:`~controllers.walking.swing.two_link_ik`) for the ankle; the foot is kept flat
-   at the desired heading.
+   two-link IK (:func:`~mjchar.controllers.walking.swing.two_link_ik`) for the ankle; the foot is
+   kept flat at the desired heading.
 3. **Tracking**: the swing thigh, both feet and the pelvis are PD-controlled in the world frame
    (a world torque ``T = kp log(R_bar R^T) + kd (omega_bar - omega)`` mapped to a joint's hinges
    by their world axes, ``tau = A^T T``); the swing thigh and knee follow the IK targets'
@@ -48,7 +48,7 @@ ends when the swing foot touches the ground after half the step):
 
    with ``d_c`` the coronal COM offset from the stance foot, realised by the stance leg
    (hip, knee, ankle) as ``tau = -J_x^T F``, ``J_x`` the Jacobian of the COM point attached to the
-   stance foot (as in :mod:`controllers.balance.static_balance`).
+   stance foot (as in :mod:`mjchar.controllers.balance.static_balance`).
 
 The damping of all these PD terms is linear in ``qdot``: ``tau = tau0 - D qdot``. Explicitly the
 pelvis term, applied through the stance hip to the light pelvis body, oscillates at the model's
@@ -65,7 +65,7 @@ steps (the stance ankle's ``turn_ankle_limit``); a walk whose heading command st
 start heading never takes one.
 
 Standing: the controller starts standing and stands whenever nothing is commanded, with
-:class:`~controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where
+:class:`~mjchar.controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where
 the feet are (feet flat, the pelvis low enough that each leg reaches its foot with the knee bent
 ``stance_knee``). A speed or heading command starts a walk with a short first step (the COM,
 centred between the feet, falls a little towards the swing side, which starts the lateral sway);
@@ -151,7 +151,8 @@ class IPMController:
             each step started.
         transitions: ``(time, state)`` at every step start, SIMBICON-style: state 0 when a
             left-stance step starts, 2 for a right-stance one (a stride runs from one 0 to the
-            next), so :func:`controllers.core.terrain.push_walk` can push IPM at a stride phase.
+            next), so :func:`mjchar.controllers.core.terrain.push_walk` can push IPM at a stride
+            phase.
     """
 
     name = "ipm"
@@ -360,7 +361,7 @@ class IPMController:
                           self.params.stance_knee_ramp_max)
         self.step_switches.append(t)
         # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
-        # stride-phase tools (controllers.core.terrain.push_walk) work with IPM too
+        # stride-phase tools (mjchar.controllers.core.terrain.push_walk) work with IPM too
         self.transitions.append((t, 2 if swing == _LEFT else 0))
 
     def _start_standing(self, ch: Character, t: float) -> None:

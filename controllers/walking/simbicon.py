@@ -1,11 +1,11 @@
 """SIMBICON: simple biped locomotion control (Yin, Loken and van de Panne, SIGGRAPH 2007).
 
-A four-state finite-state machine per gait (:mod:`controllers.walking.gaits`): for each stance leg a
-lift-off state (0 or 2, timed) and a swing state (1 or 3, ended when the swing foot lands: phase
-> 0.5 and swing-foot normal force > 20 N, or a timeout). In every state each joint has a target
-angle and explicit PD torques ``tau = kp (theta_d - theta) - kd theta_dot`` drive it, computed in
-Python and applied as joint torques (the Character in ``"torque"`` actuation). Three things make
-it balance and walk:
+A four-state finite-state machine per gait (:mod:`mjchar.controllers.walking.gaits`): for each
+stance leg a lift-off state (0 or 2, timed) and a swing state (1 or 3, ended when the swing foot
+lands: phase > 0.5 and swing-foot normal force > 20 N, or a timeout). In every state each joint has
+a target angle and explicit PD torques ``tau = kp (theta_d - theta) - kd theta_dot`` drive it,
+computed in Python and applied as joint torques (the Character in ``"torque"`` actuation). Three
+things make it balance and walk:
 
 - **Torso and swing hip in the world (heading) frame.** The pelvis is driven to a world target
   (the desired heading, a forward lean ``torso_pitch``) by a virtual torque
@@ -22,8 +22,8 @@ it balance and walk:
 
 No force is ever applied to the root.
 
-Angles in a :class:`~controllers.walking.gaits.Gait` are anatomical (flexion ``+``); the sign of
-each hinge is measured on the model at :meth:`Simbicon.reset` (e.g. on the bundled humanoid hip
+Angles in a :class:`~mjchar.controllers.walking.gaits.Gait` are anatomical (flexion ``+``); the sign
+of each hinge is measured on the model at :meth:`Simbicon.reset` (e.g. on the bundled humanoid hip
 flexion is a negative rotation about the lateral axis and knee flexion a positive one).
 """
 
@@ -47,7 +47,7 @@ _SIDES = ("left", "right")
 #: key here) and z axes at rest: its roll and twist; a gait without them uses its ``ankle`` gains
 _STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
 #: world-frame gains ``(kp N m/rad, kd N m s/rad)`` of a gait that leaves them out, for the gait's
-#: own body (scaled with it, :meth:`~controllers.walking.gaits.Gait.scaled`)
+#: own body (scaled with it, :meth:`~mjchar.controllers.walking.gaits.Gait.scaled`)
 DEFAULT_GAINS = {
     "torso": (1000.0, 100.0),
     "stance_twist": (300.0, 30.0),
@@ -162,22 +162,23 @@ class Simbicon:
     """SIMBICON walking controller (see the module docstring).
 
     Args:
-        gait: a gait name (``"walk"``, ``"crouch"``), a :class:`~controllers.walking.gaits.Gait` or
+        gait: a gait name (``"walk"``, ``"crouch"``), a
+        :class:`~mjchar.controllers.walking.gaits.Gait` or
             its dict.
         heading: desired heading (rad, world yaw); ``None`` = the pelvis's heading at reset.
         first_stance: ``"left"`` or ``"right"``: the stance leg of state 0.
         speed: commanded forward speed (m/s); ``None``: the gait's own speed. A command is a
-            feed-forward (:meth:`~controllers.walking.gaits.Gait.for_speed`: the gait's
+            feed-forward (:meth:`~mjchar.controllers.walking.gaits.Gait.for_speed`: the gait's
             ``speed_anchors`` interpolated at the command's Froude speed ``v / sqrt(g L)``, ``L``
             the body's leg length) plus the gait's step-to-step speed regulation towards it
             (``speed_target``); both follow :attr:`command`, which ramps from the gait's own
             speed to ``speed`` (a fast gait from a standstill falls).
         overrides: gait parameters to change
-            (:meth:`~controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
+            (:meth:`~mjchar.controllers.walking.gaits.Gait.with_overrides`, e.g. ``cd=0, cv=0``).
 
     The gait is scaled to the body at :meth:`reset`
-    (:meth:`~controllers.walking.gaits.Gait.scaled`: times, gains and feedback by the body's leg
-    length and mass against the gait's own body); :attr:`gait` is the gait in use from then on.
+    (:meth:`~mjchar.controllers.walking.gaits.Gait.scaled`: times, gains and feedback by the body's
+    leg length and mass against the gait's own body); :attr:`gait` is the gait in use from then on.
 
     Attributes (read by scenarios):
         state: FSM state 0-3 (0/1: ``first_stance`` leg on the ground; 0/2 lift-off, 1/3 swing).
@@ -690,8 +691,8 @@ class Simbicon:
         return self._feedback_terms(character, st, H)
 
     def act(self, character: Character, t: float) -> Action:
-        """The :class:`~controllers.core.base.Action` for simulated time ``t``: joint torques only
-        (the root rows are zero: no hand of god)."""
+        """The :class:`~mjchar.controllers.core.base.Action` for simulated time ``t``: joint torques
+        only (the root rows are zero: no hand of god)."""
         full = np.zeros(character.nv)
         full[self._act_dof] = self.torques(character, t)
         return Action(torque=full)

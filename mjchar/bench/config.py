@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bvh.errors import MjcharError
-from controllers.core.push_protocol import PushProtocol
-from controllers.core.registry import BENCH_SCENARIOS
+from mjchar.bvh.errors import MjcharError
+from mjchar.controllers.core.push_protocol import PushProtocol
+from mjchar.controllers.core.registry import BENCH_SCENARIOS
 
 #: the project root (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
@@ -129,7 +129,7 @@ class BenchConfig:
 
     def _check_gait_gaits(self) -> None:
         """``gait_gaits``: a sequence of known gaits that take a speed command."""
-        from controllers.walking.gaits import GaitError, get_gait
+        from mjchar.controllers.walking.gaits import GaitError, get_gait
 
         gaits = self.gait_gaits
         if isinstance(gaits, str) or not isinstance(gaits, tuple | list) or not gaits:

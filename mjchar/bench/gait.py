@@ -1,5 +1,5 @@
 """The gait section of ``mjchar bench``: every walker's walk and the mocap walks measured by one
-probe (:mod:`bvh.gait`), as a table and the gait-cycle plot (``gait_cycle.png``)."""
+probe (:mod:`mjchar.bvh.gait.analysis`), as a table and the gait-cycle plot (``gait_cycle.png``)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def gait_walks(config: BenchConfig, controllers: Sequence[str]) -> list[tuple[st
     ``controllers`` at ``config.gait_speed`` if it takes a speed (issue 14's comparison point,
     the mocap walks' speed), once per gait of ``config.gait_gaits`` if it takes a gait
     (labelled ``NAME GAIT``)."""
-    from controllers import registry
+    from mjchar.controllers import registry
 
     out = []
     for name in controllers:
@@ -42,11 +42,11 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
     ``filmstrip`` (a PNG path) every walk's middle stride is drawn there too
     (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the file, or
     says why there is none)."""
-    from bvh.gait import GaitError, analyse, clip_walk
-    from controllers import registry
-    from controllers.core import scenarios as S
-    from controllers.core.character import Character
-    from controllers.core.recording import MotionRecorder
+    from mjchar.bvh.gait.analysis import GaitError, analyse, clip_walk
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.recording import MotionRecorder
 
     start = min(GAIT_START_S, 0.25 * config.walk_duration)
     walks, falls, skipped = [], {}, {}
@@ -78,7 +78,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
                "speed_mps": config.gait_speed, "falls": falls,
                "skipped": skipped, "walks": [w[0].to_dict() for w in walks]}
     if filmstrip is not None and walks:
-        from bvh.errors import MjcharError
+        from mjchar.bvh.errors import MjcharError
 
         from ..gait_plot import plot_filmstrip
 
@@ -94,7 +94,7 @@ def gait_markdown(section: dict | None) -> str:
     """The gait table (markdown), empty without a section."""
     if not section or not section.get("walks"):
         return ""
-    from bvh.gait import GaitStats, table
+    from mjchar.bvh.gait.analysis import GaitStats, table
 
     stats = [GaitStats(**w) for w in section["walks"]]
     speed = section.get("speed_mps")
@@ -107,7 +107,7 @@ def plot_gait(section: dict | None, path):
     """``gait_cycle.png``: the cycle curves of every walk (None without a section)."""
     if not section or not section.get("walks"):
         return None
-    from bvh.gait import GaitStats
+    from mjchar.bvh.gait.analysis import GaitStats
 
     from ..gait_plot import plot_cycles
 

@@ -1,17 +1,17 @@
 """The bench matrix: every registered controller in every bench scenario it declares.
 
 The rows, their scenarios and the runs that must not fall come from the controller registry
-(:mod:`controllers.core.registry`: each spec's ``bench`` and ``expected``), so a newly
+(:mod:`mjchar.controllers.core.registry`: each spec's ``bench`` and ``expected``), so a newly
 registered controller appears here with no other edit. Every run goes through the shared
-scenarios (:mod:`controllers.core.scenarios`, :mod:`controllers.core.terrain`,
-:func:`controllers.sampling.trajectory.replay`), so each number is measured the way the tests
+scenarios (:mod:`mjchar.controllers.core.scenarios`, :mod:`mjchar.controllers.core.terrain`,
+:func:`mjchar.controllers.sampling.trajectory.replay`), so each number is measured the way the tests
 and ``mjchar run`` measure it.
 
 Scenarios (:data:`~mjchar.bench.config.SCENARIOS`):
 
 - ``stand``: the standing pose, no disturbance.
 - ``random-push``: 10 N on the pelvis, new random direction every second, once per seed.
-- ``push-search``: the push protocol (:mod:`controllers.core.push_protocol`): per direction
+- ``push-search``: the push protocol (:mod:`mjchar.controllers.core.push_protocol`): per direction
   (forward, left, backward, right) the survival rate of 0.2 s pushes over ``push_phases``
   phases of the stride (walkers, on the chest) or moments (standing controllers, on the pelvis)
   x ``push_seeds`` seeds, on a force grid; the figures are the largest forces with rate 100 %
@@ -35,14 +35,14 @@ from pathlib import Path
 
 import numpy as np
 
-from bvh.assets import TRAJECTORIES
-from bvh.errors import MjcharError
-from controllers import registry
-from controllers.core import scenarios as S
-from controllers.core.push_protocol import PushTask, simulate_push, survival_rates
-from controllers.core.registry import ControllerSpec
-from controllers.core.terrain import slope_walk, walk
-from controllers.sampling.trajectory import find_trajectory
+from mjchar.bvh.bundled.assets import TRAJECTORIES
+from mjchar.bvh.errors import MjcharError
+from mjchar.controllers import registry
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.push_protocol import PushTask, simulate_push, survival_rates
+from mjchar.controllers.core.registry import ControllerSpec
+from mjchar.controllers.core.terrain import slope_walk, walk
+from mjchar.controllers.sampling.trajectory import find_trajectory
 
 from .config import SCENARIOS, SHARED_BVH, BenchConfig, BenchError, relative_path
 
@@ -182,7 +182,7 @@ class BenchContext:
 
     def __init__(self, config: BenchConfig, trajectories: dict[str, Path],
                  video_dir: Path | None, log: Callable[[str], None]):
-        from controllers.core.character import Character
+        from mjchar.controllers.core.character import Character
 
         self.config = config
         self.base_model = Character().model  # pristine; every run copies it
@@ -195,7 +195,7 @@ class BenchContext:
         self.videos: list[dict] = []
 
     def character(self, timestep: float | None = None):
-        from controllers.core.character import Character
+        from mjchar.controllers.core.character import Character
 
         return Character(self.base_model, timestep=timestep)
 
@@ -203,8 +203,8 @@ class BenchContext:
         """The clip at ``path`` as a ReferenceMotion placed by ``floor`` (cached)."""
         key = (str(path), floor)
         if key not in self._refs:
-            import bvh
-            from bvh.reference import ReferenceMotion
+            from mjchar import bvh
+            from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
             ch = self.character()
             self._refs[key] = ReferenceMotion(ch.model, bvh.load(path), info=ch.info,
@@ -213,7 +213,7 @@ class BenchContext:
 
     def trajectory(self, name: str):
         if name not in self._trajs:
-            from controllers.sampling.trajectory import load_trajectory
+            from mjchar.controllers.sampling.trajectory import load_trajectory
 
             self._trajs[name] = load_trajectory(self.trajectories[name])
         return self._trajs[name]
@@ -229,7 +229,7 @@ def default_track_motion() -> Path:
     shared = SHARED_BVH / "walk60.bvh"
     if shared.is_file():
         return shared
-    from bvh.assets import motion_path
+    from mjchar.bvh.bundled.assets import motion_path
 
     return motion_path("walk")
 
@@ -387,7 +387,7 @@ def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> di
 
 
 def _replay_run(ctx: BenchContext, cell_video: list, name: str) -> dict:
-    from controllers.sampling.trajectory import StoredReference, replay
+    from mjchar.controllers.sampling.trajectory import StoredReference, replay
 
     tr = ctx.trajectory(name)
     ref = None

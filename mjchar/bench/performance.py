@@ -10,9 +10,9 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from controllers import registry
-from controllers.core import scenarios as S
-from controllers.core.terrain import place_on_floor
+from mjchar.controllers import registry
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.terrain import place_on_floor
 
 from .config import SHARED_BVH, BenchConfig, BenchError, PerfConfig
 from .matrix import BenchContext, availability, build_controller, progress_bar
@@ -98,7 +98,7 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
             continue
         try:
             if registry.get(name).kind == "replay":
-                from controllers.sampling.trajectory import ReplayController
+                from mjchar.controllers.sampling.trajectory import ReplayController
 
                 tr = ctx.trajectory(name)
                 ch = ctx.character(tr.timestep)
@@ -127,7 +127,7 @@ def _bvh_files() -> list[Path]:
                                        "walk_and_turn_right.bvh")]
     files = [p for p in shared if p.is_file()]
     if not files:
-        from bvh.assets import motion_path
+        from mjchar.bvh.bundled.assets import motion_path
 
         files = [motion_path("walk"), motion_path("idle")]
     return files

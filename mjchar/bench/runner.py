@@ -136,7 +136,7 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
                                              progress=progress)
         timings["performance_s"] = time.perf_counter() - t0
     doc["gait"] = None
-    from controllers import registry
+    from mjchar.controllers import registry
 
     if any(registry.get(n).kind == "walker" for n in doc["controllers"]):
         from .gait import run_gait

@@ -1,10 +1,10 @@
 """The skeletons section of ``mjchar bench --skeletons``: the controllers on every rig of the zoo.
 
-The rigs are :func:`bvh.zoo.zoo_rigs`: the shared walks (``../shared/data/bvh``, skipped when
-absent) re-expressed on real-world naming conventions, units, up axes and rest poses, and the
-bundled humanoid's walk on its skeleton scaled to 1.5 m / 50 kg and 1.95 m / 100 kg. Each rig is
-written as ``skeletons/NAME.bvh``, converted at the default (hinge) joint model with its mass to
-``skeletons/NAME.xml`` (so every figure can be reproduced with ``mjchar run ... --model``), and
+The rigs are :func:`mjchar.bvh.bundled.zoo.zoo_rigs`: the shared walks (``../shared/data/bvh``,
+skipped when absent) re-expressed on real-world naming conventions, units, up axes and rest poses,
+and the bundled humanoid's walk on its skeleton scaled to 1.5 m / 50 kg and 1.95 m / 100 kg. Each
+rig is written as ``skeletons/NAME.bvh``, converted at the default (hinge) joint model with its mass
+to ``skeletons/NAME.xml`` (so every figure can be reproduced with ``mjchar run ... --model``), and
 measured:
 
 - conversion: the ``full`` model's replay error (worst joint), the hinge model's worst end
@@ -80,7 +80,7 @@ def run_skeletons(config: SkeletonConfig, *, shared_bvh: Path | None = SHARED_BV
                   progress: Callable[[str], None] | None = None) -> dict:
     """``config.checks`` on ``config.rigs`` of the zoo (the clip rigs need ``shared_bvh``);
     returns the section (``rigs``: one record per rig)."""
-    from bvh.zoo import zoo_rigs
+    from mjchar.bvh.bundled.zoo import zoo_rigs
 
     checks = tuple(config.checks)
     bad = [c for c in checks if c not in CHECKS]
@@ -115,9 +115,9 @@ def run_skeletons(config: SkeletonConfig, *, shared_bvh: Path | None = SHARED_BV
 
 # -- conversion -----------------------------------------------------------------------------------
 def _convert(rig, folder: Path) -> dict:
-    import bvh
-    from bvh.mjcf import convert
-    from bvh.reference import replay_errors
+    from mjchar import bvh
+    from mjchar.bvh.mjcf import convert
+    from mjchar.bvh.reference.reference_motion import replay_errors
 
     motion = bvh.loads(bvh.dumps(rig.motion))  # as the file reads back
     bvh_path = folder / f"{rig.name}.bvh"
@@ -146,8 +146,8 @@ def _convert(rig, folder: Path) -> dict:
 
 
 def _character(rec: dict, controller: str):
-    from controllers import registry
-    from controllers.core.character import Character
+    from mjchar.controllers import registry
+    from mjchar.controllers.core.character import Character
 
     ch = Character(rec["_paths"][1])
     ts = registry.default_timestep(controller)
@@ -165,8 +165,8 @@ def _run(result) -> dict:
 
 # -- the checks -----------------------------------------------------------------------------------
 def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
-    from controllers import registry
-    from controllers.core import scenarios as S
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
 
     ch = _character(rec, "static_balance")
     c = registry.make_controller("static_balance", ch, S.standing_pose(ch))
@@ -178,8 +178,8 @@ def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
 
 
 def _push(rig, rec, cfg: SkeletonConfig) -> dict:
-    from controllers import registry
-    from controllers.core import scenarios as S
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
 
     runs = {}
     for d in PUSH_DIRECTIONS:
@@ -198,8 +198,8 @@ def _walker(name: str, speeds: Callable[[SkeletonConfig], tuple[float, ...]]) ->
     within the tolerance of it. ``runs`` keys: the seed, or ``"SPEED/SEED"`` under commands."""
 
     def check(rig, rec, cfg: SkeletonConfig) -> dict:
-        from controllers import registry
-        from controllers.core.terrain import walk
+        from mjchar.controllers import registry
+        from mjchar.controllers.core.terrain import walk
 
         runs, falls, off = {}, [], []
         for v in speeds(cfg) or (None,):
@@ -227,10 +227,10 @@ def _walker(name: str, speeds: Callable[[SkeletonConfig], tuple[float, ...]]) ->
 
 
 def _hand_of_god(rig, rec, cfg: SkeletonConfig) -> dict:
-    import bvh
-    from bvh.reference import ReferenceMotion
-    from controllers import registry
-    from controllers.core import scenarios as S
+    from mjchar import bvh
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
 
     ch = _character(rec, "hand_of_god")
     ref = ReferenceMotion(ch.model, bvh.load(rec["_paths"][0]), info=ch.info,
@@ -244,13 +244,13 @@ def _hand_of_god(rig, rec, cfg: SkeletonConfig) -> dict:
 
 
 def _samcon(rig, rec, cfg: SkeletonConfig) -> dict:
-    import bvh
-    from bvh.reference import ReferenceMotion
-    from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
-    from controllers.sampling.trajectory import replay
+    from mjchar import bvh
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
+    from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
+    from mjchar.controllers.sampling.trajectory import replay
 
     bvh_path, xml = rec["_paths"]
-    from controllers.core.character import Character
+    from mjchar.controllers.core.character import Character
 
     ch = Character(xml)
     ref = ReferenceMotion(ch.model, bvh.load(bvh_path), info=ch.info)
@@ -307,7 +307,8 @@ def skeletons_markdown(section: dict | None) -> str:
                          + x["summary"])
         lines.append("| " + " | ".join(cells) + " |")
     cfg = section["config"]
-    return ("Skeletons (`mjchar bench --skeletons`; rigs from bvh.zoo, models in skeletons/; "
+    return ("Skeletons (`mjchar bench --skeletons`; rigs from mjchar.bvh.bundled.zoo, models in "
+            "skeletons/; "
             f"stand {cfg['stand_duration']:g} s, pushes {cfg['push_force']:g} N x "
             f"{cfg['push_duration']:g} s in 4 directions, walks {cfg['walk_duration']:g} s at "
             f"seeds {', '.join(map(str, cfg['seeds']))}, SIMBICON at "

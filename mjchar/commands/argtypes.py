@@ -54,7 +54,7 @@ def _number(what: str, ok, expected: str):
 def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "contact") -> None:
     """``--floor contact|clip|frame``: how the reference clip is placed on the floor
     (``default=None`` lets a command tell whether it was typed)."""
-    from bvh.reference import FLOOR_MODES
+    from mjchar.bvh.reference.reference_motion import FLOOR_MODES
 
     p.add_argument("--floor", choices=FLOOR_MODES, default=default,
                    help="contact (default, but `run hand_of_god`, whose root force can follow "

@@ -49,10 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                            help=f"saved trajectory for the {spec.name} row ({spec.label})")
     p.add_argument("--skeletons", action="store_true",
                    help="add the skeletons section: static balance, pushes, SIMBICON, IPM, "
-                        "hand-of-god and SAMCON on every rig of the zoo (bvh.zoo: the shared "
-                        "walks on CMU, Mixamo, LAFAN1, Unreal, game-studio, SMPL, Blender and "
-                        "Xsens conventions, and the bundled humanoid at 1.5 m / 50 kg and "
-                        "1.95 m / 100 kg); rigs and models are written to OUT/skeletons")
+                        "hand-of-god and SAMCON on every rig of the zoo (mjchar.bvh.bundled.zoo: "
+                        "the shared walks on CMU, Mixamo, LAFAN1, Unreal, game-studio, SMPL, "
+                        "Blender and Xsens conventions, and the bundled humanoid at 1.5 m / 50 kg "
+                        "and 1.95 m / 100 kg); rigs and models are written to OUT/skeletons")
     p.add_argument("--skeletons-only", action="store_true",
                    help="run the skeletons section alone (no matrix, performance or gait)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     import json
     import os
 
-    from bvh.mjcf import convert
+    from mjchar.bvh.mjcf import convert
 
     converted = convert(
         args.input, total_mass=args.mass, joint_model=args.joint_model, unit=args.unit,
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     s = converted.summary
     errors = None
     if args.verify:
-        from bvh.reference import replay_errors
+        from mjchar.bvh.reference.reference_motion import replay_errors
 
         errors = replay_errors(model, converted.motion)
     if args.json:

@@ -1,5 +1,6 @@
 """``mjchar gait SOURCE``: gait statistics of a walker's run or a BVH clip, side by side with
-reference clips, and the joint-angle curves over the normalised gait cycle (bvh.gait)."""
+reference clips, and the joint-angle curves over the normalised gait cycle
+(mjchar.bvh.gait.analysis)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from .run_options import check_speed
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from controllers import registry
+    from mjchar.controllers import registry
 
     walkers = registry.names("walker")
     p = sub.add_parser(
@@ -47,13 +48,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _walker_stats(args, spec):
-    from bvh.errors import MjcharError
-    from bvh.gait import analyse
-    from controllers import registry
-    from controllers.core import scenarios as S
-    from controllers.core import terrain
-    from controllers.core.character import Character
-    from controllers.core.recording import MotionRecorder
+    from mjchar.bvh.errors import MjcharError
+    from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core import terrain
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.recording import MotionRecorder
 
     options = {}
     for name, value in (("speed", args.speed), ("gait", args.gait)):
@@ -76,7 +77,7 @@ def _walker_stats(args, spec):
     if args.seed is None:  # from the standing pose, as `mjchar run` and the bench walk
         result = S.run_scenario("walk", character, controller, duration=duration,
                                 frame_callback=recorder)
-    else:  # the seeded start of the terrain walks (controllers.core.terrain.walk)
+    else:  # the seeded start of the terrain walks (mjchar.controllers.core.terrain.walk)
         result = terrain.walk(character, controller, duration=duration, seed=args.seed,
                               frame_callback=recorder)
     label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])
@@ -90,9 +91,9 @@ def run(args: argparse.Namespace) -> int:
     import json
     import os
 
-    from bvh.errors import MjcharError
-    from bvh.gait import table
-    from controllers import registry
+    from mjchar.bvh.errors import MjcharError
+    from mjchar.bvh.gait.analysis import table
+    from mjchar.controllers import registry
 
     result = None
     if args.source.lower().endswith(".bvh"):
@@ -149,7 +150,7 @@ def _clip(path: str, start: float = 0.0):
     """``(stats, model, times, qpos)`` of a BVH clip analysed from ``start`` s."""
     import os
 
-    from bvh.gait import analyse, clip_walk
+    from mjchar.bvh.gait.analysis import analyse, clip_walk
 
     model, info, times, qpos = clip_walk(path)
     label = os.path.splitext(os.path.basename(path))[0]

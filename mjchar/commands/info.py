@@ -14,7 +14,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    import bvh
+    from mjchar import bvh
 
     motion = bvh.load(args.file)
     sk = motion.skeleton
@@ -23,15 +23,16 @@ def run(args: argparse.Namespace) -> int:
     hi = fk.positions.reshape(-1, 3).max(axis=0)
     print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
           f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
-    from bvh.mjcf import ConversionError
-    from bvh.mjcf.prepare import prepare
+    from mjchar.bvh.mjcf import ConversionError
+    from mjchar.bvh.mjcf.prepare import prepare
+    from mjchar.bvh.rigs import units
 
     try:  # the converter's guesses (anatomy, after folding a static root and re-resting)
         prep = prepare(motion, sk)
         up, scale = prep.up, prep.scale
         notes = prep.warnings
     except ConversionError as e:
-        up, scale = bvh.units.guess_up_axis(sk), bvh.units.guess_unit_scale(sk)
+        up, scale = units.guess_up_axis(sk), units.guess_unit_scale(sk)
         notes = [f"not convertible as is: {e}"]
     print(f"  up axis (guessed): {up}, metres per unit (guessed): {scale:g}")
     for n in notes:

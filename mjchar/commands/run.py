@@ -29,7 +29,7 @@ def _direction(text: str) -> float:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
-    from controllers import registry
+    from mjchar.controllers import registry
 
     intro = textwrap.fill(
         "Run a controller on the simulated humanoid in a scenario and print a summary (or one "
@@ -134,13 +134,13 @@ _FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
 
 def _controller_options(spec, args: argparse.Namespace, scenario: str) -> dict:
     """The factory options ``spec`` takes, from the command line (one rule per option name)."""
-    from bvh.errors import MjcharError
+    from mjchar.bvh.errors import MjcharError
 
     options = {}
     if "tracker" in spec.options:
         options["tracker"] = args.tracker
     if "height" in spec.options and args.squat:
-        from controllers.balance.static_balance import squat_profile
+        from mjchar.controllers.balance.static_balance import squat_profile
 
         options["height"] = squat_profile(args.squat)
     if "gait" in spec.options:
@@ -170,12 +170,12 @@ def run(args: argparse.Namespace) -> int:
     if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
         os.environ.setdefault("MUJOCO_GL", "egl")
 
-    import bvh
-    from bvh.errors import MjcharError
-    from controllers import registry
-    from controllers.core import scenarios as S
-    from controllers.core.character import Character
-    from controllers.core.recording import MotionRecorder, chain_callbacks
+    from mjchar import bvh
+    from mjchar.bvh.errors import MjcharError
+    from mjchar.controllers import registry
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.recording import MotionRecorder, chain_callbacks
 
     spec = registry.get(args.controller)
     scenario = args.scenario or spec.default_scenario
@@ -210,13 +210,13 @@ def run(args: argparse.Namespace) -> int:
 
     reference = None
     if scenario == "track" or (scenario == "walk" and not walker):
-        from bvh.assets import motion_path
-        from bvh.reference import ReferenceMotion
+        from mjchar.bvh.bundled.assets import motion_path
+        from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
         path = args.motion or motion_path("walk")
         motion = bvh.load(path)
         if args.loop:
-            from bvh.editing import make_cyclic
+            from mjchar.bvh.editing.clips import make_cyclic
 
             motion = make_cyclic(motion)
         reference = ReferenceMotion(character.model, motion, info=character.info,
@@ -290,11 +290,11 @@ def _print_export(exported: dict) -> None:
 
 def _push_search(args: argparse.Namespace, spec) -> int:
     """``--scenario push-search``: survival rates over phases, seeds and a force grid
-    (:mod:`controllers.core.push_protocol`), every core busy."""
+    (:mod:`mjchar.controllers.core.push_protocol`), every core busy."""
     import json
     import sys
 
-    from controllers.core.push_protocol import PushProtocol, survival_rates
+    from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates
 
     protocol = PushProtocol.grid(args.max_force, min(args.tolerance, args.max_force),
                                  phases=args.phases, seeds=tuple(range(args.seeds)),
@@ -318,9 +318,9 @@ def _replay(args: argparse.Namespace, spec) -> int:
     import json
     import sys
 
-    from bvh.errors import MjcharError
-    from controllers.core.recording import MotionRecorder, chain_callbacks
-    from controllers.sampling.trajectory import find_trajectory, load_trajectory, replay
+    from mjchar.bvh.errors import MjcharError
+    from mjchar.controllers.core.recording import MotionRecorder, chain_callbacks
+    from mjchar.controllers.sampling.trajectory import find_trajectory, load_trajectory, replay
 
     path = args.trajectory or find_trajectory(spec.trajectory_prefixes)
     if path is None:
@@ -334,11 +334,11 @@ def _replay(args: argparse.Namespace, spec) -> int:
     video = None
     kw = {}
     if args.push is not None:  # a push during the replay
-        from controllers.core.scenarios import PushEvent
+        from mjchar.controllers.core.scenarios import PushEvent
 
         kw["push"] = PushEvent(args.push, args.direction, args.push_time, args.push_duration)
     if args.render:
-        from controllers.core.character import Character
+        from mjchar.controllers.core.character import Character
 
         from ..render import VideoRecorder
 

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from bvh.errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 #: push forces (``--push``, ``--max-force``) above this many body weights are refused
 MAX_PUSH_BODY_WEIGHTS = 10.0
@@ -132,7 +132,7 @@ REFINE_DEFAULTS = {"fps": 30.0, "export_fps": None}
 
 
 def _names_with(option: str) -> str:
-    from controllers import registry
+    from mjchar.controllers import registry
 
     names = [s.name for s in registry.specs() if option in s.options]
     return ", ".join(names) if names else "no registered controller"

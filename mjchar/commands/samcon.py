@@ -1,7 +1,7 @@
 """``mjchar samcon MOTION.bvh -o OUTPUT``: reconstruct a clip with SAMCON and save the trajectory.
 
 The saved file plays back with ``mjchar run replay OUTPUT`` (or
-``controllers.sampling.trajectory.replay(OUTPUT)``).
+``mjchar.controllers.sampling.trajectory.replay(OUTPUT)``).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from .argtypes import add_floor_argument, integer, non_negative, positive
 
 
 def _weight(text: str) -> tuple[str, float]:
-    from controllers.sampling.tracking import CostWeights
+    from mjchar.controllers.sampling.tracking import CostWeights
 
     name, sep, value = text.partition("=")
     names = list(CostWeights.__dataclass_fields__)
@@ -31,7 +31,7 @@ def _weight(text: str) -> tuple[str, float]:
 
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """The executor options (``--executor``, ``--threads``, ``--ray-address``, ...)."""
-    from controllers.sampling.executors import add_executor_arguments as add
+    from mjchar.controllers.sampling.executors import add_executor_arguments as add
 
     add(p)
 
@@ -40,9 +40,9 @@ def load_reference(path: str, model, floor: str = "contact"):
     """``(character_model, ReferenceMotion)`` for a BVH clip on ``model`` (default: the bundled
     humanoid), placed on the floor per ``floor`` (see ``ReferenceMotion``); a clip the model
     cannot follow raises an ``MjcharError`` with the reason."""
-    import bvh
-    from bvh.reference import ReferenceMotion, ReferenceMotionError
-    from controllers.core.character import Character
+    from mjchar import bvh
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion, ReferenceMotionError
+    from mjchar.controllers.core.character import Character
 
     ch = Character(model)
     motion = bvh.load(path)
@@ -57,7 +57,7 @@ def check_output(path: str) -> None:
     """Fail early (before a long optimisation) when ``path`` cannot be written."""
     import os
 
-    from bvh.errors import MjcharError
+    from mjchar.bvh.errors import MjcharError
 
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
@@ -115,10 +115,10 @@ def run(args: argparse.Namespace) -> int:
     import json
     import sys
 
-    from controllers.sampling.executors import executor_from_args
-    from controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
-    from controllers.sampling.tracking import CostWeights
-    from controllers.sampling.trajectory import replay
+    from mjchar.controllers.sampling.executors import executor_from_args
+    from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
+    from mjchar.controllers.sampling.tracking import CostWeights
+    from mjchar.controllers.sampling.trajectory import replay
 
     check_output(args.output)
     _, ref = load_reference(args.motion, args.model, args.floor)

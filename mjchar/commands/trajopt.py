@@ -63,10 +63,15 @@ def run(args: argparse.Namespace) -> int:
     import json
     import sys
 
-    from bvh.errors import MjcharError
-    from controllers.sampling.executors import executor_from_args
-    from controllers.sampling.trajectory import replay
-    from controllers.sampling.trajopt import JUMP_OPTIONS, TrajoptOptions, optimise_jump, track_clip
+    from mjchar.bvh.errors import MjcharError
+    from mjchar.controllers.sampling.executors import executor_from_args
+    from mjchar.controllers.sampling.trajectory import replay
+    from mjchar.controllers.sampling.trajopt import (
+        JUMP_OPTIONS,
+        TrajoptOptions,
+        optimise_jump,
+        track_clip,
+    )
 
     task = args.task or ("track" if args.motion else None)
     if task is None:

@@ -1,11 +1,11 @@
 """The joint map of a reference motion: which model body and joints carry each kept BVH joint.
 
-A model written by :mod:`bvh.mjcf` records, per kept BVH joint, its body and the names of that
-body's joints (``ModelInfo.joints``). :func:`_build_slots` resolves them in a compiled
+A model written by :mod:`mjchar.bvh.mjcf` records, per kept BVH joint, its body and the names of
+that body's joints (``ModelInfo.joints``). :func:`_build_slots` resolves them in a compiled
 ``mujoco.MjModel`` into :class:`_Slot` records (body id, parent kept joint, joint kind ``free`` /
 ``ball`` / ``hinge`` / ``fixed``, qpos and dof addresses, hinge axes) and checks that the layout
-is one :class:`bvh.reference.ReferenceMotion` can fill (see ``docs/model-contract.md``).
-:func:`_subtree_bodies` walks the model's body tree.
+is one :class:`mjchar.bvh.reference.reference_motion.ReferenceMotion` can fill (see
+``docs/model-contract.md``). :func:`_subtree_bodies` walks the model's body tree.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from .errors import ReferenceMotionError
-from .mjcf import ModelInfo
-from .qpos_algebra import _BALL, _FREE, _HINGE, _SLIDE
+from mjchar.bvh.errors import ReferenceMotionError
+from mjchar.bvh.kinematics.qpos_algebra import _BALL, _FREE, _HINGE, _SLIDE
+from mjchar.bvh.mjcf import ModelInfo
 
 
 @dataclass
@@ -48,7 +48,7 @@ def _name2id(model: mujoco.MjModel, obj, name: str, what: str) -> int:
     i = mujoco.mj_name2id(model, obj, name)
     if i < 0:
         raise ReferenceMotionError(f"the model has no {what} named {name!r} (joint map and model "
-                                   f"disagree; was the model written by bvh.mjcf?)")
+                                   f"disagree; was the model written by mjchar.bvh.mjcf?)")
     return int(i)
 
 

@@ -10,7 +10,7 @@ Real knees and elbows are not hinges, so the projection alone moves ankles and w
 centimetres. :func:`_project_ik` corrects the limb around every reduced body per frame with damped
 least squares (Levenberg-Marquardt) in the model's joint space, Jacobians from ``mj_jacBody``:
 ``dq = (J^T W J + lambda^2 I + M)^-1 (J^T W e + M (q_proj - q))`` (see its docstring and the
-module docstring of :mod:`bvh.reference`).
+module docstring of :mod:`mjchar.bvh.reference.reference_motion`).
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ import warnings
 import mujoco
 import numpy as np
 
-from .joint_map import _Slot, _subtree_bodies
-from .qpos_algebra import _QposAlgebra
-from .rotations import quat_conj, quat_mul, quat_rotate, quat_to_rotvec, to_rotation
+from mjchar.bvh.kinematics.qpos_algebra import _QposAlgebra
+from mjchar.bvh.reference.joint_map import _Slot, _subtree_bodies
+from mjchar.bvh.rotations import quat_conj, quat_mul, quat_rotate, quat_to_rotvec, to_rotation
 
 # projection IK: Levenberg damping (m), swivel regulariser toward the projection (m^2/rad^2),
 # weight of the knee/elbow position, iteration cap, stop when no dof moves more than this (rad),
@@ -119,8 +119,8 @@ def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
 
     Args:
         model, data: the model and a scratch ``mujoco.MjData`` (its kinematics are overwritten).
-        slots: the joint map (:func:`bvh.joint_map._build_slots`).
-        alg: the model's :class:`~bvh.qpos_algebra._QposAlgebra`.
+        slots: the joint map (:func:`mjchar.bvh.reference.joint_map._build_slots`).
+        alg: the model's :class:`~mjchar.bvh.kinematics.qpos_algebra._QposAlgebra`.
         qpos: ``(F, nq)`` projected qpos per frame (the regulariser pulls toward it).
         fk: forward kinematics of the clip in metres and MuJoCo axes (positions ``(F, J, 3)``,
             orientations ``(F, J, 4)``).

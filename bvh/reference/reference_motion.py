@@ -1,7 +1,8 @@
 """Reference motions: a BVH clip expressed in a converted model's coordinates (qpos, qvel, sites).
 
-:class:`ReferenceMotion` turns a :class:`~bvh.motion.Motion` (file units and axes) into the
-generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-contract.md``):
+:class:`ReferenceMotion` turns a :class:`~mjchar.bvh.io.motion.Motion` (file units and axes) into
+the generalised coordinates of a model written by :mod:`mjchar.bvh.mjcf` (see
+``docs/model-contract.md``):
 
 1. **Units and axes.** ``transform_motion(motion, info.unit_scale, info.basis)`` gives the clip in
    metres in the MuJoCo world (Z up, facing +X). Forward kinematics of that motion gives the BVH
@@ -25,8 +26,8 @@ generalised coordinates of a model written by :mod:`bvh.mjcf` (see ``docs/model-
    from ``mj_jacBody``, the error ``e`` stacking the child body's position and orientation
    (``log(G_target R^T)``, world frame) and, with a lower weight, the hinge body's position;
    ``M`` is a small regulariser on the parent's dofs that keeps the limb's swivel smooth where
-   the clip's limb is nearly straight (see :func:`bvh.projection._project_ik`). Frames are
-   solved in order, each warm-started with the previous frame's correction.
+   the clip's limb is nearly straight (see :func:`mjchar.bvh.reference.projection._project_ik`).
+   Frames are solved in order, each warm-started with the previous frame's correction.
 4. **Floor.** The clip is shifted vertically so the lowest foot point over the clip (foot box
    corners, or foot sites) is at ``z = 0`` (``floor="clip"``). Mocap stance feet then float
    centimetres above the floor in mid-stance, which a physical foot cannot follow, so by default
@@ -47,9 +48,11 @@ per-frame central differences (``mj_differentiatePos`` semantics: free-joint lin
 the world frame, angular velocities in the body frame). A non-cyclic clip holds its first/last
 pose outside ``[0, duration]`` with zero velocity.
 
-Where the parts live: the joint map in :mod:`bvh.joint_map`, hinge angles and the projection IK in
-:mod:`bvh.projection`, foot points for the floor in :mod:`bvh.foot_points`, the qpos algebra in
-:mod:`bvh.qpos_algebra`; this module holds :class:`ReferenceMotion` and :func:`replay_errors`.
+Where the parts live: the joint map in :mod:`mjchar.bvh.reference.joint_map`, hinge angles and the
+projection IK in :mod:`mjchar.bvh.reference.projection`, foot points for the floor in
+:mod:`mjchar.bvh.reference.foot_points`, the qpos algebra in
+:mod:`mjchar.bvh.kinematics.qpos_algebra`; this module holds :class:`ReferenceMotion` and
+:func:`replay_errors`.
 """
 
 from __future__ import annotations
@@ -59,22 +62,23 @@ import os
 import mujoco
 import numpy as np
 
-from .errors import ReferenceMotionError
-from .foot_points import (
+from mjchar.bvh.errors import ReferenceMotionError
+from mjchar.bvh.io import load
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.kinematics.fk import end_site_positions, forward_kinematics
+from mjchar.bvh.kinematics.qpos_algebra import _QposAlgebra
+from mjchar.bvh.reference.foot_points import (
     FOOT_SIDES,
     _FootPoints,
     _geom_local_points,  # noqa: F401  (tests import it from here)
     contact_grounding,
     foot_contact,
 )
-from .io import load
-from .joint_map import _build_slots, _model_info
-from .kinematics import end_site_positions, forward_kinematics
-from .motion import Motion
-from .projection import _hinge_angles, _project_ik
-from .qpos_algebra import _QposAlgebra
-from .rigs import apply_record
-from .rotations import (
+from mjchar.bvh.reference.joint_map import _build_slots, _model_info
+from mjchar.bvh.reference.projection import _hinge_angles, _project_ik
+from mjchar.bvh.rigs.layouts import apply_record
+from mjchar.bvh.rigs.units import transform_motion
+from mjchar.bvh.rotations import (
     heading_angle,
     quat_conj,
     quat_fix_continuity,
@@ -82,7 +86,6 @@ from .rotations import (
     quat_normalize,
     quat_rotate,
 )
-from .units import transform_motion
 
 __all__ = [
     "ReferenceMotion",
@@ -112,8 +115,9 @@ class ReferenceMotion:
     """A BVH motion expressed in a converted model's coordinates, sampled at any time.
 
     Args:
-        model: compiled ``mujoco.MjModel`` of a model written by :func:`bvh.mjcf.convert`.
-        motion: :class:`~bvh.motion.Motion` in file units and axes, with (at least) every BVH joint
+        model: compiled ``mujoco.MjModel`` of a model written by :func:`mjchar.bvh.mjcf.convert`.
+        motion: :class:`~mjchar.bvh.io.motion.Motion` in file units and axes, with (at least) every
+        BVH joint
             the model keeps, matched by name (joint order may differ from the model's source).
         info: the model's ``ModelInfo``; read from ``model`` when ``None``.
         cyclic: loop the clip; ``None`` detects it (first and last poses agree within
@@ -123,9 +127,9 @@ class ReferenceMotion:
             limb's joints land where the clip puts them. ``False``: projection only.
         floor: ``"contact"`` (default: every frame where a foot supports the body shifted so
             its lowest foot point is at ``z = 0``, frames in flight interpolated between them:
-            :func:`bvh.foot_points.contact_grounding`), ``"clip"`` (one vertical shift for the
-            whole clip: its lowest foot point at ``z = 0``) or ``"frame"`` (each frame shifted so
-            its own lowest foot point is at ``z = 0``, flight included).
+            :func:`mjchar.bvh.reference.foot_points.contact_grounding`), ``"clip"`` (one vertical
+            shift for the whole clip: its lowest foot point at ``z = 0``) or ``"frame"`` (each frame
+            shifted so its own lowest foot point is at ``z = 0``, flight included).
 
     Attributes:
         model, info: the model and its metadata.
@@ -452,9 +456,9 @@ class ReferenceMotion:
 
         A foot is in contact when one of its lowest points (foot and toe box corners, or foot
         sites) is below ``height`` metres and moves slower than ``speed`` m/s
-        (:func:`bvh.foot_points.foot_contact`; central differences across the seam for cyclic
-        clips). The shared clips' stance feet float up to ~9 cm above the placed floor at heel
-        strike, hence the generous height.
+        (:func:`mjchar.bvh.reference.foot_points.foot_contact`; central differences across the seam
+        for cyclic clips). The shared clips' stance feet float up to ~9 cm above the placed floor at
+        heel strike, hence the generous height.
         """
         if set(self._foot_pts) != set(FOOT_SIDES):
             raise ReferenceMotionError("the model has no recognisable left/right feet (no ankle "
@@ -551,9 +555,9 @@ def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
     """Replay ``motion`` kinematically in a converted model and measure how far it lands.
 
     Args:
-        model_or_converted: a ``mujoco.MjModel`` written by :mod:`bvh.mjcf`, or a
+        model_or_converted: a ``mujoco.MjModel`` written by :mod:`mjchar.bvh.mjcf`, or a
             ``ConvertedModel`` (compiled here; its ``info`` is used).
-        motion: a :class:`~bvh.motion.Motion` in file units/axes, or a BVH path.
+        motion: a :class:`~mjchar.bvh.io.motion.Motion` in file units/axes, or a BVH path.
         project: IK correction for reduced (hinge) joints, as in :class:`ReferenceMotion`.
 
     Runs ``mj_kinematics`` on every frame's qpos (:class:`ReferenceMotion`, not looped) and

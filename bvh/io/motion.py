@@ -6,15 +6,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import SkeletonError
-from .rotations import (
+from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.io.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
+from mjchar.bvh.rotations import (
     _fix_continuity_inplace,
     quat_from_euler,
     quat_identity,
     quat_normalize,
     quat_to_euler,
 )
-from .skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
 
 _AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
 

@@ -1,7 +1,8 @@
 """Gait analysis of any walk in a converted model: a simulated run or a motion-capture clip.
 
 Both come down to a ``qpos`` trajectory of a converted model (a run: what the simulation did; a
-clip: :class:`bvh.reference.ReferenceMotion`'s frames), so one probe measures both the same way::
+clip: :class:`mjchar.bvh.reference.reference_motion.ReferenceMotion`'s frames), so one probe
+measures both the same way::
 
     stats = analyse(model, times, qpos, start=3.0)        # GaitStats
     stats.speed_mps, stats.cadence_spm, stats.step_length_m, stats.to_dict()
@@ -10,9 +11,9 @@ clip: :class:`bvh.reference.ReferenceMotion`'s frames), so one probe measures bo
 What is measured (world z up, metres, degrees; over ``[start, end]``):
 
 - feet: per side, the points bounding the foot geoms from below
-  (:mod:`bvh.foot_points`); the foot's height is their lowest, its floor the 5th percentile
-  of that height over the window. A foot is in **stance** while its centre moves slower than
-  :data:`STANCE_SPEED_FACTOR` x the walking speed + 0.1 m/s and it is within
+  (:mod:`mjchar.bvh.reference.foot_points`); the foot's height is their lowest, its floor the 5th
+  percentile of that height over the window. A foot is in **stance** while its centre moves slower
+  than :data:`STANCE_SPEED_FACTOR` x the walking speed + 0.1 m/s and it is within
   :data:`CONTACT_HEIGHT` of its floor (speed decides: mocap stance feet float centimetres above
   the placed floor); runs shorter than :data:`MIN_PHASE` are merged into their neighbours. A
   **foot strike** starts a stance.
@@ -47,8 +48,8 @@ from dataclasses import asdict, dataclass, field
 import mujoco
 import numpy as np
 
-from .errors import MjcharError
-from .foot_points import FOOT_SIDES, _FootPoints
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.reference.foot_points import FOOT_SIDES, _FootPoints
 
 __all__ = ["GaitError", "GaitStats", "analyse", "analyse_clip", "clip_walk", "table",
            "CONTACT_HEIGHT"]
@@ -204,7 +205,7 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
     """Gait statistics of the ``qpos (T, nq)`` trajectory at ``times (T,)`` over ``[start,
     end]`` (see the module docstring)."""
     if info is None:
-        from .mjcf import ModelInfo
+        from mjchar.bvh.mjcf import ModelInfo
 
         info = ModelInfo.from_model(model)
     times = np.asarray(times, dtype=float)
@@ -346,10 +347,11 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
 def clip_walk(path: str | os.PathLike, *, model=None):
     """A BVH clip as a walk to analyse: ``(model, info, times, qpos)``, the clip converted
     (default options, or onto ``model``, an ``MjModel`` converted from the same skeleton) and
-    read through :class:`~bvh.reference.ReferenceMotion` (its default floor placement)."""
-    from .io import load
-    from .mjcf import ModelInfo, convert
-    from .reference import ReferenceMotion
+    read through :class:`~mjchar.bvh.reference.reference_motion.ReferenceMotion` (its default floor
+    placement)."""
+    from mjchar.bvh.io import load
+    from mjchar.bvh.mjcf import ModelInfo, convert
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     motion = load(path)
     if model is None:

@@ -5,8 +5,8 @@ semantics on stacks of qpos vectors ``(N, nq)``.
 and slide angles/offsets: added) and unit quaternions (free-joint and ball orientations: composed,
 ``q1 = q0 exp(v)`` with the angular velocity ``v`` in the body frame), so differences, integration
 and interpolation (linear angles, slerped quaternions) run in one numpy pass over many frames.
-Used by :class:`bvh.reference.ReferenceMotion` for its per-frame velocities, interpolation between
-frames and the projection IK's steps.
+Used by :class:`mjchar.bvh.reference.reference_motion.ReferenceMotion` for its per-frame velocities,
+interpolation between frames and the projection IK's steps.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .rotations import (
+from mjchar.bvh.rotations import (
     quat_conj,
     quat_from_rotvec,
     quat_mul,

@@ -1,8 +1,9 @@
 """One skeleton pose for inverse kinematics, and its forward kinematics vectorised over joints.
 
 :class:`Pose` is one frame of a skeleton (root position, local wxyz rotations, bone offsets) that
-the solvers of :mod:`bvh.ik` move. Forward kinematics runs one numpy pass per tree depth
-(:func:`_depth_levels`, :func:`_fk`): every joint of a level is composed with its parent at once.
+the solvers of :mod:`mjchar.bvh.kinematics.ik` move. Forward kinematics runs one numpy pass per tree
+depth (:func:`_depth_levels`, :func:`_fk`): every joint of a level is composed with its parent at
+once.
 """
 
 from __future__ import annotations
@@ -11,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import IKError
-from .motion import Motion
-from .rotations import quat_mul, quat_normalize, to_rotation
-from .skeleton import Skeleton
+from mjchar.bvh.errors import IKError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rotations import quat_mul, quat_normalize, to_rotation
 
 
 # ---------------------------------------------------------------------------------------------
@@ -66,7 +67,7 @@ class Pose:
     """One frame of a skeleton: root position and local joint rotations.
 
     Attributes:
-        skeleton: the :class:`~bvh.skeleton.Skeleton` posed.
+        skeleton: the :class:`~mjchar.bvh.io.skeleton.Skeleton` posed.
         root_position: ``(3,)`` root translation, in the skeleton's units.
         rotations: ``(J, 4)`` local joint rotations, unit wxyz quaternions (normalised on
             construction).
@@ -74,7 +75,7 @@ class Pose:
             the root, is ignored: ``root_position`` is used). Defaults to the skeleton's rest
             offsets; differs from them only for non-root joints with position channels. IK never
             changes it.
-        frame_time: seconds per frame of the :class:`~bvh.motion.Motion` made by
+        frame_time: seconds per frame of the :class:`~mjchar.bvh.io.motion.Motion` made by
             :meth:`to_motion` (carried over from :meth:`from_motion`).
     """
 
@@ -125,7 +126,7 @@ class Pose:
         return out
 
     def to_motion(self) -> Motion:
-        """A one-frame :class:`~bvh.motion.Motion` of this pose."""
+        """A one-frame :class:`~mjchar.bvh.io.motion.Motion` of this pose."""
         return Motion(self.skeleton, self.frame_time, self.local_positions()[None],
                       self.rotations[None].copy())
 

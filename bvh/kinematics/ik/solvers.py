@@ -1,5 +1,5 @@
-"""The three inverse-kinematics solvers of :mod:`bvh.ik`, each only an update rule on an
-:class:`~bvh.ik_problem.IKProblem`.
+"""The three inverse-kinematics solvers of :mod:`mjchar.bvh.kinematics.ik`, each only an update rule
+on an :class:`~mjchar.bvh.kinematics.ik.problem.IKProblem`.
 
 - :func:`solve_ccd`: cyclic coordinate descent (Wang & Chen 1991); each joint takes the rotation
   that best aligns the effectors below it with their targets (Wahba's problem by Davenport's
@@ -20,10 +20,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .errors import IKError
-from .ik_pose import Pose
-from .ik_problem import IKProblem, IKResult, IKState, _iterate
-from .rotations import quat_from_rotvec, quat_to_rotvec, to_rotation
+from mjchar.bvh.errors import IKError
+from mjchar.bvh.kinematics.ik.pose import Pose
+from mjchar.bvh.kinematics.ik.problem import IKProblem, IKResult, IKState, _iterate
+from mjchar.bvh.rotations import quat_from_rotvec, quat_to_rotvec, to_rotation
 
 
 # ---------------------------------------------------------------------------------------------

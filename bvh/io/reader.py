@@ -1,11 +1,12 @@
-"""BVH reading and writing.
+"""BVH reading.
 
 The reader accepts what real files contain: any channel order per joint, 0-6 channels on any joint,
 End Sites, tabs, CRLF or CR line ends, scientific notation, extra whitespace and blank lines,
-zero-length bones and any units or up axis (kept as they are in the file; see :mod:`bvh.units` to
-convert). Every malformed input raises :class:`~bvh.errors.BVHError` naming the line (1-based;
-lines end at ``\\n``, ``\\r\\n`` or ``\\r``) and what was expected; no other exception escapes
-:func:`load`, :func:`loads` or :func:`read_channels`.
+zero-length bones and any units or up axis (kept as they are in the file; see
+:mod:`mjchar.bvh.rigs.units` to convert). Every malformed input raises
+:class:`~mjchar.bvh.errors.BVHError` naming the line (1-based; lines end at ``\\n``, ``\\r\\n`` or
+``\\r``) and what was expected; no other exception escapes :func:`load`, :func:`loads` or
+:func:`read_channels`.
 
 Numbers follow the plain decimal grammar ``[+-]digits[.digits][(e|E)[+-]digits]`` (``.5`` and
 ``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. The frame section is
@@ -24,11 +25,11 @@ from math import isfinite
 
 import numpy as np
 
-from .errors import BVHError, MjcharError
-from .motion import Motion
-from .skeleton import VALID_CHANNELS, Skeleton
+from mjchar.bvh.errors import BVHError, MjcharError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import VALID_CHANNELS, Skeleton
 
-__all__ = ["load", "loads", "save", "dumps", "read_channels"]
+__all__ = ["load", "loads", "read_channels"]
 
 _BREAK_RE = re.compile(r"\r\n|\r|\n")
 # a line reading MOTION (any case, surrounding blanks): preceded and followed by a break or the ends
@@ -62,22 +63,22 @@ _AS_DIGITS = bytes(c if 48 <= c <= 57 else 48 if c in b" \t\r\n.-+" else 120 for
 
 # -- public API ----------------------------------------------------------------------------------
 def load(path: str | os.PathLike) -> Motion:
-    """Read a BVH file into a :class:`~bvh.motion.Motion` (file units and axes kept).
+    """Read a BVH file into a :class:`~mjchar.bvh.io.motion.Motion` (file units and axes kept).
 
     Rotation channels are degrees; ``A B C`` rotation channels mean the intrinsic product
     ``R_A R_B R_C``; position channels replace the joint's offset. The returned motion remembers
     its channel values (``Motion.source_channels``) so that saving it unedited reproduces them.
 
-    Raises :class:`~bvh.errors.BVHError` (with the line number) for any malformed content, and
-    for a file that cannot be read.
+    Raises :class:`~mjchar.bvh.errors.BVHError` (with the line number) for any malformed content,
+    and for a file that cannot be read.
     """
     path = os.fspath(path)
     return loads(_read_text(path), path=path)
 
 
 def loads(text: str, path: str | None = None) -> Motion:
-    """Parse BVH ``text`` into a :class:`~bvh.motion.Motion`; ``path`` is only used in error
-    messages. See :func:`load`."""
+    """Parse BVH ``text`` into a :class:`~mjchar.bvh.io.motion.Motion`; ``path`` is only used in
+    error messages. See :func:`load`."""
     skeleton, frame_time, values = _parse(text, path)
     try:
         return Motion.from_channels(skeleton, frame_time, values, copy=False)
@@ -659,83 +660,3 @@ def _slow_frames(body: str, first_line: int, n_frames: int, frames_line: int, n_
                            f"{len(lines)}", line=max(first_line + len(lines) - 1, 1), path=path)
         return np.zeros((n_frames, 0))
     return np.array(rows, dtype=float).reshape(n_frames, n_ch)
-
-
-# -- writing -------------------------------------------------------------------------------------
-def dumps(motion: Motion, precision: int = 6) -> str:
-    """BVH text for ``motion`` (``\\n`` line ends, tab indentation).
-
-    Rotations become Euler angles in degrees in each joint's channel order (see
-    :meth:`Motion.to_channels`); ``precision`` is the number of decimals of every value.
-    Joints are written depth-first in index order (a file can hold no other order, so a
-    skeleton whose joints are not depth-first comes back renumbered depth-first); each End Site
-    is written before the first child holding a later-numbered End Site, so the end-site order
-    of anything read from a file survives a round trip.
-    """
-    sk = motion.skeleton
-    n_j = sk.n_joints
-    children: list[list[int]] = [[] for _ in range(n_j)]
-    for j in range(1, n_j):
-        children[sk.parents[j]].append(j)
-    sites: list[list[int]] = [[] for _ in range(n_j)]
-    for e, p in enumerate(sk.end_site_parents):
-        sites[p].append(e)
-    first_site = [min(s, default=len(sk.end_site_parents)) for s in sites]
-    for j in range(n_j - 1, 0, -1):  # smallest end-site index in each subtree
-        first_site[sk.parents[j]] = min(first_site[sk.parents[j]], first_site[j])
-    items: list[list[tuple[bool, int]]] = []  # per joint: (is_joint, index) in writing order
-    for j in range(n_j):
-        pending, row = list(sites[j]), []
-        for c in children[j]:
-            while pending and pending[0] < first_site[c]:
-                row.append((False, pending.pop(0)))
-            row.append((True, c))
-        row.extend((False, e) for e in pending)
-        items.append(row)
-    fmt = f"{{:.{precision}f}}"
-
-    def vec(v: np.ndarray) -> str:
-        return " ".join(fmt.format(float(x)) for x in v)
-
-    out = ["HIERARCHY"]
-
-    def open_joint(j: int, ind: str) -> None:
-        out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
-        out.append(f"{ind}{{")
-        out.append(f"{ind}\tOFFSET {vec(sk.offsets[j])}")
-        chans = "".join(f" {c}" for c in sk.channels[j])
-        out.append(f"{ind}\tCHANNELS {len(sk.channels[j])}{chans}")
-
-    # iterative depth-first walk (no recursion limit on deep skeletons)
-    open_joint(0, "")
-    stack = [iter(items[0])]
-    while stack:
-        ind = "\t" * len(stack)
-        nxt = next(stack[-1], None)
-        if nxt is None:
-            stack.pop()
-            out.append(f"{ind[1:]}}}")
-        elif nxt[0]:
-            open_joint(nxt[1], ind)
-            stack.append(iter(items[nxt[1]]))
-        else:
-            out.append(f"{ind}End Site")
-            out.append(f"{ind}{{")
-            out.append(f"{ind}\tOFFSET {vec(sk.end_site_offsets[nxt[1]])}")
-            out.append(f"{ind}}}")
-    out.append("MOTION")
-    out.append(f"Frames: {motion.n_frames}")
-    out.append(f"Frame Time: {motion.frame_time:.{max(precision, 8)}g}")
-    values = motion.to_channels()
-    if values.shape[1]:
-        row = " ".join([f"%.{precision}f"] * values.shape[1])
-        out.extend(row % tuple(r) for r in values.tolist())
-    else:
-        out.extend("" for _ in range(motion.n_frames))
-    return "\n".join(out) + "\n"
-
-
-def save(motion: Motion, path: str | os.PathLike, precision: int = 6) -> None:
-    """Write ``motion`` to ``path`` as BVH (see :func:`dumps`)."""
-    with open(os.fspath(path), "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(dumps(motion, precision))

@@ -1,10 +1,10 @@
 """Project-authored bundled motions: a standing idle and a walk cycle, made from key poses.
 
 Both motions are designed in a *canonical* frame (metres; x to the character's left, y up, z
-forward), posed on any skeleton whose legs :func:`bvh.naming.recognise` finds (the project's
-default skeleton, ``bvh/humanoid_skeleton.py``, is Y-up, metres, facing +Z, so canonical axes are
-its file axes), sampled as key poses and turned into frames by
-:func:`bvh.interpolation.keyframes_to_motion` (Catmull-Rom, cyclic: both clips loop).
+forward), posed on any skeleton whose legs :func:`mjchar.bvh.rigs.naming.recognise` finds (the
+project's default skeleton, ``bvh/humanoid_skeleton.py``, is Y-up, metres, facing +Z, so canonical
+axes are its file axes), sampled as key poses and turned into frames by
+:func:`mjchar.bvh.editing.interpolation.keyframes_to_motion` (Catmull-Rom, cyclic: both clips loop).
 
 Key poses are not hand-typed angles but the solution of a small gait design:
 
@@ -40,15 +40,15 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .errors import MjcharError
-from .interpolation import keyframes_to_motion
-from .io import save
-from .kinematics import forward_kinematics
-from .motion import Motion
-from .naming import recognise
-from .rotations import from_rotation, quat_conj, quat_identity, quat_mul, quat_normalize
-from .skeleton import Skeleton
-from .units import AXIS_VECTORS, guess_unit_scale, guess_up_axis, transform_motion
+from mjchar.bvh.editing.interpolation import keyframes_to_motion
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io import save
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.fk import forward_kinematics
+from mjchar.bvh.rigs.naming import recognise
+from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_unit_scale, guess_up_axis, transform_motion
+from mjchar.bvh.rotations import from_rotation, quat_conj, quat_identity, quat_mul, quat_normalize
 
 __all__ = ["AuthoringError", "WalkStyle", "IdleStyle", "walk_motion", "idle_motion",
            "write_bundled_motions", "BUNDLED_MOTIONS"]
@@ -139,7 +139,7 @@ def _rz(a):
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    from .rotations import quat_rotate
+    from mjchar.bvh.rotations import quat_rotate
 
     return quat_rotate(q, v)
 
@@ -248,7 +248,8 @@ class _Rig:
 
     def _model_foot(self, side: str) -> tuple[np.ndarray | None, np.ndarray | None]:
         """Heel and ball contact points (canonical, ankle frame at rest) from the foot box of the
-        model :func:`bvh.mjcf.convert` makes of this skeleton: the back and front bottom edges."""
+        model :func:`mjchar.bvh.mjcf.convert` makes of this skeleton: the back and front bottom
+        edges."""
         if self._model is None:
             return None, None
         import mujoco
@@ -312,7 +313,7 @@ class _Rig:
     def _convert(skeleton: Skeleton):
         """``(model, info)`` of the default conversion of ``skeleton``, or ``None``."""
         try:
-            from .mjcf import convert
+            from mjchar.bvh.mjcf import convert
 
             converted = convert(skeleton)
             return converted.compile(), converted.info

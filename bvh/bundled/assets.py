@@ -1,42 +1,33 @@
 """The bundled assets: the default humanoid model, its motions and saved trajectories.
 
 ``assets/mjcf/humanoid.xml`` is the converter's output for the project-authored skeleton
-(:mod:`bvh.humanoid_skeleton`) at the default options; ``assets/motions/<name>.bvh`` are motions
-authored for that skeleton. Regenerate everything with::
+(:mod:`mjchar.bvh.bundled.humanoid_skeleton`) at the default options; ``assets/motions/<name>.bvh``
+are motions authored for that skeleton. Regenerate everything with::
 
-    python -m bvh.assets
+    python -m mjchar.bvh.bundled.assets
 
 A test checks that the checked-in model equals a fresh conversion byte for byte.
 """
 
 from __future__ import annotations
 
-import importlib
 import importlib.resources
 import os
 import sys
 from pathlib import Path
 
-from .errors import MjcharError
+from mjchar.bvh.errors import MjcharError
 
 
 class AssetError(MjcharError):
-    """A bundled asset is missing (regenerate with ``python -m bvh.assets``)."""
+    """A bundled asset is missing (regenerate with ``python -m mjchar.bvh.bundled.assets``)."""
 
 
 def _assets_folder() -> Path:
-    """The folder of the ``assets`` data package, found with ``importlib.resources`` (the
-    checkout's ``assets/`` in an editable install, ``site-packages/assets`` from the wheel)."""
-    try:
-        package = importlib.import_module("assets")
-    except ImportError as e:
-        raise AssetError(f"mjchar's bundled assets are not installed ({e}); reinstall mjchar") \
-            from None
-    if not getattr(package, "MJCHAR_ASSETS", False):
-        where = ", ".join(str(p) for p in getattr(package, "__path__", [])) or "?"
-        raise AssetError(f"the 'assets' package found at {where} is not mjchar's (a folder of "
-                         "that name on the Python path shadows it); run from another folder")
-    folder = importlib.resources.files(package)
+    """The folder of the ``mjchar.assets`` data package, found with ``importlib.resources`` (the
+    checkout's ``assets/`` in an editable install, ``site-packages/mjchar/assets`` from the
+    wheel)."""
+    folder = importlib.resources.files("mjchar.assets")
     if not isinstance(folder, Path):
         raise AssetError(f"mjchar's assets are inside an archive ({folder}); install mjchar "
                          "unpacked (pip install does)")
@@ -63,7 +54,8 @@ def humanoid_path() -> Path:
     """Path of the bundled humanoid model ``assets/mjcf/humanoid.xml``."""
     path = __getattr__("HUMANOID_XML")
     if not path.is_file():
-        raise AssetError(f"{path} is missing; regenerate it with `python -m bvh.assets`")
+        raise AssetError(f"{path} is missing; regenerate it with "
+                         "`python -m mjchar.bvh.bundled.assets`")
     return path
 
 
@@ -74,14 +66,15 @@ def motion_path(name: str) -> Path:
     if not path.is_file():
         have = sorted(p.stem for p in motions.glob("*.bvh")) if motions.is_dir() else []
         raise AssetError(f"no bundled motion {name!r} at {path}; available: "
-                         f"{', '.join(have) or 'none'} (regenerate with `python -m bvh.assets`)")
+                         f"{', '.join(have) or 'none'} (regenerate with "
+                         "`python -m mjchar.bvh.bundled.assets`)")
     return path
 
 
 def build_humanoid():
     """Convert the project skeleton with :data:`HUMANOID_OPTIONS` -> ``ConvertedModel``."""
-    from .humanoid_skeleton import humanoid_skeleton
-    from .mjcf import convert
+    from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+    from mjchar.bvh.mjcf import convert
 
     return convert(humanoid_skeleton(), **HUMANOID_OPTIONS)
 
@@ -91,7 +84,8 @@ def regenerate(out_root: str | os.PathLike | None = None, motions: bool = True) 
 
     Args:
         out_root: folder standing for ``assets/`` (default: the project's ``assets/``).
-        motions: also write ``motions/*.bvh`` via ``bvh.authored.write_bundled_motions``.
+        motions: also write ``motions/*.bvh`` via
+        ``mjchar.bvh.bundled.authored.write_bundled_motions``.
 
     Returns:
         The paths written.
@@ -104,11 +98,11 @@ def regenerate(out_root: str | os.PathLike | None = None, motions: bool = True) 
     written.append(xml_path)
     if motions:
         try:
-            from .authored import write_bundled_motions
+            from mjchar.bvh.bundled.authored import write_bundled_motions
         except ImportError:
             write_bundled_motions = None
         if write_bundled_motions is not None:
-            from .humanoid_skeleton import humanoid_skeleton
+            from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
 
             out = write_bundled_motions(humanoid_skeleton(), root / "motions")
             paths = out.values() if isinstance(out, dict) else (out or [])
@@ -117,7 +111,7 @@ def regenerate(out_root: str | os.PathLike | None = None, motions: bool = True) 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m bvh.assets [--no-motions]``: regenerate the bundled assets."""
+    """``python -m mjchar.bvh.bundled.assets [--no-motions]``: regenerate the bundled assets."""
     argv = sys.argv[1:] if argv is None else argv
     for p in regenerate(motions="--no-motions" not in argv):
         print(f"wrote {p}")

@@ -1,7 +1,7 @@
 """Motion editing: mirror, retarget between rest poses, align and concatenate clips.
 
-All functions return new :class:`~bvh.motion.Motion` objects (inputs are never modified) and are
-vectorised over frames; loops run over joints only (a few dozen), never over frames.
+All functions return new :class:`~mjchar.bvh.io.motion.Motion` objects (inputs are never modified)
+and are vectorised over frames; loops run over joints only (a few dozen), never over frames.
 
 - :func:`mirror` swaps left and right (joints paired by name, see :func:`mirror_name`) and reflects
   across the sagittal plane.
@@ -21,10 +21,12 @@ import re
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .errors import SkeletonError
-from .interpolation import resample
-from .motion import Motion
-from .rotations import (
+from mjchar.bvh.editing.interpolation import resample
+from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rigs.units import guess_up_axis
+from mjchar.bvh.rotations import (
     AXES,
     decompose_facing,
     heading_angle,
@@ -36,8 +38,6 @@ from .rotations import (
     quat_rotate,
     quat_slerp,
 )
-from .skeleton import Skeleton
-from .units import guess_up_axis
 
 __all__ = [
     "EditingError",
@@ -351,8 +351,8 @@ def align(motion: Motion, root_rotation: np.ndarray, root_position: np.ndarray, 
     heading of ``root_rotation`` (wxyz ``(4,)``) and the horizontal position of ``root_position``
     (``(3,)``, file units). Heights and everything else are untouched.
 
-    ``up``: ``"x"``, ``"y"`` or ``"z"`` (guessed with :func:`bvh.units.guess_up_axis` if ``None``).
-    The turn ``Q`` (about up, through the point) acts on the root only: ``r_0 -> Q r_0``,
+    ``up``: ``"x"``, ``"y"`` or ``"z"`` (guessed with :func:`mjchar.bvh.rigs.units.guess_up_axis` if
+    ``None``). The turn ``Q`` (about up, through the point) acts on the root only: ``r_0 -> Q r_0``,
     ``p_0 -> Q (p_0 - c) + c'`` with ``c``, ``c'`` the horizontal parts of the two positions.
     """
     up = up or guess_up_axis(motion.skeleton)
@@ -378,8 +378,8 @@ def concatenate(a: Motion, b: Motion, blend_frames: int = 10, up: str | None = N
     """``a`` followed by ``b``, with ``b`` turned and shifted to continue from ``a``'s last frame.
 
     1. ``b`` is put in ``a``'s joint order (:func:`match_joint_order`); a ``b`` with another frame
-       time is first resampled to ``a``'s (:func:`~bvh.interpolation.resample`, cubic positions
-       and spline rotations). The result uses ``a``'s skeleton.
+       time is first resampled to ``a``'s (:func:`~mjchar.bvh.editing.interpolation.resample`, cubic
+       positions and spline rotations). The result uses ``a``'s skeleton.
     2. :func:`align`: ``b``'s first frame gets the heading (about ``up``, guessed from ``a``'s
        skeleton when ``None``) and horizontal root position of ``a``'s last frame.
     3. Transition: the remaining difference at the seam, ``d_j = a_last_j * b0_j^-1`` per joint

@@ -1,4 +1,4 @@
-"""The inverse-kinematics problem shared by every solver of :mod:`bvh.ik`.
+"""The inverse-kinematics problem shared by every solver of :mod:`mjchar.bvh.kinematics.ik`.
 
 :class:`IKProblem` owns everything that is not a solver's update rule: effectors (joints or end
 sites, :class:`Effector`) and their targets and weights, which joints may move, effector positions
@@ -7,7 +7,7 @@ and effector ``e``: ``a x (p_e - p_i)``; root translation columns ``length_scale
 joint-space step is limited (``max_angle`` per iteration) and applied
 (``r_i <- exp([R_parent^T omega_i]) r_i``), and the convergence test. :func:`_iterate` is the loop
 every solver runs, recording the history in an :class:`IKResult`. The parameterisation and the
-objective ``E = sqrt(sum_k w_k |t_k - p_k|^2)`` are described in :mod:`bvh.ik`.
+objective ``E = sqrt(sum_k w_k |t_k - p_k|^2)`` are described in :mod:`mjchar.bvh.kinematics.ik`.
 """
 
 from __future__ import annotations
@@ -18,11 +18,23 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import IKError, SkeletonError
-from .ik_pose import Pose, _check_finite, _depth_levels, _fk, _rotation_matrices
-from .motion import Motion
-from .rotations import quat_conj, quat_from_rotvec, quat_mul, quat_normalize, quat_to_rotvec
-from .skeleton import Skeleton
+from mjchar.bvh.errors import IKError, SkeletonError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.kinematics.ik.pose import (
+    Pose,
+    _check_finite,
+    _depth_levels,
+    _fk,
+    _rotation_matrices,
+)
+from mjchar.bvh.rotations import (
+    quat_conj,
+    quat_from_rotvec,
+    quat_mul,
+    quat_normalize,
+    quat_to_rotvec,
+)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -69,7 +81,7 @@ class IKProblem:
     """Which effectors go where, which joints may move, and how much per iteration.
 
     Args:
-        skeleton: the :class:`~bvh.skeleton.Skeleton`.
+        skeleton: the :class:`~mjchar.bvh.io.skeleton.Skeleton`.
         effectors: a sequence of :class:`Effector`, or a mapping ``name -> target (3,)``
             (weight 1 each). Names are joint names or end site names; at least one is needed.
         joints: names of the joints whose rotation may change. Default: the union of the chains
@@ -374,7 +386,7 @@ class IKResult:
 
     @property
     def motion(self) -> Motion:
-        """The solved pose as a one-frame :class:`~bvh.motion.Motion`."""
+        """The solved pose as a one-frame :class:`~mjchar.bvh.io.motion.Motion`."""
         return self.pose.to_motion()
 
     @property

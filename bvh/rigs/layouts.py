@@ -16,16 +16,17 @@ and a reference motion can apply the same normalisation to the file's clip:
 - :func:`bones_from_channels`: translation channels of non-root joints: the mean is the bone.
 - :func:`apply_record`: the converter's use of the three, replayed from the record kept in a
   model's metadata; :func:`undo_record` takes a motion on the normalised skeleton back to the
-  file's own layout (what :mod:`bvh.export` writes).
+  file's own layout (what :mod:`mjchar.bvh.reference.export` writes).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .kinematics import forward_kinematics
-from .motion import Motion
-from .rotations import (
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import POSITION_CHANNELS, Skeleton
+from mjchar.bvh.kinematics.fk import forward_kinematics
+from mjchar.bvh.rotations import (
     quat_conj,
     quat_fix_continuity,
     quat_identity,
@@ -34,7 +35,6 @@ from .rotations import (
     quat_rotate,
     quat_to_rotvec,
 )
-from .skeleton import POSITION_CHANNELS, Skeleton
 
 __all__ = ["rerest", "fold_root", "unfold_root", "bones_from_channels", "static_chain_above",
            "apply_record", "undo_record"]

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import SkeletonError
-from .motion import Motion
-from .rotations import from_rotation, quat_conj, quat_mul, quat_rotate, to_rotation
-from .skeleton import Skeleton
+from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, quat_rotate, to_rotation
 
 #: metres per unit for the unit names accepted by :func:`unit_scale`
 UNIT_SCALES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}

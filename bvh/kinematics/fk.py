@@ -6,8 +6,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .motion import Motion
-from .rotations import quat_mul, quat_rotate
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.rotations import quat_mul, quat_rotate
 
 
 class FKResult(NamedTuple):

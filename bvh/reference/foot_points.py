@@ -4,8 +4,8 @@
 there are any), else the ``left_foot``/``right_foot``/``*_toe`` sites, else (no feet known) every
 non-plane geom of the character, and samples points bounding them from below in world coordinates
 (box corners, capsule and cylinder ends minus the radius, sphere centres minus the radius).
-:class:`bvh.reference.ReferenceMotion` uses them to place the clip on the floor (``z = 0``) and to
-label foot contacts.
+:class:`mjchar.bvh.reference.reference_motion.ReferenceMotion` uses them to place the clip on the
+floor (``z = 0``) and to label foot contacts.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .joint_map import _subtree_bodies
+from mjchar.bvh.reference.joint_map import _subtree_bodies
 
 FOOT_SIDES = ("left", "right")
 

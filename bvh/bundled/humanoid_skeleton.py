@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .skeleton import Skeleton
+from mjchar.bvh.io.skeleton import Skeleton
 
 _ROT = ("Xrotation", "Yrotation", "Zrotation")
 _ROOT = ("Xposition", "Yposition", "Zposition", *_ROT)
@@ -62,7 +62,7 @@ def humanoid_skeleton() -> Skeleton:
     """The project's default 20-joint skeleton (metres, Y up, faces +Z), rest pose = T-pose.
 
     Returns:
-        A :class:`~bvh.skeleton.Skeleton` with 20 joints and 5 end sites.
+        A :class:`~mjchar.bvh.io.skeleton.Skeleton` with 20 joints and 5 end sites.
     """
     names = [j[0] for j in _JOINTS]
     parents = [-1 if p is None else names.index(p) for _, p, _ in _JOINTS]
@@ -79,8 +79,9 @@ def humanoid_skeleton() -> Skeleton:
 
 
 def humanoid_rest_motion(n_frames: int = 1, frame_time: float = 1 / 60):
-    """The T-pose as a :class:`~bvh.motion.Motion` with the root at :data:`ROOT_HEIGHT`."""
-    from .motion import Motion
+    """The T-pose as a :class:`~mjchar.bvh.io.motion.Motion` with the root at
+    :data:`ROOT_HEIGHT`."""
+    from mjchar.bvh.io.motion import Motion
 
     m = Motion.rest(humanoid_skeleton(), n_frames, frame_time)
     m.local_positions[:, 0] = [0.0, ROOT_HEIGHT, 0.0]

@@ -22,9 +22,9 @@ Curves through keys ``(t_k, p_k)``, ``k = 0 .. K-1``, with ``t_k`` strictly incr
   velocities follow the same rules as the position tangents, applied to the body-frame log
   differences ``log(q_k^-1 q_{k+1}) / (t_{k+1} - t_k)``; unit norm holds by construction.
 
-Motions (:class:`~bvh.motion.Motion`) are sampled at any times with :func:`sample` and brought to
-another frame rate with :func:`resample`; :func:`keyframes_to_motion` turns key poses into a
-motion. Everything is vectorised over times, joints and frames.
+Motions (:class:`~mjchar.bvh.io.motion.Motion`) are sampled at any times with :func:`sample` and
+brought to another frame rate with :func:`resample`; :func:`keyframes_to_motion` turns key poses
+into a motion. Everything is vectorised over times, joints and frames.
 
 Out-of-range times are clamped to the first/last key (the pose is held), never extrapolated.
 """
@@ -34,9 +34,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .errors import SkeletonError
-from .motion import Motion
-from .rotations import (
+from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rotations import (
     quat_conj,
     quat_fix_continuity,
     quat_from_rotvec,
@@ -46,7 +47,6 @@ from .rotations import (
     quat_slerp,
     quat_to_rotvec,
 )
-from .skeleton import Skeleton
 
 __all__ = [
     "InterpolationError",

@@ -5,16 +5,16 @@ metres, Y-up, facing +Z) or the bundled humanoid's walk, re-expressed the way ex
 files: renamed to a naming convention, re-rooted under a static node, re-oriented so each bone
 lies along its joint's local X axis or so the arms hang in an A-pose, rescaled, re-unitted,
 re-axed, channel-reordered, with zero-length helper bones and 6-channel joints. Every step is
-exact (:mod:`bvh.rigs`): forward kinematics of a zoo rig is the source clip's, scaled and
-rotated. A rig carries what it is (``convention``, ``unit``, ``up``, ``height_m``), so tests can
+exact (:mod:`mjchar.bvh.rigs.layouts`): forward kinematics of a zoo rig is the source clip's, scaled
+and rotated. A rig carries what it is (``convention``, ``unit``, ``up``, ``height_m``), so tests can
 check the converter's guesses::
 
-    from bvh.zoo import zoo_rigs
+    from mjchar.bvh.bundled.zoo import zoo_rigs
     for rig in zoo_rigs("/path/to/shared/data/bvh"):
         rig.name, rig.convention, rig.unit, rig.up, rig.height_m
         bvh.save(rig.motion, f"{rig.name}.bvh")
 
-``python -m bvh.zoo SHARED_BVH_DIR OUT_DIR`` writes them all as BVH files.
+``python -m mjchar.bvh.bundled.zoo SHARED_BVH_DIR OUT_DIR`` writes them all as BVH files.
 """
 
 from __future__ import annotations
@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import load
-from .motion import Motion
-from .rigs import rerest
-from .rotations import quat_conj, quat_from_rotvec, quat_identity, quat_mul, quat_rotate
-from .skeleton import POSITION_CHANNELS, Skeleton
-from .units import UNIT_SCALES, transform_motion, up_axis_rotation
+from mjchar.bvh.io import load
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.skeleton import POSITION_CHANNELS, Skeleton
+from mjchar.bvh.rigs.layouts import rerest
+from mjchar.bvh.rigs.units import UNIT_SCALES, transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import quat_conj, quat_from_rotvec, quat_identity, quat_mul, quat_rotate
 
 __all__ = ["ZooRig", "zoo_rigs", "CONVENTIONS", "rename", "with_channels", "add_static_root",
            "insert_zero_length_joint", "bone_local_axes", "a_pose", "stature"]
@@ -375,7 +375,7 @@ def _from_clip(m: Motion, src: str, even: bool) -> list[ZooRig]:
 
 
 def _humanoids() -> list[ZooRig]:
-    from .assets import motion_path
+    from mjchar.bvh.bundled.assets import motion_path
 
     m = load(motion_path("walk"))
     h0 = stature(m.skeleton)
@@ -389,12 +389,13 @@ def _humanoids() -> list[ZooRig]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m bvh.zoo SHARED_BVH_DIR OUT_DIR``: write every zoo rig as ``OUT_DIR/NAME.bvh``."""
-    from .io import save
+    """``python -m mjchar.bvh.bundled.zoo SHARED_BVH_DIR OUT_DIR``: write every zoo rig as
+    ``OUT_DIR/NAME.bvh``."""
+    from mjchar.bvh.io import save
 
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 2:
-        print("usage: python -m bvh.zoo SHARED_BVH_DIR OUT_DIR", file=sys.stderr)
+        print("usage: python -m mjchar.bvh.bundled.zoo SHARED_BVH_DIR OUT_DIR", file=sys.stderr)
         return 2
     os.makedirs(argv[1], exist_ok=True)
     for rig in zoo_rigs(argv[0]):

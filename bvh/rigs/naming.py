@@ -17,8 +17,8 @@ A skeleton whose knees have no recognisable names still gets legs from its shape
 chains reaching nearest the floor, left and right from where the feet point), and one whose
 elbows have none gets arms from its shape (the chains branching sideways from the upper spine);
 those joints are reported in :attr:`Recognition.by_structure`. A user role map (``roles=``,
-read from a TOML roles file by :mod:`bvh.mjcf.roles`) anchors and overrides. Everything else is
-``"unknown"``.
+read from a TOML roles file by :mod:`mjchar.bvh.mjcf.roles`) anchors and overrides. Everything else
+is ``"unknown"``.
 
 Sides: a name is left-sided when a token ``l``/``left`` starts or ends it (``lKnee``,
 ``LeftLeg``, ``Knee_L``, ``knee.l``), right-sided likewise with ``r``/``right``.
@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .skeleton import Skeleton
+from mjchar.bvh.io.skeleton import Skeleton
 
 #: roles a joint can have (``left_``/``right_`` prefixed for limbs)
 LIMB_ROLES = ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
@@ -159,7 +159,7 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
     rest = sk.rest_positions()
     children = [sk.children(j) for j in range(n)]
     if up is None:
-        from .units import AXIS_VECTORS, guess_up_axis
+        from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis
         up = AXIS_VECTORS[guess_up_axis(sk)] if n > 1 else np.array([0.0, 1.0, 0.0])
     up = np.asarray(up, dtype=float)
     height = _height(sk, up)

@@ -50,9 +50,10 @@ Example::
     result = solve_dls(problem, pose)
     result.pose, result.converged, result.errors
 
-Where the parts live: :class:`Pose` and its forward kinematics in :mod:`bvh.ik_pose`, the problem
-(:class:`IKProblem`, :class:`IKResult`, the shared iteration loop) in :mod:`bvh.ik_problem`, the
-solvers in :mod:`bvh.ik_solvers`; this module re-exports them and holds :func:`solve_frames`.
+Where the parts live: :class:`Pose` and its forward kinematics in
+:mod:`mjchar.bvh.kinematics.ik.pose`, the problem (:class:`IKProblem`, :class:`IKResult`, the shared
+iteration loop) in :mod:`mjchar.bvh.kinematics.ik.problem`, the solvers in
+:mod:`mjchar.bvh.kinematics.ik.solvers`; this module re-exports them and holds :func:`solve_frames`.
 """
 
 from __future__ import annotations
@@ -62,23 +63,23 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import IKError
-from .ik_pose import Pose
-from .ik_problem import (
+from mjchar.bvh.errors import IKError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.kinematics.ik.pose import Pose
+from mjchar.bvh.kinematics.ik.problem import (
     Effector,
     IKProblem,
     IKResult,
     IKState,
-    Step,  # noqa: F401  (kept importable from bvh.ik)
+    Step,  # noqa: F401  (kept importable from mjchar.bvh.kinematics.ik)
 )
-from .ik_solvers import (
+from mjchar.bvh.kinematics.ik.solvers import (
     METHODS,
     solve,
     solve_ccd,
     solve_dls,
     solve_jacobian_transpose,
 )
-from .motion import Motion
 
 __all__ = [
     "IKError", "Pose", "Effector", "IKProblem", "IKState", "IKResult", "FramesResult",
@@ -90,7 +91,7 @@ class FramesResult(NamedTuple):
     """What :func:`solve_frames` returns.
 
     Attributes:
-        motion: a new :class:`~bvh.motion.Motion` with the solved frames replaced.
+        motion: a new :class:`~mjchar.bvh.io.motion.Motion` with the solved frames replaced.
         frames: ``(N,)`` indices of the solved frames.
         converged: ``(N,)`` bool per solved frame.
         distances: ``(N, K)`` final effector-to-target distances.
@@ -112,7 +113,7 @@ def solve_frames(motion: Motion, targets: Mapping[str, np.ndarray], method: str 
     """Apply IK to many frames of ``motion``, each frame starting from its own pose.
 
     Args:
-        motion: the :class:`~bvh.motion.Motion` (not modified).
+        motion: the :class:`~mjchar.bvh.io.motion.Motion` (not modified).
         targets: ``effector name -> (N, 3)`` targets, one row per solved frame (or ``(3,)`` for
             a fixed target).
         method: ``"ccd"``, ``"jacobian_transpose"`` or ``"dls"``.

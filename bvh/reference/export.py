@@ -1,9 +1,10 @@
 """Simulated motion back to BVH, on the skeleton the model was converted from.
 
-A converted model keeps its source skeleton in its metadata (:meth:`bvh.mjcf.ModelInfo.source`:
-every joint's name, offset and channel order, in the file's units and axes, and the clip's frame
-time). :func:`qpos_to_motion` turns a simulated ``qpos`` trajectory into a :class:`~bvh.Motion` on
-that skeleton, so the file opens in the animation tool the clip came from::
+A converted model keeps its source skeleton in its metadata
+(:meth:`mjchar.bvh.mjcf.ModelInfo.source`: every joint's name, offset and channel order, in the
+file's units and axes, and the clip's frame time). :func:`qpos_to_motion` turns a simulated ``qpos``
+trajectory into a :class:`~bvh.Motion` on that skeleton, so the file opens in the animation tool the
+clip came from::
 
     motion = qpos_to_motion(model, times, qpos)      # resampled to the source clip's rate
     bvh.save(motion, "simulated.bvh")
@@ -31,10 +32,10 @@ import math
 import mujoco
 import numpy as np
 
-from .errors import MjcharError
-from .motion import Motion
-from .rigs import undo_record
-from .rotations import quat_conj, quat_mul, quat_normalize
+from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.rigs.layouts import undo_record
+from mjchar.bvh.rotations import quat_conj, quat_mul, quat_normalize
 
 __all__ = ["ExportError", "DEFAULT_FPS", "export_rate", "resample_qpos", "qpos_to_motion"]
 
@@ -113,10 +114,11 @@ def qpos_to_motion(model: mujoco.MjModel, times, qpos, *, fps: float | None = No
 
     Raises:
         ExportError: bad shapes or times, or a joint the metadata cannot place.
-        bvh.mjcf.ConversionError: the model has no mjchar metadata or no stored source skeleton.
+        mjchar.bvh.mjcf.ConversionError: the model has no mjchar metadata or no stored source
+        skeleton.
     """
     if info is None:
-        from .mjcf import ModelInfo
+        from mjchar.bvh.mjcf import ModelInfo
 
         info = ModelInfo.from_model(model)
     skeleton, _ = info.source()
