@@ -29,11 +29,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mjchar.controllers.core.character import Character  # noqa: E402
-from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates  # noqa: E402
-from mjchar.controllers.core.terrain import (  # noqa: E402
-    slope_walk,
-    walk,
-)
+from mjchar.controllers.core.scenarios import slope_walk, walk  # noqa: E402
+from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates  # noqa: E402
 from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon  # noqa: E402
 
 PARTS = ("walk", "feedback-off", "pushes", "search", "slopes", "timing")

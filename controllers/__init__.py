@@ -1,33 +1,49 @@
-"""mjchar's dynamic layer: everything that simulates, in subpackages by concern.
+"""mjchar's dynamic layer (``mjchar.controllers``): everything that simulates, by concern.
 
-- :mod:`mjchar.controllers.core`: the :class:`~mjchar.controllers.core.character.Character` (the one
-  door to
-  MuJoCo), the Controller protocol, actions and gains, the controller registry, the PD family,
-  scenarios, metrics, pushes and terrain.
-- :mod:`mjchar.controllers.balance`: hand-of-god and static balance.
-- :mod:`mjchar.controllers.walking`: SIMBICON and its gaits, IPM stepping, swing-foot trajectories.
-- :mod:`mjchar.controllers.sampling`: batched rollouts, executors, saved trajectories, SAMCON,
-  CMA-ES.
+- :mod:`~mjchar.controllers.core`: the :class:`Character` (the one door to MuJoCo), the
+  Controller protocol, actions and gains, the controller and scenario registries, the run
+  builder, the PD family, metrics, pushes and terrain.
+- :mod:`~mjchar.controllers.balance`: hand-of-god and static balance.
+- :mod:`~mjchar.controllers.walking`: SIMBICON and its gaits, IPM stepping, swing-foot
+  trajectories.
+- :mod:`~mjchar.controllers.sampling`: batched rollouts, executors, saved trajectories, SAMCON,
+  CMA-ES, the MPC tracker.
 
-Importing the package imports the four subpackages, which registers every controller
-(:mod:`mjchar.controllers.core.registry`). The most used names are re-exported here.
+Importing the package imports the four subpackages, which registers every scenario and
+controller. The Python entry points::
+
+    from mjchar.controllers import Character, make_controller, run, run_scenario
+
+    result = run("simbicon", "walk", speed=1.2, gait="natural", duration=20.0)  # as mjchar run
+
+    character = Character()                                # the bundled humanoid
+    walker = make_controller("simbicon", character, speed=1.2, gait="natural")
+    result = run_scenario("walk", character, walker, duration=20.0)  # the same run, by hand
 """
 
 # Registration order is the order of the CLI's choices and the bench's rows:
 # isort: off
-from . import core, balance, walking, sampling  # noqa: F401  (fills the controller registry)
+from . import core, balance, walking, sampling  # noqa: F401  (fills the registries)
 # isort: on
 from .core import (
     Action,
     Character,
     ControllerSpec,
     Gains,
+    MotionRecorder,
     Result,
+    RunError,
+    RunSpec,
+    ScenarioSpec,
     default_timestep,
     make_controller,
     register,
+    run,
+    run_scenario,
+    scenarios,
 )
 from .core import registry as registry
 
-__all__ = ["Action", "Character", "ControllerSpec", "Gains", "Result", "default_timestep",
-           "make_controller", "register", "registry"]
+__all__ = ["Action", "Character", "ControllerSpec", "Gains", "MotionRecorder", "Result",
+           "RunError", "RunSpec", "ScenarioSpec", "default_timestep", "make_controller",
+           "register", "registry", "run", "run_scenario", "scenarios"]

@@ -35,8 +35,12 @@ from mjchar import bench as B
 from mjchar.bvh.bundled.assets import TRAJECTORIES
 from mjchar.cli import main
 from mjchar.controllers.core import registry
+from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.action import Action
 from mjchar.controllers.core.registry import ControllerSpec, RegistryError
+from mjchar.controllers.core.scenarios import registry as scenario_registry
+from mjchar.controllers.core.scenarios.options import DURATION, SEED
+from mjchar.controllers.core.scenarios.registry import Option, ScenarioError, ScenarioSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the repository's folders and the namespace each is mapped to (pyproject's package-dir)
@@ -246,7 +250,7 @@ def limp():
     spec = registry.register(ControllerSpec(
         name="limp", label="no torque (test)", kind="balance",
         factory=lambda character, target=None, **options: Limp(),
-        scenarios=("stand", "push"), default_scenario="stand", bench=("stand",)))
+        abilities=("stand",), default_scenario="stand", bench=("stand",)))
     yield spec
     registry.unregister("limp")
 
@@ -258,7 +262,7 @@ def test_a_registration_reaches_the_cli_make_controller_and_the_bench(limp, caps
     assert main(["run", "limp", "--duration", "3", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["controller"] == "limp" and out["scenario"] == "stand" and out["fell"]
-    assert main(["run", "limp", "--scenario", "walk"]) == 2  # not a scenario it declares
+    assert main(["run", "limp", "--scenario", "walk"]) == 2  # a scenario it cannot run
     # the bench: a row of the matrix, run as a one-cell matrix
     assert B.matrix()["limp"] == ("stand",)
     cfg = replace(B.quick_config(1), stand_duration=3.0)
@@ -286,8 +290,80 @@ def test_bad_registrations_are_refused(limp):
         replace(limp, name="x", kind="dancer")
     with pytest.raises(RegistryError, match="default scenario"):
         replace(limp, name="x", default_scenario="walk")
+    with pytest.raises(RegistryError, match="abilities"):
+        replace(limp, name="x", abilities=("dance",))
     with pytest.raises(RegistryError, match="expected"):
         replace(limp, name="x", expected=("walk",))
+
+
+# -- the scenario registry ------------------------------------------------------------------------
+def _sway(run, *, duration: float = 2.0, seed: int = 0):
+    """A throwaway scenario: stand from a seeded perturbation of the standing pose."""
+    ch = run.character
+    q, v = S.perturbed_start(ch, S.standing_pose(ch), None, seed, joint_noise=0.05)
+    return S.simulate(ch, run.controller, duration=duration, scenario="sway", qpos=q, qvel=v,
+                      seed=seed, **run.simulate_options())
+
+
+@pytest.fixture
+def sway():
+    spec = scenario_registry.register(ScenarioSpec(
+        name="sway", measures="stand from a perturbed pose (test)", runner=_sway,
+        needs=("stand",), options=(DURATION, SEED), default_duration=2.0))
+    yield spec
+    scenario_registry.unregister("sway")
+
+
+def test_a_scenario_registration_reaches_the_cli_the_builder_and_the_bench(sway, capsys):
+    """One module and one registration: the new scenario is in ``mjchar run --help``, runs
+    from the CLI and the Python API with the same numbers, and runs in a one-cell bench."""
+    from mjchar.cli import build_parser
+    from mjchar.controllers import run
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    assert "sway" in sub.choices["run"].format_help()
+    assert "sway" in registry.get("static_balance").scenarios()
+    assert "sway" not in registry.get("simbicon").scenarios()  # it cannot stand
+    assert main(["run", "static_balance", "--scenario", "sway", "--duration", "1", "--seed",
+                 "3", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scenario"] == "sway" and out["seed"] == 3 and not out["fell"]
+    r = run("static_balance", "sway", duration=1.0, seed=3)
+    assert r.sim_time_s == out["sim_time_s"] and r.com_drop_m == out["com_drop_m"]
+    assert main(["run", "simbicon", "--scenario", "sway"]) == 2
+    cfg = replace(B.quick_config(1), stand_duration=1.0)
+    controllers, cells, _ = B.run_matrix([("static_balance", "sway")], cfg, progress=False)
+    assert cells[0]["status"] == "ok", cells[0]["reason"]
+    assert cells[0]["runs"][0]["result"]["scenario"] == "sway"
+    assert B.select_cells(["static_balance"], ["sway"]) == [("static_balance", "sway")]
+
+
+def test_bad_scenario_registrations_are_refused(sway):
+    with pytest.raises(ScenarioError, match="already registered"):
+        scenario_registry.register(sway)
+    with pytest.raises(ScenarioError, match="needs"):
+        replace(sway, name="x", needs=("fly",))
+    other = Option("duration", "--duration", "count", "a different duration")
+    with pytest.raises(ScenarioError, match="differs"):
+        scenario_registry.register(replace(sway, name="x", options=(other,)))
+    with pytest.raises(ScenarioError, match="takes no option 'force'"):
+        scenario_registry.run_scenario("sway", None, None, force=3.0)
+
+
+def test_the_time_step_is_the_controllers_unless_chosen():
+    """make_controller gives the character its controller's registered step; a step chosen
+    for the character is kept."""
+    from mjchar.controllers import Character, make_controller
+
+    ch = Character()
+    assert ch.timestep == 0.002
+    make_controller("simbicon", ch)
+    assert ch.timestep == registry.get("simbicon").timestep == 0.001
+    make_controller("spd", ch)  # another controller on the same character: the model's step
+    assert registry.get("spd").timestep is None and ch.timestep == 0.002
+    chosen = Character(timestep=0.0025)
+    make_controller("simbicon", chosen)
+    assert chosen.timestep == 0.0025
 
 
 @pytest.mark.parametrize("name", registry.names())

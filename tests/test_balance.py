@@ -12,8 +12,8 @@ from mjchar.controllers.balance.static_balance import StaticBalance, squat_profi
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.base import Action
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates
 from mjchar.controllers.core.registry import make_controller
+from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
 
 
 @pytest.fixture(scope="module")

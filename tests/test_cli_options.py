@@ -8,17 +8,22 @@ import pytest
 
 from mjchar.bvh.bundled.assets import TRAJECTORIES, motion_path
 from mjchar.cli import main
-from mjchar.commands.run_options import OPTIONS, PUSH_DETAILS, check_applicable
+from mjchar.commands.run_options import check_applicable, options
 from mjchar.controllers import registry
+from mjchar.controllers.core.scenarios import registry as scenarios
 
+OPTIONS = options()
+#: the push's details, which need the push in the moving scenarios
+PUSH_DETAILS = ("direction", "push_time", "push_duration")
 #: a valid value for each option (flags take none)
 VALUES = {
     "speed": "0.5", "heading": "10", "gait": "walk", "tracker": "spd", "squat": "0.1",
-    "motion": str(motion_path("walk")), "floor": "clip", "duration": "1", "push": "50",
+    "motion": str(motion_path("walk")), "floor": "clip", "duration": "1", "force": "50",
     "direction": "left", "push_duration": "0.2", "push_time": "0.5", "allow_steps": None,
     "max_force": "100", "tolerance": "50", "phases": "2", "seeds": "1", "seed": "1",
     "timestep": "0.001", "control_dt": "0.002", "render": "x.mp4", "export_bvh": "x.bvh",
-    "loop": None, "param": "samples=8",
+    "loop": None, "param": "samples=8", "steady_window": "2", "degrees": "3",
+    "distance": "5",
 }
 
 
@@ -37,9 +42,9 @@ def _typed(opt) -> list[str]:
 def _matrix(applies: bool):
     cases = []
     for spec in registry.specs():
-        for scenario in spec.scenarios:
+        for scenario in spec.scenarios():
             for opt in OPTIONS:
-                if opt.applies(spec, scenario) == applies:
+                if opt.applies(spec, scenarios.get(scenario)) == applies:
                     cases.append(pytest.param(spec, scenario, opt,
                                               id=f"{spec.name}-{scenario}-{opt.dest}"))
     return cases
@@ -76,11 +81,12 @@ def test_an_option_that_applies_passes_the_check(spec, scenario, opt):
     """The same table lets through what is used (the runs themselves are tested elsewhere)."""
     import argparse
 
-    args = argparse.Namespace(**{o.dest: None for o in OPTIONS})
+    args = argparse.Namespace(**{o.dest: None for o in OPTIONS}, fps=None, export_fps=None)
     setattr(args, opt.dest, VALUES[opt.dest] or True)
-    if opt.dest in PUSH_DETAILS and scenario in ("track", "walk"):
-        args.push = "50"                          # a push's details need the push there
-    check_applicable(args, spec, scenario)
+    sspec = scenarios.get(scenario)
+    if opt.dest in PUSH_DETAILS and sspec.moving:
+        args.force = "50"                          # a push's details need the push there
+    check_applicable(args, spec, sspec)
 
 
 @pytest.mark.parametrize("argv,needle", [
@@ -95,6 +101,9 @@ def test_refinements_need_their_option(argv, needle, capsys):
 
 @pytest.mark.parametrize("argv,needle", [
     (["run", "ipm", "--speed", "1e9"], "ipm walks at 0 to 1.6 m/s"),
+    (["run", "simbicon", "--scenario", "stand"], "simbicon does not run the stand scenario"),
+    (["run", "ipm", "--scenario", "push", "--speed", "1"],
+     "--speed does not apply to ipm in the push scenario"),
     (["run", "ipm", "--speed", "-0.5"], "ipm walks at 0 to 1.6 m/s"),
     (["run", "ipm", "--heading", "1e4"], "--heading 10000 is out of range"),
     (["run", "static_balance", "--scenario", "push", "--push", "1e6"], "body weights"),

@@ -13,6 +13,7 @@ import pytest
 from conftest import shared_clip
 
 from mjchar.cli import main
+from mjchar.controllers.core.scenarios import registry as scenarios
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -43,7 +44,7 @@ def test_static_balance_json_is_exactly_one_object():
     (["run", "spd", "--scenario", "dance"], "invalid choice"),
     (["run", "spd", "--seed", "x"], "seed must be an integer"),
     (["run", "spd", "--direction", "up"], "direction must be degrees"),
-    (["run", "spd", "--scenario", "push"], "needs --push"),
+    (["run", "spd", "--scenario", "push"], "needs a force (mjchar run: --push"),
     (["run", "spd", "--scenario", "track", "--motion", "/no/such.bvh"], "/no/such.bvh"),
     (["run", "spd", "--render", "out.gif"], "MP4"),
     (["run", "spd", "--floor", "lowest"], "invalid choice"),
@@ -152,7 +153,7 @@ def test_run_offers_every_registered_controller_and_scenario(capsys):
     text = capsys.readouterr().out
     for name in registry.names():
         assert name in text
-    for scenario in registry.SCENARIOS:
+    for scenario in scenarios.names():
         assert scenario in text
 
 

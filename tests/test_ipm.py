@@ -310,11 +310,10 @@ def test_recovery_step_is_not_widened_while_the_com_moves_sideways():
     """The push protocol's one 150 N failure before the fix (backward, moment 1.625 s, seed 2):
     the recovery steps drift sideways, a step of the zero command was widened to the standing
     width across the COM's motion, and the COM fell over the far side of the new stance foot."""
-    from mjchar.controllers.core.push_protocol import PushProtocol, PushTask, simulate_push
+    from mjchar.controllers.core.scenarios.push_search import PushProtocol, PushTask, simulate_push
 
     protocol = PushProtocol(forces=(150.0,), phases=8, seeds=(2,)).check()
-    task = PushTask("ipm", "backward", 150.0, protocol.phase_values()[5], 2, protocol, None,
-                    (("speed", 0.0),))
+    task = PushTask("ipm", "backward", 150.0, protocol.phase_values()[5], 2, protocol)
     r, ok = simulate_push(task)
     assert ok, r.fall_reason
     assert r.stepped and r.root_force_max_N == 0.0
@@ -368,7 +367,7 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
     registered limits scale with the leg length, as the parameters do): 60 s at the Froude
     speeds of 0.3 m/s (the slowest walk of the 60 s range; 0 stands) and 1.6 m/s."""
     from mjchar.controllers import registry
-    from mjchar.controllers.core.terrain import walk
+    from mjchar.controllers.core.scenarios import walk
 
     ch = Character(zoo_humanoids[height])
     speed = end * (ch.leg_length() / registry.get("ipm").speed_leg_length) ** 0.5
@@ -383,7 +382,7 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
 def test_walks_60s_at_1_2_from_seeded_starts(seed):
     """Issue 14's 60 s at 5 seeds, at its comparison speed: no fall, no root force, steady speed
     (last 10 s) within 0.15 m/s (measured 1.159 at every seed)."""
-    from mjchar.controllers.core.terrain import walk
+    from mjchar.controllers.core.scenarios import walk
 
     ch = Character()
     r = walk(ch, make_ipm(ch, speed=1.2), duration=60.0, seed=seed)
@@ -419,10 +418,10 @@ def test_turns_90_degrees(character, speed, heading):
 def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
     """It fell at 7.6 s (a strict xfail) until the feet's measures were held above the human
     band (session 16, docs/ipm.md)."""
-    from mjchar.controllers.core import terrain
+    from mjchar.controllers.core.scenarios import walk
 
     c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else -90.0)
-    r = terrain.walk(character, c, duration=18.0, seed=0)
+    r = walk(character, c, duration=18.0, seed=0)
     assert not r.fell, r.fall_reason
 
 
@@ -431,10 +430,10 @@ def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
                    "the seeded start falls at 5.9 s (1 of 24 turns of the 1.0-1.6 m/s grid at seed "
                    "0, 0 of 24 at seed 1; docs/ipm.md, stance slip across speeds)")
 def test_turns_90_degrees_left_at_1_6_from_a_seeded_start(character):
-    from mjchar.controllers.core import terrain
+    from mjchar.controllers.core.scenarios import walk
 
     c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else 90.0)
-    r = terrain.walk(character, c, duration=18.0, seed=0)
+    r = walk(character, c, duration=18.0, seed=0)
     assert not r.fell, r.fall_reason
 
 

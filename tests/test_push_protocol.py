@@ -8,8 +8,8 @@ import json
 
 import pytest
 
-from mjchar.controllers.core import push_protocol as P
-from mjchar.controllers.core.push_protocol import (
+from mjchar.controllers.core.scenarios import push_search as P
+from mjchar.controllers.core.scenarios.push_search import (
     PushProtocol,
     PushProtocolError,
     largest_force,

@@ -157,7 +157,7 @@ def test_make_controller_builds_the_walkers_with_their_options_and_time_steps():
 def test_walk_seeds_perturb_a_walker_without_its_own_start_state():
     """IPM has no ``start_state``: the walk scenario's seed still perturbs its standing start
     (so the seeds of a robustness rate are different runs), and the same seed repeats."""
-    from mjchar.controllers.core.terrain import walk
+    from mjchar.controllers.core.scenarios import walk
 
     ch = Character()
     if default_timestep("ipm"):

@@ -18,16 +18,15 @@ from mjchar.cli import main
 from mjchar.controllers import registry
 from mjchar.controllers.core.base import ControllerError
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.push_protocol import PushProtocol, survival_rates
-from mjchar.controllers.core.terrain import (
+from mjchar.controllers.core.scenarios import slope_walk, walk
+from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
+from mjchar.controllers.core.scenarios.terrain import (
     TerrainError,
     floor_height,
     place_on_floor,
     push_walk,
-    slope_walk,
     stride_phases,
     tilt_floor,
-    walk,
 )
 from mjchar.controllers.walking.gaits import GAITS, Gait, GaitError, get_gait
 from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, Simbicon, make_simbicon

@@ -59,6 +59,28 @@ def humanoid_path() -> Path:
     return path
 
 
+#: the bundled clips, by name (``mjchar run --motion walk``, ``ImitationEnv(motion="idle")``)
+BUNDLED_MOTION_NAMES = ("walk", "idle")
+
+
+def bundled_motions() -> tuple[str, ...]:
+    """The names of the bundled clips present (``assets/motions/*.bvh``)."""
+    motions = __getattr__("MOTIONS")
+    return tuple(sorted(p.stem for p in motions.glob("*.bvh"))) if motions.is_dir() else ()
+
+
+def find_trajectory(prefixes: tuple[str, ...], directory: str | os.PathLike | None = None
+                    ) -> Path | None:
+    """The first saved trajectory (``*.npz``, sorted by name) in ``directory`` (default: the
+    bundled ``assets/trajectories``) whose file name starts with one of ``prefixes`` (case
+    insensitive), or ``None``."""
+    d = Path(__getattr__("TRAJECTORIES") if directory is None else directory)
+    if not prefixes or not d.is_dir():
+        return None
+    return next((f for f in sorted(d.glob("*.npz")) if f.name.lower().startswith(prefixes)),
+                None)
+
+
 def motion_path(name: str) -> Path:
     """Path of a bundled motion, ``assets/motions/<name>.bvh`` (e.g. ``"idle"``, ``"walk"``)."""
     motions = __getattr__("MOTIONS")

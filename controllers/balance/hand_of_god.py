@@ -108,6 +108,6 @@ def make_hand_of_god(character: Character, target=None, *, gains=None, tracker: 
 
 register(ControllerSpec(
     name="hand_of_god", label="stable PD + root force", kind="balance", factory=make_hand_of_god,
-    scenarios=("stand", "push", "push-search", "random-push", "track", "walk"),
+    abilities=("stand", "track"),
     default_scenario="track", options=("tracker",), floor="clip",
     bench=("stand", "track"), expected=("stand", "track")))

@@ -190,6 +190,6 @@ def make_static_balance(character: Character, target=None, *, gains=None,
 
 register(ControllerSpec(
     name="static_balance", label="stable PD + COM virtual force", kind="balance",
-    factory=make_static_balance, scenarios=("stand", "push", "push-search", "random-push"),
+    factory=make_static_balance, abilities=("stand",),
     default_scenario="stand", options=("height",),
     bench=("stand", "random-push", "push-search"), expected=("stand", "random-push")))

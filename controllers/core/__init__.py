@@ -1,31 +1,37 @@
 """The core of the dynamic layer, shared by every controller.
 
-- :mod:`~mjchar.controllers.core.character`: :class:`Character`, one converted humanoid behind named
-  access (state, centre of mass, contacts, pushes, stepping), with its pieces:
+- :mod:`~mjchar.controllers.core.character`: :class:`Character`, one converted humanoid behind
+  named access (state, centre of mass, contacts, pushes, stepping), with its pieces:
   :mod:`~mjchar.controllers.core.model` (loading, metadata), :mod:`~mjchar.controllers.core.pushes`
-  (scheduled external forces), :mod:`~mjchar.controllers.core.poses` (kinematics on a scratch copy:
-  lowest point, body pose, IK), :mod:`~mjchar.controllers.core.geometry` (support polygon) and
-  :mod:`~mjchar.controllers.core.errors`.
-- :mod:`~mjchar.controllers.core.action` and :mod:`~mjchar.controllers.core.base`: :class:`Action`,
-  the
-  ``Controller`` protocol, :class:`Gains`, PD targets.
-- :mod:`~mjchar.controllers.core.registry`: :class:`ControllerSpec`, :func:`register`,
-  :func:`make_controller`.
-- :mod:`~mjchar.controllers.core.pd`: explicit, stable and native PD (registered as ``pd``, ``spd``,
-  ``native_pd``).
-- :mod:`~mjchar.controllers.core.scenarios` (stand, push, push-search, random-push, track, walk),
-  :mod:`~mjchar.controllers.core.terrain` (level and sloped walks, pushes at stride phases),
-  :mod:`~mjchar.controllers.core.metrics` (:class:`Result`, fall detection, recording),
-  :mod:`~mjchar.controllers.core.push_protocol` (push survival rates over phases, seeds and forces).
+  (scheduled external forces), :mod:`~mjchar.controllers.core.poses` (kinematics on a scratch
+  copy: lowest point, body pose, IK), :mod:`~mjchar.controllers.core.geometry` (support polygon)
+  and :mod:`~mjchar.controllers.core.errors`.
+- :mod:`~mjchar.controllers.core.action` and :mod:`~mjchar.controllers.core.base`:
+  :class:`Action`, the ``Controller`` protocol, :class:`Gains`, PD targets.
+- :mod:`~mjchar.controllers.core.registry`: the controller registry (:class:`ControllerSpec`,
+  :func:`register`, :func:`make_controller`).
+- :mod:`~mjchar.controllers.core.scenarios`: the scenario registry and the scenarios (stand,
+  push, random-push, push-search, track, walk, slopes).
+- :mod:`~mjchar.controllers.core.runs`: the run builder (:class:`RunSpec`, :func:`run`), which
+  every entry point (CLI, bench, Python) uses.
+- :mod:`~mjchar.controllers.core.pd`: explicit, stable and native PD (registered as ``pd``,
+  ``spd``, ``native_pd``).
+- :mod:`~mjchar.controllers.core.metrics` (:class:`Result`, fall detection) and
+  :mod:`~mjchar.controllers.core.recording` (a run's qpos, written as BVH).
 """
 
+# the scenarios register before the controllers, which are checked against them
+# isort: off
+from . import scenarios  # noqa: F401  (fills the scenario registry)
 from . import pd as pd  # registers pd, spd, native_pd
+# isort: on
 from .action import Action
 from .base import Controller, ControllerError, Gains, PoseTarget, ReferenceTarget, joint_error
 from .character import Character
 from .errors import CharacterError, SimulationDiverged
 from .metrics import Result
 from .pd import NativePDController, PDController, StablePDController
+from .recording import MotionRecorder
 from .registry import (
     ControllerSpec,
     RegistryError,
@@ -33,9 +39,11 @@ from .registry import (
     make_controller,
     register,
 )
+from .runs import RunError, RunSpec, run
+from .scenarios import ScenarioSpec, run_scenario
 
 __all__ = ["Action", "Character", "CharacterError", "Controller", "ControllerError",
-           "ControllerSpec", "Gains", "NativePDController", "PDController", "PoseTarget",
-           "ReferenceTarget", "RegistryError", "Result", "SimulationDiverged",
-           "StablePDController", "default_timestep", "joint_error", "make_controller",
-           "register"]
+           "ControllerSpec", "Gains", "MotionRecorder", "NativePDController", "PDController",
+           "PoseTarget", "ReferenceTarget", "RegistryError", "Result", "RunError", "RunSpec",
+           "ScenarioSpec", "SimulationDiverged", "StablePDController", "default_timestep",
+           "joint_error", "make_controller", "register", "run", "run_scenario", "scenarios"]

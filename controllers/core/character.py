@@ -85,7 +85,7 @@ class Character:
         root_dofs: ``(6,)`` dof indices of the free joint (x, y, z, then rotation in body frame).
         actuator_dof: ``(nu,)`` the dof each actuator drives.
         actuated: ``(nv,)`` bool, dofs driven by an actuator.
-        mass: total mass in kg.
+        mass: total mass in kg; model_timestep: the model's own time step (s).
         source: the MJCF path the model was loaded from (``None`` when given an ``MjModel``).
     """
 
@@ -97,7 +97,7 @@ class Character:
         self.info = info if info is not None else model_info(self.model)
         m = self.model
         self.nq, self.nv, self.nu = int(m.nq), int(m.nv), int(m.nu)
-        self.max_velocity = float(max_velocity)
+        self.max_velocity, self.model_timestep = float(max_velocity), float(m.opt.timestep)
 
         rj = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")
         if rj < 0 or m.jnt_type[rj] != _JNT_FREE:
@@ -135,6 +135,7 @@ class Character:
         self._M = np.zeros((self.nv, self.nv))
         self._scratch = mujoco.MjData(m)
         self._M_diag = m.M_rowadr + m.M_rownnz - 1  # diagonal entries of the CSR mass matrix
+        self.timestep_chosen = False  # set_timestep's ``chosen``: make_controller keeps it
         if timestep is not None:
             self.set_timestep(timestep)
         self.reset()
@@ -379,11 +380,14 @@ class Character:
             self._check()
 
     # -- model settings -----------------------------------------------------------------------
-    def set_timestep(self, dt: float) -> None:
-        """Set the physics time step (s)."""
+    def set_timestep(self, dt: float, *, chosen: bool = True) -> None:
+        """Set the physics time step (s); ``chosen``: a choice for this character that
+        :func:`~mjchar.controllers.core.registry.make_controller` keeps (``False``: a
+        controller's own step, applied by it)."""
         if not (math.isfinite(dt) and dt > 0):
             raise CharacterError(f"time step must be a positive number of seconds, got {dt}")
         self.model.opt.timestep = float(dt)
+        self.timestep_chosen = chosen
 
     @property
     def actuation(self) -> str:
@@ -639,10 +643,6 @@ class Character:
     def pushes(self) -> list[Push]:
         """The scheduled pushes (:class:`~mjchar.controllers.core.pushes.Push`), in order."""
         return self._pushes.pushes
-
-    def clear_pushes(self) -> None:
-        """Forget every scheduled push (and stop any force being applied)."""
-        self._pushes.clear()
 
     def active_push_force(self) -> np.ndarray:
         """``(3,)`` sum of the push forces (N) applied during the last step."""

@@ -186,15 +186,15 @@ def _pd_factory(cls):
 _PD_BENCH = ("stand", "random-push", "push-search", "track")
 register(ControllerSpec(
     name="pd", label="explicit PD (1/2000 s)", kind="pd", factory=_pd_factory(PDController),
-    scenarios=("stand", "push", "push-search", "random-push", "track", "walk"),
+    abilities=("stand", "track"),
     default_scenario="stand", timestep=1 / 2000,
     bench=_PD_BENCH))
 register(ControllerSpec(
     name="spd", label="stable PD", kind="pd", factory=_pd_factory(StablePDController),
-    scenarios=("stand", "push", "push-search", "random-push", "track", "walk"),
+    abilities=("stand", "track"),
     default_scenario="stand", bench=_PD_BENCH))
 register(ControllerSpec(
     name="native_pd", label="MuJoCo <position> PD", kind="pd",
     factory=_pd_factory(NativePDController),
-    scenarios=("stand", "push", "push-search", "random-push", "track", "walk"),
+    abilities=("stand", "track"),
     default_scenario="stand", bench=_PD_BENCH))

@@ -1,17 +1,18 @@
 """The controller registry: every controller is one module plus one :func:`register` call.
 
-A :class:`ControllerSpec` says how to build a controller and what it supports: the scenarios of
-``mjchar run``, the options its factory takes, its default physics time step, and the cells of
-``mjchar bench`` it runs (and which of them it must survive). :func:`make_controller`, the CLI's
-choices and help, the bench matrix and the environments read this registry, so adding a
-controller touches no list anywhere else::
+A :class:`ControllerSpec` says how to build a controller and what it can do: its
+``abilities`` (which decide the scenarios it runs, :mod:`~mjchar.controllers.core.scenarios`),
+the options its factory takes, its default physics time step, and the cells of ``mjchar bench``
+it runs (and which of them it must survive). :func:`make_controller`, the run builder
+(:mod:`~mjchar.controllers.core.runs`), the CLI's choices and help, the bench matrix and the
+environments read this registry, so adding a controller touches no list anywhere else::
 
     from mjchar.controllers.core.registry import ControllerSpec, register
 
     register(ControllerSpec(
         name="my_balance", label="my balance controller", kind="balance",
         factory=lambda character, target=None, **options: MyBalance(**options),
-        scenarios=("stand", "push", "push-search", "random-push"), default_scenario="stand",
+        abilities=("stand",), default_scenario="stand",
         bench=("stand", "push-search"), expected=("stand",)))
 
 The registration sits at the bottom of the controller's module; the subpackage's ``__init__``
@@ -28,10 +29,9 @@ from dataclasses import dataclass
 from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.reference.reference_motion import FLOOR_MODES
 
-#: scenarios of ``mjchar run`` (see :mod:`mjchar.controllers.core.scenarios`)
-SCENARIOS = ("stand", "push", "push-search", "random-push", "track", "walk")
-#: scenarios of ``mjchar bench`` (``slopes``: walk up and down a slope)
-BENCH_SCENARIOS = ("stand", "random-push", "push-search", "walk", "track", "slopes")
+from .scenarios import registry as scenario_registry
+from .scenarios.registry import ABILITIES
+
 #: what a controller is, for the CLI and the bench: ``pd`` (the PD trackers: hold the standing
 #: pose or follow the reference; hand-of-god wraps one), ``balance`` (balance controllers, on a
 #: pose or a clip), ``walker`` (walks from its own start state, no reference), ``replay`` (plays
@@ -57,14 +57,17 @@ class ControllerSpec:
         factory: ``factory(character, target=None, **options) -> controller``; ``target`` is what
             trackers follow (a pose ``(nq,)`` or a ReferenceMotion), walkers ignore it; replays
             take ``trajectory=`` (a saved trajectory or its path).
-        scenarios: the ``mjchar run`` scenarios it supports (a subset of :data:`SCENARIOS`).
+        abilities: what it can do (:data:`~mjchar.controllers.core.scenarios.registry.ABILITIES`:
+            ``stand``, ``track``, ``walk``, ``replay``); the scenarios it runs are those that ask
+            for one of them (:meth:`scenarios`).
         default_scenario: the scenario ``mjchar run NAME`` runs when none is given.
         options: the factory keyword options the CLI may pass (e.g. ``speed``, ``gait``;
             ``params``: it takes its tunables as keywords, from ``mjchar run --param``).
-        timestep: its default physics time step in s (``None``: the model's own).
+        timestep: its physics time step in s (``None``: the model's own), applied by
+            :func:`make_controller` unless the character's step was chosen.
         steps: recovers from pushes by stepping (a push then counts as survived with a step).
         push: how the bench's push-search pushes it (:data:`PUSH_MODES`).
-        bench: the ``mjchar bench`` scenarios it runs (a subset of :data:`BENCH_SCENARIOS`).
+        bench: the ``mjchar bench`` scenarios it runs by default (among :meth:`scenarios`).
         expected: bench scenarios it must survive (a fall makes ``mjchar bench`` exit 1).
         trajectory_prefixes: replays: saved-trajectory file names (``PREFIX*.npz``) it plays by
             default, looked for in the bundled trajectories.
@@ -89,7 +92,7 @@ class ControllerSpec:
     label: str
     kind: str
     factory: Callable[..., object]
-    scenarios: tuple[str, ...]
+    abilities: tuple[str, ...]
     default_scenario: str
     options: tuple[str, ...] = ()
     timestep: float | None = None
@@ -102,6 +105,15 @@ class ControllerSpec:
     speed_leg_length: float | None = None
     speed_every_body: tuple[float, float] | None = None
     floor: str = "contact"
+
+    def scenarios(self) -> tuple[str, ...]:
+        """The registered scenarios it runs (those asking for one of its :attr:`abilities`), in
+        registration order."""
+        return tuple(s.name for s in scenario_registry.specs() if s.suits(self))
+
+    def runs(self, scenario: str) -> bool:
+        """Whether it runs ``scenario`` (a registered scenario name)."""
+        return scenario_registry.get(scenario).suits(self)
 
     def limit(self, option: str, leg_length: float | None = None) -> tuple[float, float] | None:
         """``(low, high)`` of ``option`` from :attr:`limits`, ``None`` when unlimited; the
@@ -129,12 +141,14 @@ class ControllerSpec:
             raise bad(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         if not callable(self.factory):
             raise bad("the factory must be callable")
-        if not self.scenarios or any(s not in SCENARIOS for s in self.scenarios):
-            raise bad(f"scenarios must be among {', '.join(SCENARIOS)}, got {self.scenarios}")
-        if self.default_scenario not in self.scenarios:
-            raise bad(f"the default scenario {self.default_scenario!r} is not supported")
-        if any(s not in BENCH_SCENARIOS for s in self.bench):
-            raise bad(f"bench scenarios must be among {', '.join(BENCH_SCENARIOS)}, "
+        if not self.abilities or any(a not in ABILITIES for a in self.abilities):
+            raise bad(f"abilities must be among {', '.join(ABILITIES)}, got {self.abilities}")
+        runs = self.scenarios()
+        if self.default_scenario not in runs:
+            raise bad(f"the default scenario {self.default_scenario!r} is not one it runs "
+                      f"({', '.join(runs)})")
+        if any(s not in runs for s in self.bench):
+            raise bad(f"bench scenarios must be among the ones it runs ({', '.join(runs)}), "
                       f"got {self.bench}")
         if any(s not in self.bench for s in self.expected):
             raise bad(f"expected scenarios {self.expected} must be bench scenarios")
@@ -198,16 +212,26 @@ def default_timestep(name: str) -> float | None:
 
 
 def make_controller(name: str, character, target=None, **options):
-    """Build controller ``name`` for ``character`` through its registered factory.
+    """Build controller ``name`` for ``character`` through its registered factory, and give the
+    character the physics time step the controller needs.
+
+    The time step becomes the controller's own (a replay's trajectory step), its registered
+    :attr:`ControllerSpec.timestep` or the model's own, unless the character's step was chosen
+    (``Character(timestep=...)`` or ``set_timestep``), which is kept: a caller never has to
+    remember a controller's step, and an explicit choice is never overridden.
 
     Args:
         name: a registered controller (:func:`names`).
-        character: the :class:`~mjchar.controllers.core.character.Character` (used for defaults
-        only;
-            the controller is reset on it later).
+        character: the :class:`~mjchar.controllers.core.character.Character` it will run on
+            (``None``: build only, nothing applied).
         target: what trackers follow (a pose ``(nq,)`` or a ReferenceMotion); balance
             controllers hold it when it is a pose; walkers ignore it.
         options: keyword options of the factory (e.g. ``gains``, ``tracker`` for hand-of-god,
             ``height`` for static balance, ``gait`` for SIMBICON, ``speed``/``heading`` for IPM).
     """
-    return get(name).factory(character, target, **options)
+    spec = get(name)
+    controller = spec.factory(character, target, **options)
+    if character is not None and not character.timestep_chosen:
+        dt = getattr(controller, "timestep", None) or spec.timestep or character.model_timestep
+        character.set_timestep(dt, chosen=False)
+    return controller

@@ -64,7 +64,6 @@ import numpy as np
 from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
-from ..core.registry import ControllerSpec, register
 from .executors import Executor, LocalExecutor
 from .rollout import RolloutRequest
 from .tracking import (
@@ -77,7 +76,7 @@ from .tracking import (
     sampling_widths,
     tracking_rollout_model,
 )
-from .trajectory import Trajectory, make_replay, model_fingerprint
+from .trajectory import Trajectory, model_fingerprint, register_replay
 
 __all__ = ["DISTRIBUTIONS", "RECONSTRUCTION_OPTIONS", "Samcon", "SamconError", "SamconOptions",
            "SamconResult", "select_diverse", "slice_layout"]
@@ -564,7 +563,4 @@ def _options_dict(o: SamconOptions) -> dict:
     return d
 
 
-register(ControllerSpec(
-    name="samcon_replay", label="SAMCON trajectory replay", kind="replay", factory=make_replay,
-    scenarios=("track",), default_scenario="track", options=("trajectory",),
-    bench=("track",), trajectory_prefixes=("samcon",)))
+register_replay("samcon_replay", "SAMCON trajectory replay", ("samcon",), bench=("track",))

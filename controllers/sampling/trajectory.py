@@ -50,12 +50,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjchar.bvh.bundled.assets import find_trajectory
 from mjchar.bvh.errors import MjcharError
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.metrics import Result
-from ..core.registry import ControllerSpec, register
+from ..core.registry import ControllerSpec, make_controller, register
 
 __all__ = [
     "FORMAT", "FORMAT_VERSION", "TrajectoryError", "Trajectory", "StoredReference",
@@ -347,20 +348,6 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
     return traj
 
 
-def find_trajectory(prefixes: tuple[str, ...], directory: str | os.PathLike | None = None
-                    ) -> Path | None:
-    """The first saved trajectory (``*.npz``, sorted by name) in ``directory`` (default: the
-    bundled ``assets/trajectories``) whose file name starts with one of ``prefixes`` (case
-    insensitive), or ``None``."""
-    from mjchar.bvh.bundled.assets import TRAJECTORIES
-
-    d = Path(TRAJECTORIES if directory is None else directory)
-    if not prefixes or not d.is_dir():
-        return None
-    return next((f for f in sorted(d.glob("*.npz")) if f.name.lower().startswith(prefixes)),
-                None)
-
-
 class StoredReference:
     """The reference a trajectory was optimised against, from its ``reference_qpos`` rows.
 
@@ -426,8 +413,9 @@ class ReplayController:
 
     At simulated time ``t`` it sends ``targets[i]`` with ``i = round(t / control_dt)`` (the last
     row after the end), and clears the solver warm start at the trajectory's
-    ``warmstart_resets``, as the optimiser's rollouts did. Run it with ``control_dt`` equal to
-    the trajectory's (``replay`` does).
+    ``warmstart_resets``, as the optimiser's rollouts did. It brings what a run of it needs: its
+    physics step (:attr:`timestep`, applied by ``make_controller``), and :meth:`play`, which the
+    ``track`` scenario calls: the trajectory's start state, control step and stored reference.
 
     Args:
         trajectory: a :class:`Trajectory` or a path to one.
@@ -441,6 +429,11 @@ class ReplayController:
                            else load_trajectory(trajectory))
         self._resets = set(int(i) for i in self.trajectory.warmstart_resets)
         self._bound = False
+
+    @property
+    def timestep(self) -> float:
+        """The physics step (s) the trajectory was optimised at (a replay needs it exactly)."""
+        return self.trajectory.timestep
 
     def reset(self, character: Character) -> None:
         """Check that the trajectory fits ``character`` (model, time step) and switch it to
@@ -467,6 +460,48 @@ class ReplayController:
         return Action(target=tr.targets[min(max(i, 0), tr.n_controls - 1)])
 
 
+    def play(self, character: Character, *, duration: float | None = None,
+             stop_on_fall: bool = True, frame_callback=None, reference=None,
+             push=None) -> Result:
+        """Play the trajectory open-loop on ``character`` from its initial state and report the
+        usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
+        from ..core.scenarios.simulate import simulate, with_push
+
+        tr = self.trajectory
+        tr.validate(character.model)
+        if reference is None and tr.reference_qpos is not None:
+            reference = StoredReference(character.model, tr.reference_qpos, tr.control_dt,
+                                        character.joint_bodies)
+        duration = tr.duration if duration is None else float(duration)
+        stats = {"min_root": math.inf, "clear": 0.0}
+
+        def watch(ch: Character) -> None:
+            stats["min_root"] = min(stats["min_root"], ch.root_height)
+            stats["clear"] = max(stats["clear"], ch.lowest_point(ch.qpos))
+            if frame_callback is not None:
+                frame_callback(ch)
+
+        if push is not None and push.end > duration + 1e-9:
+            raise TrajectoryError(f"the push ({push.time} s + {push.duration} s) ends after the "
+                                  f"replay ({duration:.2f} s)")
+        result = simulate(character, self, duration=duration, scenario="replay",
+                          qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
+                          control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
+                          **with_push(push, {"frame_callback": watch}))
+        if push is not None:
+            result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
+        extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
+                 "final_root_height_m": character.root_height,
+                 "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
+        if reference is not None:
+            ref_root = reference.body_positions(character.time)[character.root_body]
+            extra["final_root_error_m"] = float(np.linalg.norm(character.root_position - ref_root))
+        if tr.source_motion:
+            extra["source_motion"] = tr.source_motion
+        result.extra.update(extra)
+        return result
+
+
 def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
            duration: float | None = None, stop_on_fall: bool = True,
            frame_callback=None, reference=None, push=None) -> Result:
@@ -481,60 +516,50 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         frame_callback: called after every control step (video capture).
         reference: a ReferenceMotion to measure tracking against (default: the stored
             reference rows; none for a task trajectory).
-        push: one push during the replay (a ``mjchar.controllers.core.scenarios.PushEvent``).
+        push: one push during the replay (a
+            :class:`~mjchar.controllers.core.scenarios.simulate.PushEvent`).
 
     Returns:
         a :class:`~mjchar.controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra``
-        holds ``final_root_error_m`` (3-D distance between the simulated and reference root at the
-        end, m), ``min_root_height_m``, ``max_clearance_m`` (largest height of the character's
-        lowest point above the floor, m: flight) and ``final_root_height_m``.
+        holds ``final_root_error_m`` (3-D distance between the simulated and reference root at
+        the end, m), ``min_root_height_m``, ``max_clearance_m`` (largest height of the
+        character's lowest point above the floor, m: flight) and ``final_root_height_m``.
     """
-    from ..core.scenarios import simulate, with_push
-
-    tr = trajectory if isinstance(trajectory, Trajectory) else load_trajectory(trajectory)
     character = Character(model)
-    character.set_timestep(tr.timestep)
-    tr.validate(character.model)
-    if reference is None and tr.reference_qpos is not None:
-        reference = StoredReference(character.model, tr.reference_qpos, tr.control_dt,
-                                    character.joint_bodies)
-    controller = ReplayController(tr)
-    duration = tr.duration if duration is None else float(duration)
-    stats = {"min_root": math.inf, "clear": 0.0}
-
-    def watch(ch: Character) -> None:
-        stats["min_root"] = min(stats["min_root"], ch.root_height)
-        stats["clear"] = max(stats["clear"], ch.lowest_point(ch.qpos))
-        if frame_callback is not None:
-            frame_callback(ch)
-
-    if push is not None and push.end > duration + 1e-9:
-        raise TrajectoryError(f"the push ({push.time} s + {push.duration} s) ends after the "
-                              f"replay ({duration:.2f} s)")
-    result = simulate(character, controller, duration=duration, scenario="replay",
-                      qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
-                      control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
-                      **with_push(push, {"frame_callback": watch}))
-    if push is not None:
-        result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
-    extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
-             "final_root_height_m": character.root_height,
-             "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
-    if reference is not None:
-        ref_root = reference.body_positions(character.time)[character.root_body]
-        extra["final_root_error_m"] = float(np.linalg.norm(character.root_position - ref_root))
-    if tr.source_motion:
-        extra["source_motion"] = tr.source_motion
-    result.extra.update(extra)
-    return result
+    controller = make_controller("replay", character, trajectory=trajectory)
+    return controller.play(character, duration=duration, stop_on_fall=stop_on_fall,
+                           frame_callback=frame_callback, reference=reference, push=push)
 
 
 def make_replay(character: Character | None = None, target=None, *,
-                trajectory: Trajectory | str | os.PathLike) -> ReplayController:
-    """A :class:`ReplayController` of ``trajectory`` (a :class:`Trajectory` or a saved file)."""
+                trajectory: Trajectory | str | os.PathLike | None = None,
+                prefixes: tuple[str, ...] = (), name: str = "replay") -> ReplayController:
+    """A :class:`ReplayController` of ``trajectory`` (a :class:`Trajectory` or a saved file);
+    without one, the first bundled trajectory whose file name starts with one of ``prefixes``
+    (a one-line error names the registered replay ``name`` when there is none)."""
+    if trajectory is None:
+        if not prefixes:
+            raise TrajectoryError(f"{name} needs the trajectory file: mjchar run {name} FILE")
+        trajectory = find_trajectory(prefixes)
+        if trajectory is None:
+            raise TrajectoryError(f"{name}: no bundled trajectory {prefixes[0]}*.npz; give one: "
+                                  f"mjchar run {name} FILE")
     return ReplayController(trajectory)
 
 
-register(ControllerSpec(
-    name="replay", label="saved trajectory replay", kind="replay", factory=make_replay,
-    scenarios=("track",), default_scenario="track", options=("trajectory",)))
+def register_replay(name: str, label: str, prefixes: tuple[str, ...] = (),
+                    bench: tuple[str, ...] = ()) -> ControllerSpec:
+    """Register a replay controller ``name``: it plays the trajectory it is given
+    (``mjchar run NAME FILE``), or without one the first bundled trajectory whose file name
+    starts with one of ``prefixes``."""
+    def factory(character=None, target=None, trajectory=None):
+        return make_replay(character, target, trajectory=trajectory, prefixes=prefixes,
+                           name=name)
+
+    return register(ControllerSpec(
+        name=name, label=label, kind="replay", factory=factory, abilities=("replay",),
+        default_scenario="track", options=("trajectory",), bench=bench,
+        trajectory_prefixes=prefixes))
+
+
+register_replay("replay", "saved trajectory replay")

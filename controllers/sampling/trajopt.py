@@ -42,7 +42,6 @@ import numpy as np
 from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
-from ..core.registry import ControllerSpec, register
 from .executors import Executor, LocalExecutor
 from .rollout import RolloutModel, RolloutRequest, RolloutResult
 from .tracking import (
@@ -58,7 +57,7 @@ from .tracking import (
     sampling_widths,
     tracking_rollout_model,
 )
-from .trajectory import Trajectory, make_replay
+from .trajectory import Trajectory, register_replay
 
 __all__ = [
     "TrajoptError", "TrajoptOptions", "TrajoptResult", "KnotSpline", "TrackingObjective",
@@ -640,7 +639,5 @@ def _rollout_one(rm: RolloutModel, state, targets, k) -> RolloutResult:
     return rollout(RolloutRequest(rm, state, np.asarray(targets)[None], k), threads=1)
 
 
-register(ControllerSpec(
-    name="cmaes_replay", label="CMA-ES trajectory replay", kind="replay", factory=make_replay,
-    scenarios=("track",), default_scenario="track", options=("trajectory",),
-    bench=("track",), trajectory_prefixes=("cmaes", "cma-es", "cma_es", "trajopt")))
+register_replay("cmaes_replay", "CMA-ES trajectory replay",
+                ("cmaes", "cma-es", "cma_es", "trajopt"), bench=("track",))

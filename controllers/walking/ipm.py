@@ -788,7 +788,7 @@ register(ControllerSpec(
     # no speed given (`mjchar run ipm`, `mjchar gait ipm`): 1 m/s
     factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
                                                                            **options),
-    scenarios=("stand", "push", "push-search", "random-push", "walk"), default_scenario="walk",
+    abilities=("walk", "stand"), default_scenario="walk",
     options=("speed", "heading", "params"), steps=True,
     # 60 s, no fall, steady speed within 0.15 m/s at 0.3-1.6 m/s on the bundled humanoid (0:
     # stops and stands; docs/ipm.md), the same Froude speeds on other bodies (as its parameters)

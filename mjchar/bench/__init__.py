@@ -17,7 +17,6 @@ and ``mjchar/bench/schema.json``.
 
 from .config import (
     DIRECTION_NAMES,
-    SCENARIOS,
     BenchConfig,
     BenchError,
     PerfConfig,
@@ -39,7 +38,7 @@ from .report import check_expectations, format_performance, format_table, markdo
 from .runner import exit_status, physics_view, run_bench, write_json
 from .schema import load_schema, validate
 
-__all__ = ["DIRECTION_NAMES", "SCENARIOS", "BenchConfig", "BenchError", "PerfConfig",
+__all__ = ["DIRECTION_NAMES", "BenchConfig", "BenchError", "PerfConfig",
            "availability", "bench_specs", "check_expectations", "exit_status",
            "expected_cells", "find_trajectories", "format_performance", "format_table",
            "full_config", "json_ready", "load_schema", "markdown_table", "matrix",

@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from mjchar.bvh.errors import MjcharError
-from mjchar.controllers.core.push_protocol import PushProtocol
-from mjchar.controllers.core.registry import BENCH_SCENARIOS
+from mjchar.controllers.core.scenarios.push_search import PushProtocol
 
 #: the project root (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,9 +21,6 @@ SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
 SCHEMA_NAME = "mjchar-bench"
 SCHEMA_VERSION = 1
 
-SCENARIOS = BENCH_SCENARIOS
-#: scenarios whose runs count in the survival column (push-search is a measurement)
-SURVIVAL_SCENARIOS = ("stand", "random-push", "walk", "track", "slopes")
 DIRECTION_NAMES = ("forward", "left", "backward", "right")
 #: keys of a run's result that are timings (the rest is physics, identical for equal seeds)
 TIMING_KEYS = ("wall_s", "steps_per_s")

@@ -43,22 +43,18 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
     (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the file, or
     says why there is none)."""
     from mjchar.bvh.gait.analysis import GaitError, analyse, clip_walk
-    from mjchar.controllers import registry
-    from mjchar.controllers.core import scenarios as S
-    from mjchar.controllers.core.character import Character
     from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.controllers.core.runs import RunSpec, execute
 
     start = min(GAIT_START_S, 0.25 * config.walk_duration)
     walks, falls, skipped = [], {}, {}
     for label, name, options in gait_walks(config, controllers):
-        spec = registry.get(name)
-        ch = Character(None)
-        if spec.timestep:
-            ch.set_timestep(spec.timestep)
-        ctrl = registry.make_controller(name, ch, None, **options)
         rec = MotionRecorder()
-        result = S.run_scenario("walk", ch, ctrl, duration=config.walk_duration,
-                                frame_callback=rec)
+        run = RunSpec(name, "walk", options=options,
+                      scenario_options={"duration": config.walk_duration}
+                      ).build(frame_callback=rec)
+        result = execute(run)
+        ch = run.character
         falls[label] = result.fall_time_s
         try:
             walks.append((analyse(ch.model, rec.times, rec.qpos, start=start,

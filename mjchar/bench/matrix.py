@@ -2,16 +2,18 @@
 
 The rows, their scenarios and the runs that must not fall come from the controller registry
 (:mod:`mjchar.controllers.core.registry`: each spec's ``bench`` and ``expected``), so a newly
-registered controller appears here with no other edit. Every run goes through the shared
-scenarios (:mod:`mjchar.controllers.core.scenarios`, :mod:`mjchar.controllers.core.terrain`,
-:func:`mjchar.controllers.sampling.trajectory.replay`), so each number is measured the way the tests
-and ``mjchar run`` measure it.
+registered controller appears here with no other edit; any other cell a controller runs (a
+newly registered scenario) can be selected. Every run is described as a
+:class:`~mjchar.controllers.core.runs.RunSpec` and built by the run builder, and each cell's runs
+(seeds, slopes, durations) come from its scenario's ``bench`` settings, so each number is
+measured the way the tests and ``mjchar run`` measure it.
 
-Scenarios (:data:`~mjchar.bench.config.SCENARIOS`):
+The built-in scenarios:
 
 - ``stand``: the standing pose, no disturbance.
 - ``random-push``: 10 N on the pelvis, new random direction every second, once per seed.
-- ``push-search``: the push protocol (:mod:`mjchar.controllers.core.push_protocol`): per direction
+- ``push-search``: the push protocol (:mod:`~mjchar.controllers.core.scenarios.push_search`): per
+  direction
   (forward, left, backward, right) the survival rate of 0.2 s pushes over ``push_phases``
   phases of the stride (walkers, on the chest) or moments (standing controllers, on the pelvis)
   x ``push_seeds`` seeds, on a force grid; the figures are the largest forces with rate 100 %
@@ -20,6 +22,8 @@ Scenarios (:data:`~mjchar.bench.config.SCENARIOS`):
 - ``track``: follow ``walk60`` (``../shared/data/bvh``) or the bundled walk; replays play a
   saved SAMCON / CMA-ES trajectory against its stored reference.
 - ``slopes``: walk up and down a ``slope_degrees`` slope.
+- any other registered scenario: the runs its ``bench`` settings give (by default one run at
+  its own defaults).
 
 Replays without a saved trajectory get a "not available" row instead of a crash.
 """
@@ -31,20 +35,24 @@ import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from mjchar.bvh.bundled.assets import TRAJECTORIES
+from mjchar.bvh.bundled.assets import TRAJECTORIES, find_trajectory
 from mjchar.bvh.errors import MjcharError
 from mjchar.controllers import registry
-from mjchar.controllers.core import scenarios as S
-from mjchar.controllers.core.push_protocol import PushTask, simulate_push, survival_rates
 from mjchar.controllers.core.registry import ControllerSpec
-from mjchar.controllers.core.terrain import slope_walk, walk
-from mjchar.controllers.sampling.trajectory import find_trajectory
+from mjchar.controllers.core.runs import RunSpec, execute
+from mjchar.controllers.core.scenarios import registry as scenario_registry
+from mjchar.controllers.core.scenarios.push_search import (
+    PushTask,
+    simulate_push,
+    survival_rates,
+)
 
-from .config import SCENARIOS, SHARED_BVH, BenchConfig, BenchError, relative_path
+from .config import SHARED_BVH, BenchConfig, BenchError, relative_path
 
 
 # -- the matrix: read from the controller registry -----------------------------------------------
@@ -106,16 +114,21 @@ def _spec(name: str) -> ControllerSpec:
 def select_cells(controllers: Iterable[str] | None = None,
                  scenarios: Iterable[str] | None = None) -> list[tuple[str, str]]:
     """The ``(controller, scenario)`` cells of :func:`matrix` among the chosen ones (default:
-    all), in matrix order. Unknown names raise :class:`BenchError`."""
+    all), in matrix order; a scenario named explicitly also selects the cells of controllers
+    that run it outside their default bench list. Unknown names raise :class:`BenchError`."""
     table = matrix()
+    known = scenario_registry.names()
     cs = list(table) if controllers is None else list(dict.fromkeys(controllers))
-    ss = list(SCENARIOS) if scenarios is None else list(dict.fromkeys(scenarios))
+    ss = list(known) if scenarios is None else list(dict.fromkeys(scenarios))
     for c in cs:
         _spec(c)
     for s in ss:
-        if s not in SCENARIOS:
-            raise BenchError(f"unknown scenario {s!r}; choose from {', '.join(SCENARIOS)}")
+        if s not in known:
+            raise BenchError(f"unknown scenario {s!r}; choose from {', '.join(known)}")
     cells = [(c, s) for c in table for s in table[c] if c in cs and s in ss]
+    if scenarios is not None:
+        extra = [s for s in ss if not any(s == cell[1] for cell in cells)]
+        cells += [(c, s) for c in cs for s in extra if _spec(c).runs(s)]
     if not cells:
         raise BenchError(f"no cell of the matrix has controller(s) {', '.join(cs)} and "
                          f"scenario(s) {', '.join(ss)}; the matrix: "
@@ -178,38 +191,38 @@ class _LazyVideo:
 
 
 class BenchContext:
-    """What the cells share: the pristine model, the references, the trajectories, videos."""
+    """What the cells share: the pristine model, the trajectories, the settings, videos."""
 
     def __init__(self, config: BenchConfig, trajectories: dict[str, Path],
                  video_dir: Path | None, log: Callable[[str], None]):
         from mjchar.controllers.core.character import Character
 
         self.config = config
+        self.settings = asdict(config)  # what the scenarios' bench settings read
         self.base_model = Character().model  # pristine; every run copies it
         self.trajectories = trajectories
         self.video_dir = video_dir
         self.log = log
         self.track_motion = default_track_motion()
-        self._refs: dict[tuple[str, str], object] = {}
         self._trajs: dict[str, object] = {}
         self.videos: list[dict] = []
 
+    def describe(self, name: str, scenario: str, options: dict | None = None,
+                 seed: int | None = None) -> RunSpec:
+        """A bench run of controller ``name`` in ``scenario`` (the bundled humanoid; the track
+        clip; the bench's walking speed for walkers that can also stand)."""
+        spec = _spec(name)
+        factory = factory_options(spec, scenario, self.config)
+        if spec.kind == "replay":
+            factory["trajectory"] = self.trajectories[name]
+        return RunSpec(name, scenario, model=self.base_model, motion=self.track_motion,
+                       seed=seed, options=factory, scenario_options=dict(options or {}))
+
     def character(self, timestep: float | None = None):
+        """A fresh Character of the bundled humanoid (for the performance measurements)."""
         from mjchar.controllers.core.character import Character
 
         return Character(self.base_model, timestep=timestep)
-
-    def reference(self, path: Path, floor: str = "contact"):
-        """The clip at ``path`` as a ReferenceMotion placed by ``floor`` (cached)."""
-        key = (str(path), floor)
-        if key not in self._refs:
-            from mjchar import bvh
-            from mjchar.bvh.reference.reference_motion import ReferenceMotion
-
-            ch = self.character()
-            self._refs[key] = ReferenceMotion(ch.model, bvh.load(path), info=ch.info,
-                                              floor=floor)
-        return self._refs[key]
 
     def trajectory(self, name: str):
         if name not in self._trajs:
@@ -232,19 +245,6 @@ def default_track_motion() -> Path:
     from mjchar.bvh.bundled.assets import motion_path
 
     return motion_path("walk")
-
-
-def build_controller(ctx: BenchContext, name: str, scenario: str, reference=None):
-    """A fresh ``(character, controller)`` for one run (as ``mjchar run`` builds them: PD
-    trackers follow the reference in track/walk and hold the standing pose otherwise)."""
-    ch = ctx.character(registry.default_timestep(name))
-    spec = _spec(name)
-    if spec.kind in ("pd", "balance"):
-        target = reference if reference is not None else S.standing_pose(ch)
-        return ch, registry.make_controller(name, ch, target)
-    if spec.kind == "replay":  # replays go through trajectory.replay
-        raise BenchError(f"{name} is a replay: it is not built by build_controller")
-    return ch, registry.make_controller(name, ch, **factory_options(spec, scenario, ctx.config))
 
 
 def _result_run(variant: str, seed, r, probe: _Probe, frames: int | None = None) -> dict:
@@ -281,81 +281,65 @@ def _run_one(ctx: BenchContext, cell_video: list, variant: str, seed, reference,
 
 
 def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
-    """All runs of one cell (a list of run records, see docs/bench.md)."""
-    cfg = ctx.config
-    spec = _spec(name)
+    """All runs of one cell (a list of run records, see docs/bench.md): the scenario's bench
+    settings give the runs, the run builder builds each."""
     vid = ctx.video(name, scenario)
     cell_video = [vid] if vid is not None else []
-    runs: list[dict] = []
 
     def progress(msg: str) -> None:
         ctx.log(f"  {name} / {scenario}: {msg}")
 
-    if scenario == "stand":
-        ch, c = build_controller(ctx, name, scenario)
-        runs.append(_run_one(ctx, cell_video, "stand", None, None, lambda cb: S.stand(
-            ch, c, duration=cfg.stand_duration, frame_callback=cb)))
-    elif scenario == "random-push":
-        for s in cfg.seeds:
-            ch, c = build_controller(ctx, name, scenario)
-            runs.append(_run_one(ctx, cell_video, f"seed {s}", s, None, lambda cb, ch=ch, c=c,
-                                 s=s: S.random_push(ch, c, seed=int(s),
-                                                    force=cfg.random_push_force,
-                                                    duration=cfg.random_push_duration,
-                                                    frame_callback=cb)))
-    elif scenario == "push-search":
-        runs.append(_push_search(ctx, cell_video, name, progress))
-    elif scenario == "walk":
-        for s in _walk_seeds(ctx, name, scenario):
-            ch, c = build_controller(ctx, name, scenario)
-            runs.append(_run_one(ctx, cell_video, _seed_label(s), s, None, lambda cb, ch=ch, c=c,
-                                 s=s: walk(ch, c, duration=cfg.walk_duration, seed=s,
-                                           steady_window=cfg.steady_window,
-                                           frame_callback=cb)))
-    elif scenario == "slopes":
-        for deg in (abs(cfg.slope_degrees), -abs(cfg.slope_degrees)):
-            for s in _walk_seeds(ctx, name, scenario):
-                ch, c = build_controller(ctx, name, scenario)
-                runs.append(_run_one(
-                    ctx, cell_video, f"{deg:+g} deg, {_seed_label(s)}", s, None,
-                    lambda cb, ch=ch, c=c, s=s, deg=deg: slope_walk(
-                        ch, c, degrees=deg, distance=cfg.slope_distance,
-                        duration=cfg.slope_duration, seed=s, frame_callback=cb)))
-    elif scenario == "track":
-        if spec.kind == "replay":
-            runs.append(_replay_run(ctx, cell_video, name))
-        else:
-            ref = ctx.reference(ctx.track_motion, spec.floor)
-            ch, c = build_controller(ctx, name, scenario, ref)
-            runs.append(_run_one(ctx, cell_video, ctx.track_motion.name, None, ref,
-                                 lambda cb: S.track(ch, c, ref, duration=cfg.track_duration,
-                                                    frame_callback=cb)))
+    sspec = scenario_registry.get(scenario)
+    if sspec.protocol:
+        runs = [_push_search(ctx, cell_video, name, progress)]
     else:
-        raise BenchError(f"unknown scenario {scenario!r}")
+        probe = ctx.describe(name, scenario).build()
+        bench_runs = sspec.bench(ctx.settings, probe.controller)
+        runs = []
+        for br in bench_runs:
+            built = ctx.describe(name, scenario, {k: v for k, v in br.options.items()
+                                                  if k != "seed" and v is not None},
+                                 br.options.get("seed", br.seed)).build()
+            label = (ctx.trajectories[name].name if _spec(name).kind == "replay"
+                     else ctx.track_motion.name if built.reference is not None else br.label)
+            reference = built.reference if built.reference is not None else _stored(built)
+
+            def go(cb, built=built):
+                built.frame_callback = cb
+                return execute(built)
+
+            runs.append(_run_one(ctx, cell_video, label, br.seed, reference, go))
     for run in runs:
         run["result"]["controller"] = name  # e.g. "replay" -> the row's name
     return runs
 
 
-def _walk_seeds(ctx: BenchContext, name: str, scenario: str) -> list[int | None]:
-    """The seeds of a walk: every seed for a controller whose start state is perturbed from the
-    seed (it has ``start_state``), else one run without a seed (every seed would give the same
-    run)."""
-    _, c = build_controller(ctx, name, scenario)
-    return [int(s) for s in ctx.config.seeds] if hasattr(c, "start_state") else [None]
+def _stored(built):
+    """A replay's stored reference (its tracking-error series), else ``None``."""
+    if not hasattr(built.controller, "play"):
+        return None
+    tr = built.controller.trajectory
+    if tr.reference_qpos is None:
+        return None
+    from mjchar.controllers.sampling.trajectory import StoredReference
+
+    ch = built.character
+    return StoredReference(ch.model, tr.reference_qpos, tr.control_dt, ch.joint_bodies)
 
 
-def _seed_label(seed) -> str:
-    return "no seed (deterministic start)" if seed is None else f"seed {seed}"
+def build_controller(ctx: BenchContext, name: str, scenario: str):
+    """A fresh ``(character, controller)`` of a bench run (built as every run is)."""
+    built = ctx.describe(name, scenario).build()
+    return built.character, built.controller
 
 
 def factory_options(spec, scenario: str, config: BenchConfig) -> dict:
-    """Factory options of a bench run: walkers that take a speed and can stand (speed 0 within
-    their limits: IPM) walk at ``ipm_speed`` in the walking scenarios and stand (speed 0)
-    otherwise; walkers that only walk (SIMBICON) walk at their own gait's speed."""
-    lim = spec.limit("speed")
-    if "speed" in spec.options and (lim is None or lim[0] <= 0.0):
-        return {"speed": config.ipm_speed if scenario in ("walk", "slopes") else 0.0}
+    """Factory options of a bench run: walkers that take a speed and can also stand (IPM) walk
+    at ``ipm_speed`` where they move (the run builder makes them stand still elsewhere);
+    walkers that only walk (SIMBICON) walk at their own gait's speed."""
+    moving = scenario_registry.get(scenario).moving
+    if "speed" in spec.options and "stand" in spec.abilities and moving:
+        return {"speed": config.ipm_speed}
     return {}
 
 
@@ -366,13 +350,11 @@ def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> di
     cfg = ctx.config
     spec = _spec(name)
     protocol = cfg.push_protocol(spec.push)
-    options = factory_options(spec, "push-search", cfg)
-    rates = survival_rates(name, protocol, options=options, processes=cfg.push_processes,
-                           progress=progress)
+    run = RunSpec(name, "push-search", options=factory_options(spec, "push-search", cfg))
+    rates = survival_rates(run, protocol, processes=cfg.push_processes, progress=progress)
     weakest = min(protocol.directions, key=lambda d: rates.largest_100_N.get(d, 0.0))
     force = 0.0 if rates.falls_unpushed else rates.largest_100_N[weakest]
-    task = PushTask(name, weakest, force, 0.0, protocol.seeds[0], protocol, None,
-                    tuple(sorted(options.items())))
+    task = PushTask(run, weakest, force, 0.0, protocol.seeds[0], protocol)
 
     def film(cb):
         r, _ = simulate_push(task, frame_callback=cb)
@@ -380,24 +362,10 @@ def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> di
         r.max_push_by_direction_N = None if rates.falls_unpushed else dict(rates.largest_100_N)
         return r
 
-    run = _run_one(ctx, cell_video, f"{weakest} {force:g} N, phase 0 (filmed)",
-                   protocol.seeds[0], None, film)
-    run["push"] = rates.to_dict()
-    return run
-
-
-def _replay_run(ctx: BenchContext, cell_video: list, name: str) -> dict:
-    from mjchar.controllers.sampling.trajectory import StoredReference, replay
-
-    tr = ctx.trajectory(name)
-    ref = None
-    if tr.reference_qpos is not None:
-        ch = ctx.character(tr.timestep)
-        ref = StoredReference(ch.model, tr.reference_qpos, tr.control_dt, ch.joint_bodies)
-    path = ctx.trajectories[name]
-    return _run_one(ctx, cell_video, path.name, None, ref,
-                    lambda cb: replay(tr, model=ctx.base_model, frame_callback=cb,
-                                      reference=ref))
+    record = _run_one(ctx, cell_video, f"{weakest} {force:g} N, phase 0 (filmed)",
+                      protocol.seeds[0], None, film)
+    record["push"] = rates.to_dict()
+    return record
 
 
 def summarise_cell(runs: list[dict]) -> dict:

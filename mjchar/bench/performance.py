@@ -12,7 +12,7 @@ from pathlib import Path
 
 from mjchar.controllers import registry
 from mjchar.controllers.core import scenarios as S
-from mjchar.controllers.core.terrain import place_on_floor
+from mjchar.controllers.core.scenarios.terrain import place_on_floor
 
 from .config import SHARED_BVH, BenchConfig, BenchError, PerfConfig
 from .matrix import BenchContext, availability, build_controller, progress_bar

@@ -199,7 +199,7 @@ def _walker(name: str, speeds: Callable[[SkeletonConfig], tuple[float, ...]]) ->
 
     def check(rig, rec, cfg: SkeletonConfig) -> dict:
         from mjchar.controllers import registry
-        from mjchar.controllers.core.terrain import walk
+        from mjchar.controllers.core.scenarios import walk
 
         runs, falls, off = {}, [], []
         for v in speeds(cfg) or (None,):

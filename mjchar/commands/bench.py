@@ -11,7 +11,8 @@ from .argtypes import integer
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``bench`` subcommand to ``mjchar``'s subparsers (rows and scenarios from the
     controller registry)."""
-    from ..bench.config import SCENARIOS
+    from mjchar.controllers.core.scenarios import registry as scenarios
+
     from ..bench.matrix import bench_specs, matrix
 
     controllers = tuple(matrix())
@@ -27,8 +28,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="short durations, coarse push searches, 2 seeds, quick performance runs")
     p.add_argument("--controllers", nargs="+", choices=controllers, metavar="C",
                    help="controllers to run (default all): " + ", ".join(controllers))
-    p.add_argument("--scenarios", nargs="+", choices=SCENARIOS, metavar="S",
-                   help="scenarios to run (default all): " + ", ".join(SCENARIOS))
+    p.add_argument("--scenarios", nargs="+", choices=scenarios.names(), metavar="S",
+                   help="scenarios to run (default: each controller's bench scenarios): "
+                        + ", ".join(scenarios.names()))
     p.add_argument("--out", default="bench_out", metavar="DIR",
                    help="output folder (default bench_out)")
     p.add_argument("--seeds", type=integer("seeds", minimum=1), metavar="N",

@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 
 from .argtypes import integer, non_negative, number, positive
-from .run_options import check_speed
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -50,11 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _walker_stats(args, spec):
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.gait.analysis import analyse
-    from mjchar.controllers import registry
-    from mjchar.controllers.core import scenarios as S
-    from mjchar.controllers.core import terrain
-    from mjchar.controllers.core.character import Character
     from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.controllers.core.runs import RunSpec, execute
 
     options = {}
     for name, value in (("speed", args.speed), ("gait", args.gait)):
@@ -63,23 +59,17 @@ def _walker_stats(args, spec):
         if name not in spec.options:
             raise MjcharError(f"--{name} does not apply to {spec.name}")
         options[name] = value
-    character = Character(args.model)
-    if args.speed is not None:
-        check_speed(spec, args.speed, character)
-    if spec.timestep:
-        character.set_timestep(spec.timestep)
-    controller = registry.make_controller(spec.name, character, None, **options)
-    recorder = MotionRecorder()
     duration = 20.0 if args.duration is None else args.duration
     start = 3.0 if args.start is None else args.start
     if start >= duration:
         raise MjcharError(f"--from {start:g} must be before the end of the {duration:g} s run")
-    if args.seed is None:  # from the standing pose, as `mjchar run` and the bench walk
-        result = S.run_scenario("walk", character, controller, duration=duration,
-                                frame_callback=recorder)
-    else:  # the seeded start of the terrain walks (mjchar.controllers.core.terrain.walk)
-        result = terrain.walk(character, controller, duration=duration, seed=args.seed,
-                              frame_callback=recorder)
+    # from the standing pose, as `mjchar run` and the bench walk; with --seed from the
+    # walker's own seeded start
+    recorder = MotionRecorder()
+    run = RunSpec(spec.name, "walk", model=args.model, seed=args.seed, options=options,
+                  scenario_options={"duration": duration}).build(frame_callback=recorder)
+    result = execute(run)
+    character = run.character
     label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])
                      + ([f"{options['speed']:g} m/s"] if "speed" in options else []))
     stats = analyse(character.model, recorder.times, recorder.qpos, start=start,

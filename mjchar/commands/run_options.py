@@ -1,11 +1,17 @@
-"""Which options of ``mjchar run`` apply where, their defaults, and the ranges they accept.
+"""Which options of ``mjchar run`` apply where, and the ranges they accept.
+
+The options come from three places: the controller's factory options (``--speed``, ``--gait``,
+``--param``...; a controller registers which it takes), the run's own (``--motion``,
+``--timestep``, ``--render``...) and the scenarios' options, each declared once with its flag by
+the scenario registry (``--push``, ``--duration``, ``--seed``...; a new scenario's options get
+their flags with no edit here).
 
 Every option is parsed with the default ``None`` so that an option the user typed can be told
 from one left alone. :func:`check_applicable` then refuses, in one line (exit status 2), any
-typed option that the chosen controller and scenario would not use; :func:`fill_defaults` puts
-the real defaults in; :func:`check_ranges` refuses values outside what the controller supports
-(speeds from the controller's registered limits, headings, push forces relative to the body's
-weight, durations, time steps, frame rates). Nothing is ever silently ignored.
+typed option that the chosen controller and scenario would not use; :func:`check_ranges`
+refuses values outside what the run supports (durations, time steps, frame rates, push forces
+relative to the body's weight; walking speeds are checked by the run builder against the
+controller's registered limits). Nothing is ever silently ignored.
 """
 
 from __future__ import annotations
@@ -19,202 +25,160 @@ from mjchar.bvh.errors import MjcharError
 
 #: push forces (``--push``, ``--max-force``) above this many body weights are refused
 MAX_PUSH_BODY_WEIGHTS = 10.0
-#: longest run ``mjchar run`` accepts, simulated seconds
-MAX_DURATION_S = 3600.0
 #: largest physics time step accepted, s (explicit contact dynamics are unstable far above)
 MAX_TIMESTEP_S = 0.01
 #: headings are degrees in [-MAX_HEADING_DEG, MAX_HEADING_DEG]
 MAX_HEADING_DEG = 360.0
 #: frame rates of videos and BVH exports
 MAX_FPS = 1000.0
-#: push-search grid limits
-MAX_PHASES, MAX_SEEDS = 64, 100
 #: a squat deeper than this fraction of the standing height is refused
 MAX_SQUAT_FRACTION = 0.4
+#: the push time when ``--push-time`` is not given (s), as the scenarios default it
+DEFAULT_PUSH_TIME = 1.0
 
-Applies = Callable[[object, str], bool]  # (ControllerSpec, scenario) -> used?
-
-
-def _scenarios(*names: str) -> Applies:
-    return lambda spec, scenario: scenario in names
-
-
-def _option(name: str, scenarios: tuple[str, ...] | None = None) -> Applies:
-    """Used by controllers whose factory takes ``name`` (in ``scenarios`` when given)."""
-    return lambda spec, scenario: (name in spec.options
-                                   and (scenarios is None or scenario in scenarios))
-
-
-def _not_replay(*but: str) -> Applies:
-    return lambda spec, scenario: spec.kind != "replay" and scenario not in but
-
-
-def _with_reference(spec, scenario: str) -> bool:
-    """A reference clip is loaded: track, and walk for the trackers (walkers walk alone)."""
-    return spec.kind != "replay" and (scenario == "track"
-                                      or (scenario == "walk" and spec.kind != "walker"))
+Applies = Callable[[object, object], bool]  # (ControllerSpec, ScenarioSpec) -> used?
 
 
 @dataclass(frozen=True)
-class Option:
-    """One option of ``mjchar run``: its flag, default and where it is used.
+class CliOption:
+    """One option of ``mjchar run``: its flag and where it is used.
 
     Attributes:
         dest: the argparse attribute.
         flag: as typed (``--speed``).
-        default: the value when not typed.
-        applies: ``applies(spec, scenario)``: the option is used there.
-        where: where it is used, for the error message (``{names}`` is filled with the
-            controllers whose factory takes the option).
+        applies: ``applies(controller_spec, scenario_spec)``: the option is used there.
+        where: where it is used, for the error message.
+        scenario: the option is a scenario's (passed to its runner).
     """
 
     dest: str
     flag: str
-    default: object
     applies: Applies
-    where: str
+    where: Callable[[], str]
+    scenario: bool = False
 
 
-OPTIONS: tuple[Option, ...] = (
-    # not typed: the controller's own speed (its factory's default: IPM 1 m/s, SIMBICON its gait's)
-    Option("speed", "--speed", None, _option("speed", ("walk",)),
-           "the walk scenario of {names}"),
-    Option("heading", "--heading", None, _option("heading"), "{names}"),
-    Option("gait", "--gait", "walk", _option("gait"), "{names}"),
-    Option("tracker", "--tracker", "spd", _option("tracker"), "{names}"),
-    Option("squat", "--squat", None, _option("height"), "{names}"),
-    Option("param", "--param", (), _option("params"), "{names}"),
-    Option("motion", "--motion", None, _with_reference,
-           "the track scenario, and the walk scenario of the trackers (not walkers, replays)"),
-    Option("loop", "--loop", False, _with_reference,
-           "runs with a reference clip (--motion): track, and walk for the trackers"),
-    Option("floor", "--floor", None, _with_reference,
-           "runs with a reference clip (--motion): track, and walk for the trackers"),
-    Option("duration", "--duration", None, _scenarios("stand", "push", "random-push", "track",
-                                                      "walk"),
-           "every scenario but push-search (whose runs last the protocol's 5 s after the push)"),
-    Option("push", "--push", None, _scenarios("push", "random-push", "track", "walk"),
-           "the push, random-push, track and walk scenarios (push-search sweeps forces: "
-           "--max-force)"),
-    Option("direction", "--direction", 0.0, _scenarios("push", "track", "walk"),
-           "the push, track and walk scenarios"),
-    Option("push_duration", "--push-duration", 0.2,
-           _scenarios("push", "push-search", "track", "walk"),
-           "the push, push-search, track and walk scenarios"),
-    Option("push_time", "--push-time", 1.0, _scenarios("push", "track", "walk"),
-           "the push, track and walk scenarios"),
-    Option("allow_steps", "--allow-steps", False, _scenarios("push"), "the push scenario"),
-    Option("max_force", "--max-force", 500.0, _scenarios("push-search"),
-           "the push-search scenario"),
-    Option("tolerance", "--tolerance", 25.0, _scenarios("push-search"),
-           "the push-search scenario"),
-    Option("phases", "--phases", 4, _scenarios("push-search"), "the push-search scenario"),
-    Option("seeds", "--seeds", 2, _scenarios("push-search"), "the push-search scenario"),
-    Option("seed", "--seed", 0, _scenarios("random-push"),
-           "the random-push scenario (push-search takes --seeds)"),
-    Option("timestep", "--timestep", None, _not_replay("push-search"),
-           "every run but push-search and replays (a trajectory keeps its own time step)"),
-    Option("control_dt", "--control-dt", None, _not_replay("push-search"),
-           "every run but push-search and replays (a trajectory keeps its own control step)"),
-    Option("render", "--render", None, _scenarios("stand", "push", "random-push", "track",
-                                                  "walk"),
-           "every scenario but push-search (hundreds of runs: film one with --scenario push)"),
-    Option("export_bvh", "--export-bvh", None, _scenarios("stand", "push", "random-push",
-                                                          "track", "walk"),
-           "every scenario but push-search (hundreds of runs)"),
+def _controller_option(name: str, moving_only: bool = False) -> Applies:
+    """Used by controllers whose factory takes ``name`` (only where they move, if so)."""
+    return lambda c, s: name in c.options and (not moving_only or s.moving)
+
+
+def _follows_clip(c, s) -> bool:
+    from mjchar.controllers.core.runs import follows_clip
+
+    return follows_clip(c, s)
+
+
+def _not_protocol(c, s) -> bool:
+    return not s.protocol
+
+
+def _not_protocol_or_replay(c, s) -> bool:
+    return not s.protocol and c.kind != "replay"
+
+
+def _names_with(option: str) -> Callable[[], str]:
+    def where() -> str:
+        from mjchar.controllers import registry
+
+        names = [s.name for s in registry.specs() if option in s.options]
+        return ", ".join(names) if names else "no registered controller"
+    return where
+
+
+def _scenarios_with(name: str) -> Callable[[], str]:
+    def where() -> str:
+        from mjchar.controllers.core.scenarios import registry
+
+        names = [s.name for s in registry.specs() if s.option(name) is not None]
+        return (f"the {', '.join(names[:-1])} and {names[-1]} scenarios" if len(names) > 1
+                else f"the {names[0]} scenario")
+    return where
+
+
+def _text(text: str) -> Callable[[], str]:
+    return lambda: text
+
+
+_CLIP = _text("runs with a reference clip: track, and walk for the trackers (not walkers, "
+              "replays)")
+#: options that are not a scenario's
+RUN_OPTIONS: tuple[CliOption, ...] = (
+    CliOption("speed", "--speed", _controller_option("speed", moving_only=True),
+              lambda: f"the moving scenarios (walk, slopes) of {_names_with('speed')()}"),
+    CliOption("heading", "--heading", _controller_option("heading"), _names_with("heading")),
+    CliOption("gait", "--gait", _controller_option("gait"), _names_with("gait")),
+    CliOption("tracker", "--tracker", _controller_option("tracker"), _names_with("tracker")),
+    CliOption("squat", "--squat", _controller_option("height"), _names_with("height")),
+    CliOption("param", "--param", _controller_option("params"), _names_with("params")),
+    CliOption("motion", "--motion", _follows_clip, _CLIP),
+    CliOption("loop", "--loop", _follows_clip, _CLIP),
+    CliOption("floor", "--floor", _follows_clip, _CLIP),
+    CliOption("timestep", "--timestep", _not_protocol_or_replay,
+              _text("every run but push-search and replays (a trajectory keeps its own time "
+                    "step)")),
+    CliOption("control_dt", "--control-dt", _not_protocol_or_replay,
+              _text("every run but push-search and replays (a trajectory keeps its own control "
+                    "step)")),
+    CliOption("render", "--render", _not_protocol,
+              _text("every scenario but push-search (hundreds of runs: film one with "
+                    "--scenario push)")),
+    CliOption("export_bvh", "--export-bvh", _not_protocol,
+              _text("every scenario but push-search (hundreds of runs)")),
 )
-
 #: options that only refine another one: (dest, needs, flag of needs)
 REFINES = (("fps", "render", "--render"), ("export_fps", "export_bvh", "--export-bvh"))
-#: in track and walk, the push's details need the push
-PUSH_DETAILS = ("direction", "push_time", "push_duration")
-REFINE_DEFAULTS = {"fps": 30.0, "export_fps": None}
 
 
-def _names_with(option: str) -> str:
-    from mjchar.controllers import registry
+def options() -> tuple[CliOption, ...]:
+    """Every option of ``mjchar run`` that applies somewhere only: the run's own, then one per
+    registered scenario option."""
+    from mjchar.controllers.core.scenarios import registry
 
-    names = [s.name for s in registry.specs() if option in s.options]
-    return ", ".join(names) if names else "no registered controller"
+    return RUN_OPTIONS + tuple(
+        CliOption(o.name, o.flag, (lambda c, s, n=o.name: s.option(n) is not None),
+                  _scenarios_with(o.name), scenario=True)
+        for o in registry.options())
 
 
-def _where(opt: Option) -> str:
-    key = {"squat": "height", "param": "params"}.get(opt.dest, opt.dest)
-    return opt.where.format(names=_names_with(key))
-
-
-def check_applicable(args: argparse.Namespace, spec, scenario: str) -> None:
-    """One-line :class:`MjcharError` for the first typed option ``spec`` in ``scenario`` does not
-    use."""
-    for opt in OPTIONS:
-        if getattr(args, opt.dest, None) is not None and not opt.applies(spec, scenario):
-            raise MjcharError(f"{opt.flag} does not apply to {spec.name} in the {scenario} "
-                              f"scenario; it is used by {_where(opt)}")
+def check_applicable(args: argparse.Namespace, cspec, sspec) -> None:
+    """One-line :class:`MjcharError` for the first typed option the controller in the
+    scenario does not use."""
+    for opt in options():
+        if getattr(args, opt.dest, None) not in (None, False) and not opt.applies(cspec, sspec):
+            raise MjcharError(f"{opt.flag} does not apply to {cspec.name} in the {sspec.name} "
+                              f"scenario; it is used by {opt.where()}")
     for dest, needs, flag in REFINES:
         if getattr(args, dest, None) is not None and getattr(args, needs, None) is None:
             raise MjcharError(f"--{dest.replace('_', '-')} needs {flag}")
-    if scenario in ("track", "walk") and getattr(args, "push", None) is None:
-        for dest in PUSH_DETAILS:
-            if getattr(args, dest, None) is not None:
-                raise MjcharError(f"--{dest.replace('_', '-')} in the {scenario} scenario "
-                                  "needs --push N (one push while moving)")
-
-
-def fill_defaults(args: argparse.Namespace) -> None:
-    """Replace the ``None`` of every option the user did not type by its default."""
-    for opt in OPTIONS:
-        if getattr(args, opt.dest, None) is None:
-            setattr(args, opt.dest, opt.default)
-    for dest, default in REFINE_DEFAULTS.items():
-        if getattr(args, dest, None) is None:
-            setattr(args, dest, default)
+    if sspec.moving and sspec.option("force") is not None and getattr(args, "force", None) is None:
+        for name in ("direction", "push_time", "push_duration"):
+            if getattr(args, name, None) is not None:
+                flag = sspec.option(name).flag
+                raise MjcharError(f"{flag} in the {sspec.name} scenario needs --push N (one "
+                                  "push while moving)")
 
 
 def _bad(flag: str, value, what: str) -> MjcharError:
     return MjcharError(f"{flag} {value:g} is out of range: {what}")
 
 
-def check_speed(spec, speed: float, character=None) -> None:
-    """One-line :class:`MjcharError` when ``speed`` is outside the controller's registered
-    ``speed`` limits (none registered: any speed) on ``character``'s body (the limits scale
-    with its leg length when the controller registers ``speed_leg_length``)."""
-    reg = spec.limit("speed")
-    if reg is None:
-        return
-    leg = character.leg_length() if character is not None and spec.speed_leg_length else None
-    lim = spec.limit("speed", leg)
-    if lim[0] <= speed <= lim[1]:
-        return
-    what = f"{spec.name} walks at {lim[0]:g} to {lim[1]:g} m/s"
-    if lim != reg:
-        what += (f" on this body (leg length {leg:.3g} m; {reg[0]:g} to {reg[1]:g} m/s on the "
-                 f"body the range was measured on, leg length {spec.speed_leg_length:g} m)")
-    raise _bad("--speed", speed, what)
+def check_ranges(args: argparse.Namespace, cspec, sspec) -> None:
+    """One-line :class:`MjcharError` for a value the run does not support (before anything is
+    built). Scenario options are checked against their declared bounds."""
+    from mjchar.controllers.core.scenarios import registry
 
-
-def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float | None = None,
-                 height: float | None = None, character=None,
-                 default_duration: float | None = None) -> None:
-    """One-line :class:`MjcharError` for a value the controller does not support.
-
-    Args:
-        mass: the model's mass in kg (push forces are checked against its weight).
-        height: the model's standing height in m (squat depth).
-        character: the model's :class:`Character` (walking speeds scale with its legs).
-        default_duration: the scenario's run length when ``--duration`` is not given (a push
-            must start within the run).
-    """
-    if "speed" in spec.options and scenario == "walk" and args.speed is not None:
-        check_speed(spec, args.speed, character)
+    for o in registry.options():
+        value = getattr(args, o.name, None)
+        if o.high is not None and value is not None and value > o.high:
+            unit = " s" if o.kind == "seconds" else ""
+            raise _bad(o.flag, value, f"at most {o.high:g}{unit}")
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
-        raise _bad("--heading", args.heading,
-                   f"give degrees within +-{MAX_HEADING_DEG:g}")
-    if args.duration is not None and args.duration > MAX_DURATION_S:
-        raise _bad("--duration", args.duration, f"at most {MAX_DURATION_S:g} simulated s")
+        raise _bad("--heading", args.heading, f"give degrees within +-{MAX_HEADING_DEG:g}")
     if args.timestep is not None and args.timestep > MAX_TIMESTEP_S:
         raise _bad("--timestep", args.timestep, f"at most {MAX_TIMESTEP_S:g} s")
     if args.control_dt is not None:
-        dt = args.timestep or spec.timestep
+        dt = args.timestep or cspec.timestep
         if dt and args.control_dt < dt - 1e-12:
             raise _bad("--control-dt", args.control_dt,
                        f"shorter than the physics step {dt:g} s")
@@ -223,27 +187,27 @@ def check_ranges(args: argparse.Namespace, spec, scenario: str, *, mass: float |
     for flag, value in (("--fps", args.fps), ("--export-fps", args.export_fps)):
         if value is not None and value > MAX_FPS:
             raise _bad(flag, value, f"at most {MAX_FPS:g} frames per second")
-    if scenario == "push-search":
-        if args.tolerance > args.max_force:
-            raise _bad("--tolerance", args.tolerance,
-                       f"the grid step must not exceed --max-force {args.max_force:g} N")
-        if args.phases > MAX_PHASES:
-            raise _bad("--phases", args.phases, f"at most {MAX_PHASES}")
-        if args.seeds > MAX_SEEDS:
-            raise _bad("--seeds", args.seeds, f"at most {MAX_SEEDS}")
-    if scenario in ("push", "push-search") and args.push_duration > 5.0:
-        raise _bad("--push-duration", args.push_duration, "at most 5 s")
-    if scenario == "push" or (scenario in ("track", "walk") and args.push is not None):
-        run = args.duration if args.duration is not None else default_duration
-        if run is not None and args.push_time >= run:
-            raise _bad("--push-time", args.push_time,
+    max_force, tolerance = getattr(args, "max_force", None), getattr(args, "tolerance", None)
+    if max_force is not None and tolerance is not None and tolerance > max_force:
+        raise _bad("--tolerance", tolerance,
+                   f"the grid step must not exceed --max-force {max_force:g} N")
+    if sspec.option("push_time") is not None and getattr(args, "force", None) is not None:
+        run = args.duration if args.duration is not None else sspec.default_duration
+        push_time = DEFAULT_PUSH_TIME if args.push_time is None else args.push_time
+        if run is not None and push_time >= run:
+            raise _bad("--push-time", push_time,
                        f"the push must start within the {run:g} s run (see --duration)")
-    if mass is not None:
-        limit = MAX_PUSH_BODY_WEIGHTS * mass * 9.81
-        for flag, value in (("--push", args.push), ("--max-force", args.max_force)):
-            if value is not None and value > limit:
-                raise _bad(flag, value, f"at most {MAX_PUSH_BODY_WEIGHTS:g} body weights "
-                                        f"({limit:.0f} N for this {mass:.1f} kg model)")
+
+
+def check_body(args: argparse.Namespace, mass: float, height: float | None) -> None:
+    """One-line :class:`MjcharError` for a push or squat too large for this body (its mass in
+    kg, its standing height in m)."""
+    limit = MAX_PUSH_BODY_WEIGHTS * mass * 9.81
+    for flag, value in (("--push", getattr(args, "force", None)),
+                        ("--max-force", getattr(args, "max_force", None))):
+        if value is not None and value > limit:
+            raise _bad(flag, value, f"at most {MAX_PUSH_BODY_WEIGHTS:g} body weights "
+                                    f"({limit:.0f} N for this {mass:.1f} kg model)")
     if height is not None and args.squat is not None and args.squat > MAX_SQUAT_FRACTION * height:
         raise _bad("--squat", args.squat, f"at most {MAX_SQUAT_FRACTION:g} of the standing "
                                           f"height ({MAX_SQUAT_FRACTION * height:.2f} m)")

@@ -1,4 +1,5 @@
-"""The push-recovery protocol: survival rates over phases, seeds and a force grid.
+"""The ``push-search`` scenario: the push-recovery protocol, survival rates over phases, seeds and
+a force grid.
 
 Every push-robustness figure mjchar reports (``mjchar bench``, ``mjchar run ... --scenario
 push-search``, the tests) is measured here, the way the literature reports it (a fixed force and
@@ -11,8 +12,8 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
 
    - Walking controllers (``spec.push == "walking"``): they walk from their own seeded start
      state; the push hits the chest at the given fraction of the first stride that starts after
-     ``warmup`` s (:func:`mjchar.controllers.core.terrain.push_walk`). Survived: no fall, and still
-     walking (mean speed >= 0.3 m/s over the last 5 s).
+     ``warmup`` s (:func:`~mjchar.controllers.core.scenarios.terrain.push_walk`). Survived: no fall,
+     and still walking (mean speed >= 0.3 m/s over the last 5 s).
    - Standing controllers: they start from the standing pose with seeded uniform joint offsets
      of at most ``perturbation`` rad; the push hits the pelvis at ``first_moment + phase`` s
      (the K moments spread over one second). Survived: no fall, and no foot moved more than
@@ -34,7 +35,8 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
    more).
 
 Runs are independent and deterministic; ``processes > 1`` spreads them over worker processes
-(identical results).
+(identical results). Each run rebuilds the controller from the run's description
+(:class:`~mjchar.controllers.core.runs.RunSpec`), in whichever process it runs.
 """
 
 from __future__ import annotations
@@ -43,16 +45,18 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from mjchar.bvh.errors import MjcharError
 
-from .character import Character
-from .metrics import Result
-from .registry import get, make_controller
-from .scenarios import DIRECTIONS, push, standing_pose, survived
+from ..character import Character
+from ..metrics import Result
+from .options import MAX_FORCE, PHASES, PUSH_DURATION, SEEDS, TOLERANCE
+from .registry import ScenarioError, ScenarioSpec, register
+from .simulate import DIRECTIONS, perturbed_start, standing_pose, survived
+from .standing import push
 from .terrain import push_walk, stride_phases
 
 
@@ -156,40 +160,46 @@ class PushProtocol:
 
 @dataclass(frozen=True)
 class PushTask:
-    """One run of the protocol (picklable: the worker rebuilds the character and controller)."""
+    """One run of the protocol (picklable: the worker rebuilds the character and controller
+    from ``run``, a :class:`~mjchar.controllers.core.runs.RunSpec`, or a registered
+    controller's name on the bundled humanoid)."""
 
-    controller: str
+    run: object
     direction: str
     force: float
     phase: float
     seed: int
     protocol: PushProtocol
-    model: object = None
-    options: tuple = ()
+
+    def __post_init__(self) -> None:
+        if isinstance(self.run, str):
+            from ..runs import RunSpec
+
+            object.__setattr__(self, "run", RunSpec(self.run, "push-search"))
 
 
 def simulate_push(task: PushTask, frame_callback=None) -> tuple[Result, bool]:
     """Simulate one :class:`PushTask` (a fresh character and controller); returns the
     :class:`~mjchar.controllers.core.metrics.Result` and whether the push was survived (see the
     module docstring). ``frame_callback(character)`` is called after every control step."""
-    spec = get(task.controller)
+    spec = task.run.controller_spec
     p = task.protocol
-    ch = Character(task.model, timestep=spec.timestep)
-    options = dict(task.options)
+    ch = Character(task.run.model, timestep=task.run.timestep)
     deg = DIRECTIONS[task.direction]
     if spec.push == "walking":
-        ctrl = make_controller(spec.name, ch, **options)
+        ctrl = task.run.make_controller(ch)
         r = push_walk(ch, ctrl, force=task.force, direction=deg, phase=task.phase,
                       push_duration=p.push_duration, warmup=p.warmup, after=p.after,
                       seed=task.seed, frame_callback=frame_callback)
         return r, bool(r.extra["walking_after"])
     pose = standing_pose(ch)
-    ctrl = make_controller(spec.name, ch, pose, **options)
+    ctrl = task.run.make_controller(ch, target=pose)
     push_time = p.first_moment + task.phase
+    start = perturbed_start(ch, pose, None, task.seed, joint_noise=p.perturbation,
+                            root_velocity_noise=0.0, distribution="uniform")
     r = push(ch, ctrl, force=task.force, direction=deg, push_duration=p.push_duration,
              push_time=push_time, duration=push_time + p.push_duration + p.after,
-             allow_steps=spec.steps, start=perturbed_start(ch, pose, task.seed, p.perturbation),
-             seed=task.seed, frame_callback=frame_callback)
+             allow_steps=spec.steps, start=start, seed=task.seed, frame_callback=frame_callback)
     r.extra["push_time_s"] = push_time
     return r, survived(r, spec.steps)
 
@@ -202,17 +212,6 @@ def run_push(task: PushTask) -> dict:
             "phase": float(task.phase), "seed": int(task.seed), "survived": bool(ok),
             "fell": bool(r.fell), "fall_time_s": r.fall_time_s, "reason": r.fall_reason,
             "push_time_s": r.extra.get("push_time_s")}
-
-
-def perturbed_start(character: Character, pose: np.ndarray, seed: int, amplitude: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """``(qpos (nq,), qvel (nv,))``: ``pose`` with every actuated dof offset by a uniform random
-    angle in ``[-amplitude, amplitude]`` rad (``numpy.random.default_rng(seed)``), feet on the
-    floor, at rest."""
-    v = np.zeros(character.nv)
-    act = character.actuated
-    v[act] = np.random.default_rng(seed).uniform(-amplitude, amplitude, int(act.sum()))
-    return character.on_floor(character.integrate(pose, v, 1.0)), np.zeros(character.nv)
 
 
 def largest_force(forces: Sequence[float], rates: Sequence[float], threshold: float) -> float:
@@ -277,32 +276,38 @@ class PushRates:
         return d
 
 
-def survival_rates(controller: str, protocol: PushProtocol, *, model=None,
-                   options: dict | None = None, processes: int = 1,
-                   progress: Callable[[str], None] | None = None) -> PushRates:
-    """Measure ``controller`` (a registry name) with ``protocol``: the unpushed check, then the
-    survival-rate curve per direction over the force grid, and the figures.
+def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | None = None,
+                   processes: int = 1, progress: Callable[[str], None] | None = None
+                   ) -> PushRates:
+    """Measure a controller with ``protocol``: the unpushed check, then the survival-rate curve
+    per direction over the force grid, and the figures.
 
     Args:
-        model: ``None`` (the bundled humanoid), an MJCF path or an ``MjModel``.
-        options: the controller factory's options (e.g. ``{"speed": 0.0}``).
+        run: the run described (a :class:`~mjchar.controllers.core.runs.RunSpec`; its scenario
+            does not matter), or a registered controller's name, built on ``model`` (``None``:
+            the bundled humanoid; an MJCF path or an ``MjModel``) with the factory ``options``.
         processes: worker processes (``0``: one per core); results do not depend on it.
         progress: called with one line per finished force level.
     """
+    from ..runs import RunSpec
+
     protocol.check()
-    spec = get(controller)
-    opts = tuple(sorted((options or {}).items()))
+    if isinstance(run, str):
+        run = RunSpec(run, "push-search", model=model, options=dict(options or {}))
+    run = replace(run, scenario="push-search").check()
+    spec = run.controller_spec
+    controller = spec.name
     out = PushRates(controller, protocol, spec.push, spec.steps)
     workers = (os.cpu_count() or 1) if processes == 0 else max(1, int(processes))
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
-    run = (lambda tasks: list(pool.map(run_push, tasks))) if pool else \
+    run_all = (lambda tasks: list(pool.map(run_push, tasks))) if pool else \
         (lambda tasks: [run_push(t) for t in tasks])
     try:
         def task(direction: str, force: float, phase: float, seed: int) -> PushTask:
-            return PushTask(controller, direction, force, phase, int(seed), protocol, model, opts)
+            return PushTask(run, direction, force, phase, int(seed), protocol)
 
         # force 0: the unpushed check over the same window, at phase 0
-        out.unpushed = run([task(protocol.directions[0], 0.0, 0.0, s) for s in protocol.seeds])
+        out.unpushed = run_all([task(protocol.directions[0], 0.0, 0.0, s) for s in protocol.seeds])
         out.falls_unpushed = not all(r["survived"] for r in out.unpushed)
         if out.falls_unpushed:
             if progress is not None:
@@ -315,7 +320,7 @@ def survival_rates(controller: str, protocol: PushProtocol, *, model=None,
                 break
             tasks = [task(d, f, ph, s) for d in active for ph in protocol.phase_values()
                      for s in protocol.seeds]
-            records = run(tasks)
+            records = run_all(tasks)
             out.runs.extend(records)
             for d in list(active):
                 mine = [r for r in records if r["direction"] == d]
@@ -337,3 +342,21 @@ def survival_rates(controller: str, protocol: PushProtocol, *, model=None,
         out.largest_90_N[d] = largest_force(c["forces_N"], c["rates"], 0.9)
         out.at_cap[d] = out.largest_100_N[d] >= protocol.cap
     return out
+
+
+# -- the scenario --------------------------------------------------------------------------------
+def _push_search(run, *, max_force: float = 500.0, tolerance: float = 25.0, phases: int = 4,
+                 seeds: int = 2, push_duration: float = 0.2) -> PushRates:
+    if run.spec is None:
+        raise ScenarioError("push-search rebuilds the controller for every push: describe the "
+                            "run (mjchar.controllers.run or RunSpec)")
+    protocol = PushProtocol.grid(max_force, min(tolerance, max_force), phases=phases,
+                                 seeds=tuple(range(seeds)), push_duration=push_duration)
+    return survival_rates(run.spec, protocol, processes=0, progress=run.progress)
+
+
+register(ScenarioSpec(
+    name="push-search",
+    measures="push survival rates per direction over stride phases, seeds and a force grid",
+    runner=_push_search, needs=("stand", "walk"),
+    options=(MAX_FORCE, TOLERANCE, PHASES, SEEDS, PUSH_DURATION), protocol=True))

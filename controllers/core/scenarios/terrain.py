@@ -2,22 +2,22 @@
 
 - **Slopes**: :func:`tilt_floor` turns the ``floor`` plane of a Character's model at run time
   (``geom_quat``/``geom_pos``; no XML edit), :func:`floor_height` gives its height anywhere.
-- **Walks**: :func:`walk` runs a walking controller from its own start state (with small seeded
-  perturbations), on flat ground or a slope, and reports the steady speed (over the last
-  ``steady_window`` s) besides the shared :class:`~mjchar.controllers.core.metrics.Result`.
+- **Walk starts**: :func:`walk_start` is a walker's own start state (with a small seeded
+  perturbation) on a level or tilted floor; :class:`GaitDriver` records the walk (steady speed,
+  terrain-relative falls). The ``walk`` and ``slopes`` scenarios
+  (:mod:`~mjchar.controllers.core.scenarios.locomotion`) are built on them.
 - **Pushes at a phase of the stride**: :func:`push_walk` pushes the torso horizontally for
   0.2 s at a chosen fraction of the stride (a stride = two steps, from one entry into FSM state
   0 to the next; its length is the previous stride's) and direction (degrees in the heading
   frame: 0 forward, 90 left, 180 back, 270 right), after a warm-up, and checks that the
   walker is still walking ``after`` s later; :func:`stride_phases` spreads ``n`` phases over a
-  stride. Rates over phases, seeds and forces: :mod:`mjchar.controllers.core.push_protocol`.
-- **Slope walks**: :func:`slope_walk` walks up or down a tilted floor and checks the distance
-  covered along the slope.
+  stride. Rates over phases, seeds and forces:
+  :mod:`~mjchar.controllers.core.scenarios.push_search`.
 
-Every run goes through :func:`mjchar.controllers.core.scenarios.simulate` (falls, divergence, root
-force bookkeeping). On a slope the shared fall test (root height in world z, bodies touching the
-floor) is complemented by a terrain-relative one (root height above the floor under it), done by
-:class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
+Every run goes through :func:`~mjchar.controllers.core.scenarios.simulate.simulate` (falls,
+divergence, root force bookkeeping). On a slope the shared fall test (root height in world z, bodies
+touching the floor) is complemented by a terrain-relative one (root height above the floor under
+it), done by :class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
 
 A controller used here needs ``reset``/``act`` (the Controller protocol) and, for phase pushes,
 ``transitions``: a list of ``(time, state)`` whose entries with state 0 mark stride starts.
@@ -27,16 +27,15 @@ A controller used here needs ``reset``/``act`` (the Controller protocol) and, fo
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from mjchar.bvh.errors import MjcharError
 
-from .character import Character
-from .metrics import FALL_HEIGHT_FRACTION, Result
-from .scenarios import perturbed_start, simulate, standing_pose
+from ..character import Character
+from ..metrics import FALL_HEIGHT_FRACTION, Result
+from .simulate import heading_frame_direction, perturbed_start, simulate, standing_pose
 
 
 class TerrainError(MjcharError):
@@ -226,8 +225,6 @@ class GaitDriver:
             return
         stride = starts[-1] - starts[-2]
         t0 = t
-        from .scenarios import heading_frame_direction
-
         body = self.push.body or character.roles("spine")[-1]
         f = self.push.force * heading_frame_direction(character, self.push.direction)
         self.push_time = t0 + self.push.phase * stride
@@ -254,7 +251,7 @@ START_JOINT_NOISE = 0.02
 START_VELOCITY_NOISE = 0.05
 
 
-def _start(
+def walk_start(
     character: Character, controller, seed: int | None, perturb: bool, clearance: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Start state from the controller (``start_state``, given the seeded generator) or the
@@ -266,129 +263,22 @@ def _start(
     if hasattr(inner, "start_state"):
         q, v = inner.start_state(character, rng)
     elif rng is not None:
-        q, v = perturbed_start(character, standing_pose(character), np.zeros(character.nv),
-                               seed, joint_noise=START_JOINT_NOISE,
+        q, v = perturbed_start(character, standing_pose(character), None, seed,
+                               joint_noise=START_JOINT_NOISE,
                                root_velocity_noise=START_VELOCITY_NOISE)
     else:
         q, v = standing_pose(character), np.zeros(character.nv)
     return place_on_floor(character, q, clearance), v
 
 
-def _finish(r: Result, driver: GaitDriver, steady_window: float) -> Result:
+def finish_walk(r: Result, driver: GaitDriver, steady_window: float) -> Result:
+    """``r`` with the driver's terrain-relative fall and ``extra["steady_speed_mps"]`` (the
+    root's mean horizontal speed over the last ``steady_window`` s)."""
     if driver.fell and not r.fell:
         r.fell, r.fall_time_s = True, driver.fall_time
         r.fall_reason = "root too low above the floor under it"
     end = r.sim_time_s
     r.extra["steady_speed_mps"] = driver.speed(max(0.0, end - steady_window), end)
-    return r
-
-
-# -- walks -----------------------------------------------------------------------------------------
-def walk(
-    character: Character,
-    controller,
-    *,
-    duration: float = 60.0,
-    seed: int | None = 0,
-    perturb: bool = True,
-    slope: float = 0.0,
-    steady_window: float = 10.0,
-    target_distance: float | None = None,
-    progress: Callable[[str], None] | None = None,
-    **kw,
-) -> Result:
-    """Walk for ``duration`` s from the controller's start state (seeded perturbation), on level
-    ground or a ``slope`` (deg, uphill positive) rising along the initial heading.
-
-    ``Result.extra["steady_speed_mps"]``: the root's mean horizontal speed over the last
-    ``steady_window`` s; ``Result.mean_speed_mps`` is over the whole run (start-up included).
-    On a slope, ``extra["slope_distance_m"]`` (along the slope) and, with ``target_distance``
-    (m), ``extra["time_to_distance_s"]``: when the root had first covered that much along the
-    slope (``None`` if never). Other keyword arguments go to
-    :func:`~mjchar.controllers.core.scenarios.simulate`.
-    """
-    driver = GaitDriver(controller)
-    with _slope(character, slope, duration):
-        q, v = _start(character, controller, seed, perturb, clearance=0.002 if slope else 0.0)
-        r = simulate(
-            character, driver, duration=duration, scenario="walk", qpos=q, qvel=v, seed=seed, **kw
-        )
-    r = _finish(r, driver, steady_window)
-    if slope:
-        r.scenario = f"slope {slope:+g} deg"
-        r.extra["slope_distance_m"] = _slope_distance(driver, slope)
-        if target_distance is not None:
-            r.extra["time_to_distance_s"] = _time_to_distance(driver, slope, target_distance)
-    if progress is not None:
-        progress(r.summary())
-    return r
-
-
-class _slope:
-    """Context manager: tilt the floor for a run (placed so a downhill run never goes below
-    z = 0, which keeps the shared absolute-height fall test meaningful), then level it."""
-
-    def __init__(self, character: Character, degrees: float, duration: float):
-        self.character, self.degrees = character, float(degrees)
-        self.height = max(0.0, -math.sin(math.radians(self.degrees))) * 2.0 * duration
-
-    def __enter__(self):
-        if self.degrees:
-            tilt_floor(self.character, self.degrees, height=self.height)
-
-    def __exit__(self, *exc):
-        if self.degrees:
-            tilt_floor(self.character, 0.0)
-
-
-def _slope_distance(driver: GaitDriver, degrees: float) -> float:
-    """Distance (m) covered along the slope direction (+x) by the root, measured on the slope."""
-    if len(driver.path) < 2:
-        return 0.0
-    a = np.array(driver.path)
-    dx = a[-1, 1] - a[0, 1]
-    return float(dx / math.cos(math.radians(degrees)))
-
-
-def _time_to_distance(driver: GaitDriver, degrees: float, distance: float) -> float | None:
-    """First time (s) the root had covered ``distance`` m along the slope, ``None`` if never."""
-    if len(driver.path) < 2:
-        return None
-    a = np.array(driver.path)
-    along = (a[:, 1] - a[0, 1]) / math.cos(math.radians(degrees))
-    hit = np.flatnonzero(along >= distance)
-    return float(a[hit[0], 0]) if len(hit) else None
-
-
-def slope_walk(
-    character: Character,
-    controller,
-    *,
-    degrees: float,
-    distance: float = 20.0,
-    duration: float | None = None,
-    seed: int | None = 0,
-    **kw,
-) -> Result:
-    """Walk up (``degrees`` > 0) or down (< 0) a slope; success = no fall and at least
-    ``distance`` m covered along the slope. ``duration`` defaults to ``distance / 0.6`` s.
-
-    ``Result.extra``: ``slope_distance_m``, ``reached`` (bool), ``time_to_distance_s`` (when
-    ``distance`` was first covered, ``None`` if never), ``steady_speed_mps``.
-    """
-    if not degrees:
-        raise TerrainError("slope_walk needs a non-zero slope (use walk() for level ground)")
-    duration = distance / 0.6 if duration is None else duration
-    r = walk(
-        character,
-        controller,
-        duration=duration,
-        seed=seed,
-        slope=degrees,
-        target_distance=distance,
-        **kw,
-    )
-    r.extra["reached"] = bool(not r.fell and r.extra["slope_distance_m"] >= distance)
     return r
 
 
@@ -419,13 +309,13 @@ def push_walk(
     push = PhasePush(force, direction, phase, push_duration, body, warmup)
     push.check()
     driver = GaitDriver(controller, push)
-    q, v = _start(character, controller, seed, True)
+    q, v = walk_start(character, controller, seed, True)
     # the push starts within two strides after the warm-up
     duration = warmup + 3.0 + push_duration + after
     r = simulate(
         character, driver, duration=duration, scenario="push", qpos=q, qvel=v, seed=seed, **kw
     )
-    r = _finish(r, driver, 5.0)
+    r = finish_walk(r, driver, 5.0)
     r.push_N, r.push_direction_deg = float(force), float(direction)
     pt = driver.push_time
     r.extra.update(push_time_s=pt, phase=phase)

@@ -1,0 +1,247 @@
+"""The run builder: one description of a run, one way to build and execute it.
+
+``mjchar run``, ``mjchar gait``, ``mjchar bench``, the push protocol's workers and the Python
+API all describe a run as a :class:`RunSpec` (controller, scenario, model, clip, options) and
+build it here, so a run described the same way gives the same result everywhere::
+
+    from mjchar.controllers import run
+
+    result = run("simbicon", "walk", speed=1.2, gait="natural", duration=20.0)
+    result = run("hand_of_god", motion="walk")            # the bundled walk, tracked
+    rates = run("static_balance", "push-search", max_force=200.0, phases=2, seeds=1)
+
+What the builder does that a caller would otherwise have to remember:
+
+- the scenario defaults to the controller's own, and must be one it runs;
+- the physics time step is the controller's (its registered step, a replay's trajectory
+  step), unless ``timestep`` is given (:func:`~mjchar.controllers.core.registry.make_controller`);
+- a clip is loaded only where the scenario follows one (``motion``: a bundled clip's name such
+  as ``"walk"``, a BVH path or a Motion; default the bundled walk), looped into a seamless cycle
+  with ``loop``, placed on the floor the controller's way (``floor``);
+- trackers follow that clip, or hold the standing pose when there is none; walkers that can
+  also stand (IPM) stand still in scenarios that do not move (speed 0), and walk at their own
+  speed unless given one; speeds are checked against the controller's measured range on this
+  body.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from mjchar.bvh.errors import MjcharError
+
+from . import registry
+from .character import Character
+from .scenarios import registry as scenario_registry
+from .scenarios.registry import Run
+from .scenarios.simulate import standing_pose
+
+
+class RunError(MjcharError):
+    """A run described impossibly (a scenario the controller does not run, an unknown option,
+    a speed outside the controller's range)."""
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """A run, described (picklable: protocols send it to worker processes).
+
+    Attributes:
+        controller: a registered controller name.
+        scenario: a registered scenario it runs (``None``: its default scenario).
+        model: ``None`` (the bundled humanoid), an MJCF path or an ``MjModel``.
+        motion: the clip followed where the scenario follows one: ``None`` (the bundled walk),
+            a bundled clip's name (``"walk"``, ``"idle"``), a BVH path or a ``Motion``.
+        loop: follow a seamless cycle cut from the clip, repeated for as long as the run lasts.
+        floor: how the clip is placed on the floor (default: the controller's way).
+        timestep: physics time step in s (``None``: the controller's).
+        control_dt: seconds between control steps (``None``: every physics step).
+        seed: the run's seed, passed to scenarios that randomise (``None``: their default).
+        options: the controller factory's options (``speed``, ``gait``, ``params``...).
+        scenario_options: the scenario runner's options (``duration``, ``force``...).
+    """
+
+    controller: str
+    scenario: str | None = None
+    model: Any = None
+    motion: Any = None
+    loop: bool = False
+    floor: str | None = None
+    timestep: float | None = None
+    control_dt: float | None = None
+    seed: int | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+    scenario_options: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def controller_spec(self) -> registry.ControllerSpec:
+        return registry.get(self.controller)
+
+    @property
+    def scenario_spec(self) -> scenario_registry.ScenarioSpec:
+        return scenario_registry.get(self.scenario or self.controller_spec.default_scenario)
+
+    def check(self) -> RunSpec:
+        """A one-line :class:`RunError` for what cannot run; returns self."""
+        cspec, sspec = self.controller_spec, self.scenario_spec
+        if not sspec.suits(cspec):
+            raise RunError(f"{cspec.name} does not run the {sspec.name} scenario; it runs "
+                           f"{', '.join(scenarios_of(cspec))}")
+        if "params" not in cspec.options:  # (with params, its factory checks its tunables)
+            for key in self.options:
+                if key not in cspec.options:
+                    valid = ", ".join(cspec.options) or "none"
+                    raise RunError(f"{cspec.name} takes no option {key!r}; its options: "
+                                   f"{valid}")
+        try:
+            scenario_registry.check_options(sspec, self.scenario_options)
+        except MjcharError as e:
+            raise RunError(str(e)) from None
+        if "seed" in self.scenario_options:
+            raise RunError("give the seed as RunSpec.seed (the run's seed)")
+        return self
+
+    def follows_clip(self) -> bool:
+        """Whether this run loads a clip (:func:`follows_clip`)."""
+        return follows_clip(self.controller_spec, self.scenario_spec)
+
+    def build(self, *, frame_callback: Callable | None = None) -> Run:
+        """The character, its clip and the controller, ready for the scenario's runner."""
+        self.check()
+        character = Character(self.model, timestep=self.timestep)
+        reference = load_reference(self, character) if self.follows_clip() else None
+        controller = self.make_controller(character, reference)
+        return Run(character, controller, reference, self, frame_callback, self.control_dt,
+                   self.seed)
+
+    def make_controller(self, character: Character, reference=None, *, target=None):
+        """A fresh controller on ``character`` (its time step applied): trackers follow
+        ``reference``, or hold ``target`` (default: the standing pose) without one."""
+        cspec, sspec = self.controller_spec, self.scenario_spec
+        options = dict(self.options)
+        if "speed" in cspec.options:
+            if not sspec.moving and "stand" in cspec.abilities:
+                options["speed"] = 0.0  # a walker that can stand stands still here
+            elif "speed" in options:
+                check_speed(cspec, options["speed"], character)
+        if reference is None and target is None and cspec.kind in ("pd", "balance"):
+            target = standing_pose(character)
+        return registry.make_controller(cspec.name, character,
+                                        reference if reference is not None else target,
+                                        **options)
+
+    def execute(self, *, frame_callback: Callable | None = None):
+        """Build and run it: the scenario's result (a Result, or a protocol's rates)."""
+        return execute(self.build(frame_callback=frame_callback))
+
+    def with_options(self, **scenario_options) -> RunSpec:
+        """The same run with more scenario options."""
+        return replace(self, scenario_options={**self.scenario_options, **scenario_options})
+
+
+def execute(run: Run):
+    """Run a built :class:`Run` through its scenario's runner."""
+    spec: RunSpec = run.spec
+    sspec = spec.scenario_spec
+    options = dict(spec.scenario_options)
+    if spec.seed is not None and sspec.option("seed") is not None:
+        options["seed"] = spec.seed
+    return sspec.runner(run, **options)
+
+
+def follows_clip(cspec, sspec) -> bool:
+    """Whether a run of controller ``cspec`` in scenario ``sspec`` loads a clip: the scenario
+    follows one and the controller tracks (walkers walk alone; replays bring their own
+    reference)."""
+    return "track" in cspec.abilities and (
+        sspec.reference == "required"
+        or (sspec.reference == "trackers" and "walk" not in cspec.abilities))
+
+
+def scenarios_of(cspec) -> list[str]:
+    """The scenarios a controller runs, its default first."""
+    return [cspec.default_scenario] + [s for s in cspec.scenarios()
+                                       if s != cspec.default_scenario]
+
+
+def check_speed(spec, speed: float, character: Character | None = None) -> None:
+    """One-line :class:`RunError` when ``speed`` is outside the controller's registered
+    ``speed`` limits (none registered: any speed) on ``character``'s body (the limits scale
+    with its leg length when the controller registers ``speed_leg_length``)."""
+    reg = spec.limit("speed")
+    if reg is None:
+        return
+    leg = character.leg_length() if character is not None and spec.speed_leg_length else None
+    lim = spec.limit("speed", leg)
+    if lim[0] <= speed <= lim[1]:
+        return
+    what = f"{spec.name} walks at {lim[0]:g} to {lim[1]:g} m/s"
+    if lim != reg:
+        what += (f" on this body (leg length {leg:.3g} m; {reg[0]:g} to {reg[1]:g} m/s on the "
+                 f"body the range was measured on, leg length {spec.speed_leg_length:g} m)")
+    raise RunError(f"--speed {speed:g} is out of range: {what}")
+
+
+def motion_source(motion) -> Path | Any:
+    """A clip given by name, path or Motion: a bundled clip's name (``"walk"``) is its bundled
+    file, unless a file of that name exists; ``None`` is the bundled walk."""
+    from mjchar.bvh.bundled.assets import BUNDLED_MOTION_NAMES, motion_path
+
+    if motion is None:
+        return motion_path("walk")
+    if isinstance(motion, str | os.PathLike):
+        if (isinstance(motion, str) and motion in BUNDLED_MOTION_NAMES
+                and not Path(motion).exists()):
+            return motion_path(motion)
+        return Path(motion)
+    return motion
+
+
+def load_reference(spec: RunSpec, character: Character):
+    """The clip of ``spec`` as a ReferenceMotion in ``character``'s model."""
+    from mjchar.bvh.editing.clips import make_cyclic
+    from mjchar.bvh.io import load
+    from mjchar.bvh.reference.reference_motion import ReferenceMotion
+
+    source = motion_source(spec.motion)
+    motion = load(source) if isinstance(source, Path) else source
+    if spec.loop:
+        motion = make_cyclic(motion)
+    return ReferenceMotion(character.model, motion, info=character.info,
+                           floor=spec.floor or spec.controller_spec.floor,
+                           cyclic=True if spec.loop else None)
+
+
+def run(controller: str, scenario: str | None = None, *, model=None, motion=None,
+        loop: bool = False, floor: str | None = None, timestep: float | None = None,
+        control_dt: float | None = None, seed: int | None = None,
+        frame_callback: Callable | None = None, **options):
+    """Describe a run, build it and execute it (see the module docstring).
+
+    ``options`` are routed by name: the controller's factory options (its
+    ``ControllerSpec.options``: ``speed``, ``gait``, ``params``...) and the scenario's options
+    (``duration``, ``force``, ``direction``...); an unknown name lists both.
+
+    Returns:
+        the scenario's result: a :class:`~mjchar.controllers.core.metrics.Result`, or for a
+        protocol (``push-search``) its rates.
+    """
+    cspec = registry.get(controller)
+    sspec = scenario_registry.get(scenario or cspec.default_scenario)
+    factory, scen = {}, {}
+    for key, value in options.items():
+        if key in cspec.options:
+            factory[key] = value
+        elif sspec.option(key) is not None and key != "seed":
+            scen[key] = value
+        else:
+            valid = sorted(set(cspec.options) | {o.name for o in sspec.options} - {"seed"})
+            raise RunError(f"{key!r} is neither an option of {cspec.name} nor of the "
+                           f"{sspec.name} scenario; valid: {', '.join(valid) or 'none'}")
+    spec = RunSpec(controller, sspec.name, model, motion, loop, floor, timestep, control_dt,
+                   seed, factory, scen)
+    return spec.execute(frame_callback=frame_callback)
