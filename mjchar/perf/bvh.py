@@ -36,7 +36,7 @@ import numpy as np
 from mjchar import bvh
 
 from .errors import PerfError, PerfUnavailable, positive_int
-from .report import SHARED_BVH, machine_line, write_block
+from .report import DOCS, SHARED_BVH, machine_line, write_block
 from .timing import rounds, timed
 
 __all__ = ["SHARED_CLIPS", "bvh_parse_speed", "long_cmu_style_motion", "bvhio_fk",
@@ -223,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
     text = table(rows)
     print(text)
     if args.write:
-        log(f"[bvh] table written to {write_block('bvh.md', 'bvh', text)}")
+        log(f"[bvh] table written to {write_block(DOCS / 'bvh.md', 'bvh', text)}")
     return 0
 
 

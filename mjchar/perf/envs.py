@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from .errors import PerfUnavailable, positive_int
-from .report import machine_line, write_block
+from .report import DOCS, machine_line, write_block
 from .timing import Timing, timed
 
 __all__ = ["ENV_IDS", "random_env_steps", "visited_states", "bare_step_rate", "env_throughput",
@@ -223,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
     body = table(res)
     print(body)
     if a.write:
-        print(f"updated {write_block('envs.md', 'envs', body)}", file=sys.stderr)
+        print(f"updated {write_block(DOCS / 'envs.md', 'envs', body)}", file=sys.stderr)
     return 0
 
 

@@ -29,7 +29,7 @@ from mjchar.controllers.core.character import Character
 
 from .errors import PerfError, positive_int
 from .physics import step_cost
-from .report import machine_line, write_block
+from .report import DOCS, machine_line, write_block
 from .timing import timed
 
 __all__ = ["ENVELOPE_KPS", "ENVELOPE_VARIANTS", "ENVELOPE_GRID", "ENVELOPE_FINER",
@@ -228,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n## {key}\n\n{body}")
     if args.write:
         for key, body in sections.items():
-            log(f"updated {write_block('controllers.md', key, body)}")
+            log(f"updated {write_block(DOCS / 'controllers.md', key, body)}")
     return 0
 
 

@@ -57,12 +57,10 @@ def machine_line(**versions: str) -> str:
 
 def write_block(page: str | os.PathLike, name: str, body: str) -> Path:
     """Replace the block ``<!-- perf:name -->`` ... ``<!-- /perf:name -->`` of the docs page
-    ``page`` (a path, or a file name under :data:`DOCS`) with ``body``; a page without the block
-    gets it appended. Written to a temporary file beside the page, then moved into place.
-    Returns the page's path."""
+    ``page`` (e.g. ``DOCS / "envs.md"``) with ``body``; a page without the block gets it
+    appended. Written to a temporary file beside the page, then moved into place. Returns the
+    page's path."""
     path = Path(page)
-    if not path.is_absolute() and not path.exists():
-        path = DOCS / path
     if not path.is_file():
         raise PerfError(f"docs page {path} not found")
     start, end = f"<!-- perf:{name} -->", f"<!-- /perf:{name} -->"

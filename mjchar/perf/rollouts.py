@@ -25,7 +25,7 @@ import numpy as np
 
 from .errors import positive_int
 from .physics import hold_ctrl
-from .report import machine_line, write_block
+from .report import DOCS, machine_line, write_block
 from .timing import rounds
 
 __all__ = ["python_rollout_loop", "compare_cases", "rollout_throughput", "main"]
@@ -196,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     table = "\n".join(lines)
     print(table)
     if args.write:
-        print(f"\nwrote {write_block('rollouts.md', 'rollouts', table)}", file=sys.stderr)
+        print(f"\nwrote {write_block(DOCS / 'rollouts.md', 'rollouts', table)}", file=sys.stderr)
     return 0
 
 

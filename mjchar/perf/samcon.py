@@ -48,7 +48,7 @@ from mjchar.controllers.sampling.trajopt import (
     trajectory_cost,
 )
 
-from .report import machine_line, write_block, write_json
+from .report import DOCS, machine_line, write_block, write_json
 from .report import shared_clip as clip
 from .timing import load_average, rounds, timed
 
@@ -298,7 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     text = table(results)
     print(text)
     if args.write:
-        print(f"updated {write_block('sampling.md', 'samcon', text)}", file=sys.stderr)
+        print(f"updated {write_block(DOCS / 'sampling.md', 'samcon', text)}", file=sys.stderr)
     return 0
 
 
