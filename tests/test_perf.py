@@ -42,7 +42,8 @@ def test_rounds_take_turns_repeat_warm_up_and_reset_untimed():
     calls: list[str] = []
     resets: list[str] = []
     runs = rounds({"a": lambda: calls.append("a") or 1, "b": lambda: calls.append("b") or 2},
-                  repeats=3, calls={"b": 2}, warmup=True, before=resets.append)
+                  repeats=3, calls={"b": 2}, warmup=True, before=resets.append,
+                  keep_results=True)
     assert calls == ["a", "b"] + ["a", "b", "b"] * 3
     assert resets == calls
     assert len(runs["a"].timings) == 3 and len(runs["b"].timings) == 6
@@ -51,8 +52,8 @@ def test_rounds_take_turns_repeat_warm_up_and_reset_untimed():
     assert best.wall_s == min(t.wall_s for t in runs["b"].timings)
     assert runs["a"].median("cpu_s") in runs["a"].timings
     assert isinstance(runs["a"].total(), Timing)
-    budgeted = rounds({"x": lambda: None}, repeats=2, budget_s=0.01, max_rounds=5)
-    assert 2 <= len(budgeted["x"].timings) <= 5
+    budgeted = rounds({"x": lambda: 1}, repeats=2, budget_s=0.01, max_rounds=5)
+    assert 2 <= len(budgeted["x"].timings) <= 5 and budgeted["x"].results == []
     with pytest.raises(perf.PerfError):
         rounds({"x": lambda: None}, repeats=0)
 

@@ -98,7 +98,7 @@ def throughput(samples: int, n_rounds: int, threads: int) -> dict:
 
     cases = {"samcon": run_samcon, "executor": run_executor, "bare": run_bare}
     load0 = load()
-    runs = rounds(cases, repeats=n_rounds, warmup=True)
+    runs = rounds(cases, repeats=n_rounds, warmup=True, keep_results=True)
     best = {}
     for name, r in runs.items():  # the run with the least wall time per sample-slice
         i = min(range(len(r.timings)), key=lambda i, r=r: r.timings[i].wall_s / r.results[i])

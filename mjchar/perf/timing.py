@@ -25,7 +25,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import PerfError
+from .errors import PerfError, positive_int
 
 __all__ = ["CLOCKS", "Timing", "Runs", "timed", "rounds", "load_average"]
 
@@ -67,7 +67,8 @@ def timed(fn: Callable[..., Any], *args, **kwargs) -> tuple[Any, Timing]:
 
 @dataclass
 class Runs:
-    """Every timed call of one case of :func:`rounds`, in order, with what each returned."""
+    """Every timed call of one case of :func:`rounds`, in order (with what each returned, when
+    asked to keep it)."""
 
     timings: list[Timing] = field(default_factory=list)
     results: list[Any] = field(default_factory=list)
@@ -96,8 +97,8 @@ class Runs:
 def rounds(cases: Mapping[str, Callable[[], Any]], *, repeats: int = 1,
            budget_s: float | None = None, max_rounds: int | None = None,
            calls: Mapping[str, int] | None = None, warmup: bool = False,
-           before: Callable[[str], None] | None = None,
-           gc_off: bool = False) -> dict[str, Runs]:
+           before: Callable[[str], None] | None = None, gc_off: bool = False,
+           keep_results: bool = False) -> dict[str, Runs]:
     """Time ``cases`` taking turns: each round calls every case in order (``calls[name]`` times,
     default once), each call timed by :func:`timed`.
 
@@ -111,11 +112,12 @@ def rounds(cases: Mapping[str, Callable[[], Any]], *, repeats: int = 1,
         warmup: call every case once first, untimed.
         before: called with the case's name before each call, untimed (a reset).
         gc_off: garbage collection off while timing (as :mod:`timeit` does).
+        keep_results: keep what each call returned in :attr:`Runs.results` (by default they
+            are dropped at once, so that big results do not pile up).
     Returns:
         ``{name: Runs}``.
     """
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise PerfError(f"repeats must be a positive integer, got {repeats!r}")
+    repeats = positive_int(repeats, "repeats")
     if budget_s is not None and not (math.isfinite(budget_s) and budget_s > 0):
         raise PerfError(f"budget_s must be positive seconds, got {budget_s!r}")
     calls = dict(calls or {})
@@ -139,7 +141,9 @@ def rounds(cases: Mapping[str, Callable[[], Any]], *, repeats: int = 1,
                         before(name)
                     result, t = timed(fn)
                     out[name].timings.append(t)
-                    out[name].results.append(result)
+                    if keep_results:
+                        out[name].results.append(result)
+                    del result
             r += 1
             if r >= repeats and (budget_s is None or time.perf_counter() - start > budget_s
                                  or (max_rounds is not None and r >= max_rounds)):
