@@ -288,7 +288,6 @@ class CharacterEnv(gym.Env):
         self._last_obs = None
         self._diverged = False
         self._diverged_at = 0.0
-        self._done = False
 
     # -- configuration -----------------------------------------------------------------------
     def _action_scale(self, action_scale) -> np.ndarray:
@@ -373,7 +372,6 @@ class CharacterEnv(gym.Env):
         self._controller.reset(ch)
         self._recorder = Recorder(ch)
         self._diverged = False
-        self._done = False
         self._fell, self._fall_time, self._fall_reason = False, None, None
         self._end_reason = None
         self._n_steps = 0
@@ -414,7 +412,6 @@ class CharacterEnv(gym.Env):
             self._fell, self._fall_time = True, e.time
             self._fall_reason = self._end_reason = str(e)
             self._reward_terms = {}
-            self._done = True
             return self._last_obs.copy(), 0.0, True, False, self._info()
         terminated = False
         if not self._fell:
@@ -429,7 +426,6 @@ class CharacterEnv(gym.Env):
                 terminated, self._end_reason = True, why
         truncated = not terminated and (ch.time >= self.episode_seconds - 1e-9
                                         or self._task_truncation())
-        self._done = terminated or truncated
         self._last_obs = obs
         if self.render_mode == "human":
             self.render()

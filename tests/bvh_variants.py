@@ -438,12 +438,6 @@ def all_variants() -> list[Variant]:
     return _CACHE["all"]
 
 
-def big_motion(n_frames: int = 10_000, seed: int = 7) -> bvh.Motion:
-    """A long CMU-style motion (31 joints, 96 channels) for benchmarks."""
-    return synthetic_motion(cmu_like_skeleton(), n_frames=n_frames, fps=120.0, unit=0.0254,
-                            seed=seed)
-
-
 #: the GAMES-105 clips' joint names -> CMU names (the rig zoo's convention)
 CMU_NAMES = CONVENTIONS["cmu"]
 

@@ -114,9 +114,8 @@ def test_every_import_resolves_to_a_project_module():
 
 def test_nothing_imports_the_folders_by_their_own_names():
     """The folders exist only as ``mjchar.*`` (an installed wheel has no ``bvh``, ``envs``...):
-    no module, test, benchmark or example imports them otherwise."""
-    files = [*MODULES.values(), *(ROOT / "tests").rglob("*.py"),
-             *(ROOT / "benchmarks").rglob("*.py"), *(ROOT / "examples").rglob("*.py")]
+    no module, test or example imports them otherwise."""
+    files = [*MODULES.values(), *(ROOT / "tests").rglob("*.py"), *(ROOT / "examples").rglob("*.py")]
     bad = [f"{f.relative_to(ROOT)}: {m.group(0).strip()}" for f in files
            for m in OLD_NAME.finditer(f.read_text())]
     assert not bad, "\n".join(bad)

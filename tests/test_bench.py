@@ -1,11 +1,10 @@
 """``mjchar bench``: the matrix as data, reproducibility (same seeds, same physics), the JSON
-document against its documented schema, the exit status CI gates on, the replay rows, the plots,
-and the performance helpers' outcomes (never their timings)."""
+document against its documented schema, the exit status CI gates on, the replay rows and the
+plots (the measurements themselves: tests/test_perf.py)."""
 
 from __future__ import annotations
 
 import json
-import math
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -14,7 +13,7 @@ import numpy as np
 import pytest
 
 from mjchar import bench as B
-from mjchar import cli, perf
+from mjchar import cli
 from mjchar.bench.config import SHARED_BVH
 from mjchar.controllers.core import registry
 from mjchar.controllers.core.scenarios import registry as scenario_registry
@@ -379,41 +378,6 @@ def test_missing_matplotlib_is_a_clear_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(B.BenchError, match=r"mjchar\[bench\]"):
         bench_plots.require_matplotlib()
-
-
-# -- performance helpers: outcomes, not timings ---------------------------------------------------
-def test_envelope_separates_explicit_from_stable_pd():
-    env = perf.stability_envelope(kps=(1000.0,), variants=("pd", "spd"), grid=(60,), finer=(),
-                                  duration=1.5)
-    rows = {r["variant"]: r for r in env["rows"]}
-    assert rows["pd"]["status"]["60"] == "diverged" and rows["pd"]["largest_held_hz"] is None
-    assert rows["spd"]["status"]["60"] == "held" and rows["spd"]["largest_held_hz"] == 60
-    with pytest.raises(perf.PerfError):
-        perf.stability_envelope(duration=0.5)
-
-
-def test_step_cost_and_raw_rate_report_positive_finite_numbers():
-    from mjchar.controllers.core import scenarios as S
-    from mjchar.controllers.core.character import Character
-
-    ch = Character()
-    pose = S.standing_pose(ch)
-    c = perf.step_cost(ch, lambda: registry.make_controller("spd", ch, pose), qpos=pose, steps=50,
-                       repeats=1, block=25)
-    assert math.isfinite(c.ratio) and c.ratio > 0 and c.resets == 0 and c.steps == 50
-    raw = perf.raw_step_rate(ch.model, pose, steps=50, repeats=1)
-    assert raw["c_loop_steps_per_s"] > 0 and raw["python_loop_steps_per_s"] > 0
-    with pytest.raises(perf.PerfError):
-        perf.raw_step_rate(ch.model, steps=0)
-
-
-def test_optional_parts_report_unavailable(monkeypatch):
-    monkeypatch.setitem(sys.modules, "bvhio", None)
-    with pytest.raises(perf.PerfUnavailable, match="bvhio"):
-        perf.bvh_parse_speed([])
-    monkeypatch.setitem(sys.modules, "mjchar.envs.imitation", None)  # a broken env module
-    with pytest.raises(perf.PerfUnavailable, match="Imitation-v0"):
-        perf.env_throughput(steps=1, repeats=1)
 
 
 def test_skeletons_section(tmp_path, main, capsys):

@@ -4,7 +4,7 @@ no root force.
 Fast tests (default run): the formulas and helpers, 10 s walks at 0.5 and 1.0 m/s, stopping,
 turning by 90 degrees, one 150 N push per direction, and a push that static balance cannot
 survive while IPM stepping can. The 60 s walks and the 8-direction push sweep are marked slow
-(``pytest -m slow``); benchmarks/bench_ipm.py runs the long versions and reports the numbers.
+(``pytest -m slow``); ``python -m mjchar.perf.ipm`` runs the long versions and reports the numbers.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The default run reconstructs half a second of the bundled walk with few samples (seconds); the
 full reconstruction of the shared walk60 clip is a slow test (``-m slow``, minutes) and the
-benchmark ``benchmarks/bench_samcon.py`` reports its numbers.
+benchmark ``python -m mjchar.perf.samcon`` reports its numbers.
 """
 
 from __future__ import annotations
@@ -437,7 +437,7 @@ def test_cli_errors_are_one_line(tmp_path):
 @pytest.mark.slow
 def test_samcon_reconstructs_walk60(character):
     """walk60 (~3 s) with no root force: the open-loop replay never falls, tracks within 5 cm
-    and ends within 15 cm of the clip's root (minutes; see benchmarks/bench_samcon.py)."""
+    and ends within 15 cm of the clip's root (minutes; see ``python -m mjchar.perf.samcon``)."""
     from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS
 
     path = shared_clip("walk60.bvh")

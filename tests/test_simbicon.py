@@ -2,7 +2,7 @@
 
 No test applies any force to the root: every run asserts the recorded root force is zero.
 The long runs (60 s x 5 seeds, 8 phases x 4 directions, 20 m slopes) are marked slow; the
-benchmark (benchmarks/bench_simbicon.py) runs them too and docs/simbicon.md has the numbers.
+benchmark (``python -m mjchar.perf.simbicon``) runs them too and docs/simbicon.md has the numbers.
 """
 
 from __future__ import annotations

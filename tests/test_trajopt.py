@@ -3,7 +3,7 @@
 Default tests run a few generations on short horizons (seconds) and assert that CMA-ES improves
 on its start and that the results replay; the full tasks (1.5 s of walk60 at >= 50 % lower
 tracking cost than plain PD; a jump clearing 10 cm and landing standing) are slow tests
-(``-m slow``) and benchmark entries (``benchmarks/bench_samcon.py``).
+(``-m slow``) and benchmark entries (``python -m mjchar.perf.samcon``).
 """
 
 from __future__ import annotations

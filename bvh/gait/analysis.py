@@ -194,12 +194,6 @@ def _stride_yaws(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
     return out
 
 
-def _pelvis_rotation(hip_left: np.ndarray, hip_right: np.ndarray, root: np.ndarray,
-                     strikes) -> list[float]:
-    """Peak-to-peak pelvis rotation (deg) of each stride of :func:`_stride_yaws`."""
-    return [float(np.ptp(y)) for y in _stride_yaws(hip_left, hip_right, root, strikes).values()]
-
-
 def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
             end: float | None = None, info=None, label: str = "walk") -> GaitStats:
     """Gait statistics of the ``qpos (T, nq)`` trajectory at ``times (T,)`` over ``[start,

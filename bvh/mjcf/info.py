@@ -201,8 +201,3 @@ class ModelInfo:
     def role(self, role: str):
         """Joint name (or list for ``spine``/``neck``) with ``role``; ``None`` when absent."""
         return self.roles.get(role)
-
-    @property
-    def body_joints(self) -> list[str]:
-        """All MuJoCo joint names except the root free joint (hinges and balls), in BVH order."""
-        return [mj for j in self.joints.values() for mj in j.mj_joints if mj != "root"]

@@ -69,7 +69,6 @@ class Prepared:
         rec: the roles.
         record: the ``rig`` metadata (``{}`` when the file needed nothing).
         warnings: what was done and what looks wrong.
-        unit_guessed, up_guessed: whether they were guessed.
     """
 
     motion: Motion | None
@@ -79,8 +78,6 @@ class Prepared:
     rec: Recognition
     record: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
-    unit_guessed: bool = True
-    up_guessed: bool = True
 
 
 def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None,
@@ -154,8 +151,7 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
         elif problem is None and len(legs) == 3:
             problem = "one leg only"
         raise missing_roles_error(missing, skeleton.names, rec.roles, problem)
-    return Prepared(work if has_motion else None, sk, scale, up, rec, record, warns,
-                    unit is None, up_axis is None)
+    return Prepared(work if has_motion else None, sk, scale, up, rec, record, warns)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -35,10 +35,6 @@ class _Slot:
     slide_qadr: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     slide_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
-    @property
-    def n_rot(self) -> int:
-        return {"free": 3, "ball": 3, "fixed": 0}.get(self.kind, len(self.qadr))
-
 
 def _model_info(model: mujoco.MjModel):
     return ModelInfo.from_model(model)

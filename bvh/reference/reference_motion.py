@@ -176,7 +176,6 @@ class ReferenceMotion:
 
         fk = forward_kinematics(self.motion)
         qpos = self._map_frames(fk)
-        self._initial_qpos = qpos.copy()
         self.projected_joints = [s.name for s in self._slots
                                  if s.kind == "hinge" and len(s.qadr) < 3]
         self.ik_iterations = np.zeros(self.n_frames, dtype=int)

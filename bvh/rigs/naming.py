@@ -17,8 +17,9 @@ A skeleton whose knees have no recognisable names still gets legs from its shape
 chains reaching nearest the floor, left and right from where the feet point), and one whose
 elbows have none gets arms from its shape (the chains branching sideways from the upper spine);
 those joints are reported in :attr:`Recognition.by_structure`. A user role map (``roles=``,
-read from a TOML roles file by :mod:`mjchar.bvh.mjcf.roles`) anchors and overrides. Everything else
-is ``"unknown"``.
+read from a TOML roles file by :mod:`mjchar.bvh.mjcf.roles`) anchors and overrides. Of the rest,
+finger-named joints are ``"hand"``, end-marker leaves (``*_End``, ``*Nub``, ``*_Site``) ``"end"``,
+everything else ``"unknown"``.
 
 Sides: a name is left-sided when a token ``l``/``left`` starts or ends it (``lKnee``,
 ``LeftLeg``, ``Knee_L``, ``knee.l``), right-sided likewise with ``r``/``right``.
@@ -33,13 +34,7 @@ import numpy as np
 
 from mjchar.bvh.io.skeleton import Skeleton
 
-#: roles a joint can have (``left_``/``right_`` prefixed for limbs)
-LIMB_ROLES = ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
-TRUNK_ROLES = ("pelvis", "spine", "neck", "head")
-OTHER_ROLES = ("hand", "end", "unknown")  # hand: below the wrist (fingers); end: *_End leaves
-
 _FINGER_WORDS = ("finger", "thumb", "index", "middle", "ring", "pinky", "pinkie", "little")
-_END_WORDS = ("end", "nub", "tip", "top", "site")
 _KNEE_WORDS = ("knee", "shin", "calf", "crus", "lowerleg", "lowleg", "leg")
 _NOT_KNEE_WORDS = ("upleg", "upperleg", "thigh")
 _ELBOW_WORDS = ("elbow", "forearm", "lowerarm", "lowarm")

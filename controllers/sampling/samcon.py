@@ -552,11 +552,6 @@ class Samcon:
             warmstart_resets=[a for a, _ in self.slices], source_motion=self.source_motion,
             reference_qpos=self.reference.qpos(t), metadata=metadata)
 
-    def base_trajectory(self) -> Trajectory:
-        """The base targets alone (inverse dynamics or raw reference), as a trajectory."""
-        return self._trajectory(np.zeros((len(self.slices), self.character.nu)),
-                                {"method": "base", "options": _options_dict(self.options)})
-
 
 def _options_dict(o: SamconOptions) -> dict:
     d = asdict(o)

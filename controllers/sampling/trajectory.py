@@ -60,7 +60,7 @@ from ..core.registry import ControllerSpec, make_controller, register
 
 __all__ = [
     "FORMAT", "FORMAT_VERSION", "TrajectoryError", "Trajectory", "StoredReference",
-    "ReplayController", "load_trajectory", "save_trajectory", "model_fingerprint", "replay",
+    "ReplayController", "load_trajectory", "model_fingerprint", "replay",
 ]
 
 FORMAT = "mjchar-trajectory"
@@ -295,11 +295,6 @@ def _jsonable(v):
         v = float(v)
         return v if math.isfinite(v) else None
     return v
-
-
-def save_trajectory(trajectory: Trajectory, path: str | os.PathLike) -> Path:
-    """Write ``trajectory`` to ``path`` (see the module docstring for the format)."""
-    return trajectory.save(path)
 
 
 def load_trajectory(path: str | os.PathLike) -> Trajectory:

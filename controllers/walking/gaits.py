@@ -185,9 +185,6 @@ class Gait:
         d["speed_anchors"] = [[f, dict(o)] for f, o in self.speed_anchors]
         return d
 
-    def to_json(self, **kw) -> str:
-        return json.dumps(self.to_dict(), **kw)
-
     @classmethod
     def from_dict(cls, d: dict) -> Gait:
         """Inverse of :meth:`to_dict`; raises :class:`GaitError` on unknown or missing keys."""

@@ -683,13 +683,6 @@ class Simbicon:
         v = character.com_velocity()
         return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
-    def balance_feedback(self, character: Character) -> tuple[np.ndarray, np.ndarray]:
-        """``(d, v)``: the centre of mass's horizontal offset ``(2,)`` (m) from the stance ankle
-        and its velocity ``(2,)`` (m/s) in the heading frame (forward, towards the swing side)."""
-        st = self._legs[self._stance_leg(self.state)]
-        H = _rot_z(yaw_of(character.data.xmat[self._pelvis].reshape(3, 3)))
-        return self._feedback_terms(character, st, H)
-
     def act(self, character: Character, t: float) -> Action:
         """The :class:`~mjchar.controllers.core.base.Action` for simulated time ``t``: joint torques
         only (the root rows are zero: no hand of god)."""

@@ -12,12 +12,10 @@ import numpy as np
 
 from mjchar.bvh.errors import MjcharError
 from mjchar.controllers.core.scenarios.push_search import PushProtocol
+from mjchar.perf.report import ROOT, SHARED_BVH  # noqa: F401  (the project root, the shared clips)
 
-#: the project root (holds ``docs/`` and, beside it, ``../shared``)
-ROOT = Path(__file__).resolve().parents[2]
 #: the results document's JSON Schema, package data of ``mjchar.bench``
 SCHEMA_PATH = Path(__file__).with_name("schema.json")
-SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
 SCHEMA_NAME = "mjchar-bench"
 SCHEMA_VERSION = 1
 

@@ -1,18 +1,24 @@
 """The bench's performance section: raw ``mj_step`` throughput, each controller's step cost as a
 ratio over ``mj_step``, batched-rollout and env throughput, BVH parse speed and the PD stability
-envelope, all measured now on this machine (see :mod:`mjchar.perf` for the measurements)."""
+envelope, all measured now on this machine (the measurements are :mod:`mjchar.perf`'s; a new
+figure there becomes a part here: one more key in ``parts`` and one more branch below)."""
 
 from __future__ import annotations
 
-import os
 import sys
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from mjchar.controllers import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.scenarios.terrain import place_on_floor
+from mjchar.perf.bvh import SHARED_CLIPS, bvh_parse_speed
+from mjchar.perf.envs import env_throughput
+from mjchar.perf.errors import PerfUnavailable
+from mjchar.perf.pd import stability_envelope
+from mjchar.perf.physics import raw_step_rate, step_cost
+from mjchar.perf.rollouts import rollout_throughput
+from mjchar.perf.timing import load_average, timed
 
 from .config import SHARED_BVH, BenchConfig, BenchError, PerfConfig
 from .matrix import BenchContext, availability, build_controller, progress_bar
@@ -37,8 +43,6 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
     Each part is ``{"available": bool, "reason": str | None, "wall_s": s, ...numbers}``;
     ``cost`` has one entry per available controller. See docs/bench.md.
     """
-    from .. import perf
-
     cfg = config.perf
     trajectories = dict(trajectories or {})
     bar = progress_bar(len(parts), progress, "performance")
@@ -48,14 +52,17 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
 
     def part(key: str, fn: Callable[[], dict]) -> None:
         bar.set_description(f"performance: {key}")
-        t0 = time.perf_counter()
-        try:
-            rec = {"available": True, "reason": None, **fn()}
-        except perf.PerfUnavailable as e:
-            rec = {"available": False, "reason": str(e)}
-        except Exception as e:  # a broken optional part must not lose the rest of the report
-            rec = {"available": False, "reason": f"error: {type(e).__name__}: {e}"}
-        rec["wall_s"] = time.perf_counter() - t0
+
+        def run() -> dict:
+            try:
+                return {"available": True, "reason": None, **fn()}
+            except PerfUnavailable as e:
+                return {"available": False, "reason": str(e)}
+            except Exception as e:  # a broken optional part must not lose the rest of the report
+                return {"available": False, "reason": f"error: {type(e).__name__}: {e}"}
+
+        rec, t = timed(run)
+        rec["wall_s"] = t.wall_s
         out[key] = rec
         bar.update()
 
@@ -63,22 +70,22 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
         if key == "raw":
             def raw():
                 ch = ctx.character()
-                return perf.raw_step_rate(ch.model, S.standing_pose(ch), steps=cfg.raw_steps,
-                                          repeats=cfg.raw_repeats)
+                return raw_step_rate(ch.model, S.standing_pose(ch), steps=cfg.raw_steps,
+                                     repeats=cfg.raw_repeats)
             part("raw", raw)
         elif key == "cost":
             part("cost", lambda: {"controllers": _costs(ctx, controllers, cfg, log)})
         elif key == "rollout":
-            part("rollout", lambda: perf.rollout_throughput(
+            part("rollout", lambda: rollout_throughput(
                 samples=cfg.rollout_samples, steps=cfg.rollout_steps,
                 repeats=cfg.rollout_repeats, threads=cfg.rollout_threads))
         elif key == "envs":
-            part("envs", lambda: perf.env_throughput(steps=cfg.env_steps,
-                                                     repeats=cfg.env_repeats))
+            part("envs", lambda: env_throughput(steps=cfg.env_steps,
+                                                repeats=cfg.env_repeats))
         elif key == "bvh":
-            part("bvh", lambda: perf.bvh_parse_speed(_bvh_files(), budget=cfg.bvh_budget_s))
+            part("bvh", lambda: bvh_parse_speed(_bvh_files(), budget=cfg.bvh_budget_s))
         elif key == "envelope":
-            part("envelope", lambda: perf.stability_envelope(
+            part("envelope", lambda: stability_envelope(
                 kps=cfg.envelope_kps, grid=cfg.envelope_grid, finer=cfg.envelope_finer,
                 duration=cfg.envelope_duration_s, model=ctx.base_model, progress=log))
         else:
@@ -88,8 +95,6 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
 
 
 def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) -> dict:
-    from .. import perf
-
     out = {}
     for name in controllers:
         ok, why = availability(name, ctx.trajectories)
@@ -102,7 +107,7 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
 
                 tr = ctx.trajectory(name)
                 ch = ctx.character(tr.timestep)
-                c = perf.step_cost(ch, lambda tr=tr: ReplayController(tr), qpos=tr.initial_qpos,
+                c = step_cost(ch, lambda tr=tr: ReplayController(tr), qpos=tr.initial_qpos,
                                    qvel=tr.initial_qvel, control_dt=tr.control_dt,
                                    steps=cfg.cost_steps, repeats=cfg.cost_repeats)
             else:
@@ -111,7 +116,7 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
                 q, v = _start_state(ctx, name, ch, probe_ctrl)
                 # fresh: the raw loop copies its model
                 ch = ctx.character(registry.default_timestep(name))
-                c = perf.step_cost(ch, lambda n=name, s=scenario: build_controller(ctx, n, s)[1],
+                c = step_cost(ch, lambda n=name, s=scenario: build_controller(ctx, n, s)[1],
                                    qpos=q, qvel=v, steps=cfg.cost_steps,
                                    repeats=cfg.cost_repeats)
             out[name] = {"available": True, "reason": None, **c.to_dict()}
@@ -123,20 +128,12 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
 
 
 def _bvh_files() -> list[Path]:
-    shared = [SHARED_BVH / n for n in ("walk60.bvh", "idle.bvh", "walk_forward.bvh",
-                                       "walk_and_turn_right.bvh")]
+    shared = [SHARED_BVH / n for n in SHARED_CLIPS]
     files = [p for p in shared if p.is_file()]
     if not files:
         from mjchar.bvh.bundled.assets import motion_path
 
         files = [motion_path("walk"), motion_path("idle")]
     return files
-
-
-def load_average() -> float | None:
-    try:
-        return float(os.getloadavg()[0])
-    except (AttributeError, OSError):
-        return None
 
 

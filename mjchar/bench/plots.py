@@ -20,8 +20,6 @@ from .config import DIRECTION_NAMES, BenchError
 __all__ = ["require_matplotlib", "make_plots", "plot_push_search", "plot_com_trajectories",
            "plot_tracking_error", "plot_envelope", "plot_step_cost", "plot_walk_strip"]
 
-_DIRECTION_COLOURS = {"forward": "#1f77b4", "left": "#2ca02c", "backward": "#d62728",
-                      "right": "#ff7f0e"}
 _STATUS_COLOURS = {"held": "#4daf4a", "oscillates": "#ffb000", "diverged": "#d7301f",
                    "not scanned": "#f0f0f0"}
 

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mjchar.perf.timing import load_average
+
 from .config import (
     ROOT,
     SCHEMA_NAME,
@@ -25,7 +27,7 @@ from .config import (
     relative_path,
 )
 from .matrix import default_track_motion, find_trajectories, run_matrix, select_cells
-from .performance import load_average, run_performance
+from .performance import run_performance
 from .report import (
     TABLE_NOTES,
     check_expectations,

@@ -1,4 +1,4 @@
-"""Benchmark IPM stepping (controllers/walking/ipm.py) on the bundled humanoid, with no root force.
+"""IPM stepping (controllers/walking/ipm.py) on the bundled humanoid, with no root force.
 
 Long versions of what tests/test_ipm.py checks quickly:
 
@@ -10,34 +10,33 @@ Long versions of what tests/test_ipm.py checks quickly:
 - ``push``: 0.2 s pushes on the pelvis from standing (zero command), 8 directions x 2 push times
   x several forces: which are survived (stepping allowed); static balance on the same pushes for
   comparison.
-- ``cost``: wall time of an IPM control step over a raw ``mj_step`` (ratio, same run).
+- ``cost``: an IPM control + physics step over a bare ``mj_step``, walking at 1.0 m/s from
+  standing, interleaved in the same run (:func:`mjchar.perf.physics.step_cost`).
 
 Usage::
 
-    python benchmarks/bench_ipm.py                 # everything (~10 min on one core)
-    python benchmarks/bench_ipm.py walk push       # some sections
-    python benchmarks/bench_ipm.py --quick         # 20 s walks, fewer pushes
-    python benchmarks/bench_ipm.py --json out.json
+    python -m mjchar.perf.ipm                 # everything (~10 min on one core)
+    python -m mjchar.perf.ipm walk push       # some sections
+    python -m mjchar.perf.ipm --quick         # 20 s walks, fewer pushes
+    python -m mjchar.perf.ipm --json out.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
-import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.registry import make_controller
+from mjchar.controllers.core.scenarios import push, simulate, standing_pose
+from mjchar.controllers.walking.ipm import make_ipm
 
-from mjchar.controllers.core.character import Character  # noqa: E402
-from mjchar.controllers.core.registry import make_controller  # noqa: E402
-from mjchar.controllers.core.scenarios import push, simulate, standing_pose  # noqa: E402
-from mjchar.controllers.walking.ipm import make_ipm  # noqa: E402
+from .physics import step_cost
+from .report import write_json
 
 SECTIONS = ("walk", "stop", "turn", "push", "cost")
 DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
@@ -151,25 +150,20 @@ def bench_push(ch: Character, forces, times_) -> dict:
     return out
 
 
-def bench_cost(ch: Character, duration: float = 5.0) -> dict:
-    ch.reset(standing_pose(ch))
-    n = int(duration / ch.timestep)
-    t0 = time.perf_counter()
-    for _ in range(n):
-        mujoco.mj_step(ch.model, ch.data)
-    raw = (time.perf_counter() - t0) / n
-    r = simulate(ch, make_ipm(ch, speed=1.0), duration=duration, scenario="walk",
-                 qpos=standing_pose(ch))
-    per = r.wall_s / r.n_steps
-    row = {"raw_mj_step_us": raw * 1e6, "ipm_step_us": per * 1e6, "ratio": per / raw,
-           "timestep_s": ch.timestep}
-    log(f"cost: IPM control + physics step {per * 1e6:.0f} us vs raw mj_step {raw * 1e6:.0f} us "
-        f"(x{per / raw:.1f}); real-time factor {ch.timestep / per:.1f}")
-    return row
+def bench_cost(steps: int = 2500, repeats: int = 5) -> dict:
+    """IPM's cost per physics step (walking at 1.0 m/s from standing) over a bare ``mj_step``."""
+    ch = Character()
+    pose = standing_pose(ch)
+    c = step_cost(ch, lambda: make_ipm(ch, speed=1.0), qpos=pose, steps=steps, repeats=repeats)
+    log(f"cost: IPM control + physics step {c.controller_us:.0f} us vs bare mj_step "
+        f"{c.raw_us:.0f} us (x{c.ratio:.1f}, process CPU time); real-time factor "
+        f"{ch.timestep / (c.controller_us * 1e-6):.1f} per core")
+    return c.to_dict()
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.ipm",
+                                 description=__doc__.splitlines()[0])
     ap.add_argument("sections", nargs="*", metavar="SECTION",
                     help=f"any of {', '.join(SECTIONS)} (default: all)")
     ap.add_argument("--quick", action="store_true", help="20 s walks, fewer pushes")
@@ -191,10 +185,9 @@ def main(argv=None) -> int:
         forces = (150.0, 200.0) if args.quick else (150.0, 200.0, 250.0, 300.0)
         results["push"] = bench_push(ch, forces, (1.0,) if args.quick else (1.0, 1.3))
     if "cost" in sections:
-        results["cost"] = bench_cost(ch)
+        results["cost"] = bench_cost()
     if args.json:
-        args.json.write_text(json.dumps(results, indent=2, default=float))
-        log(f"wrote {args.json}")
+        log(f"wrote {write_json(args.json, results)}")
     return 0
 
 

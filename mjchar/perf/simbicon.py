@@ -1,8 +1,8 @@
-"""SIMBICON benchmark: the long runs behind docs/simbicon.md (no root force anywhere).
+"""SIMBICON: the long runs behind docs/simbicon.md (no root force anywhere).
 
-    python benchmarks/bench_simbicon.py                      # everything (~13 min, 1 core)
-    python benchmarks/bench_simbicon.py walk feedback-off    # only some parts
-    python benchmarks/bench_simbicon.py pushes --gait crouch --json out.json
+    python -m mjchar.perf.simbicon                      # everything (~13 min, 1 core)
+    python -m mjchar.perf.simbicon walk feedback-off    # only some parts
+    python -m mjchar.perf.simbicon pushes --gait crouch --json out.json
 
 Parts:
   walk          60 s on level ground at 5 seeds: falls, steady speed (last 10 s), root force
@@ -12,26 +12,25 @@ Parts:
   search        the push protocol over a 25 N grid to 800 N, 8 phases x 5 seeds: the largest
                 forces with survival rate 100 % and >= 90 % per direction
   slopes        20 m up and 20 m down a 5 degree slope
-  timing        controller + physics step cost relative to a bare mj_step
+  timing        controller + physics step cost over a bare mj_step, interleaved in the same
+                run (:func:`mjchar.perf.physics.step_cost`)
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.scenarios import slope_walk, walk
+from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
+from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
 
-from mjchar.controllers.core.character import Character  # noqa: E402
-from mjchar.controllers.core.scenarios import slope_walk, walk  # noqa: E402
-from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates  # noqa: E402
-from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon  # noqa: E402
+from .physics import step_cost
+from .report import write_json
+from .timing import timed
 
 PARTS = ("walk", "feedback-off", "pushes", "search", "slopes", "timing")
 SEEDS = (0, 1, 2, 3, 4)
@@ -127,36 +126,22 @@ def bench_slopes(gait: str) -> dict:
     return out
 
 
-def bench_timing(gait: str) -> dict:
-    import mujoco
-
+def bench_timing(gait: str, steps: int = 3000, repeats: int = 5) -> dict:
+    """SIMBICON's cost per physics step over a bare ``mj_step`` (from its start state)."""
     ch = character()
-    c = make_simbicon(gait=gait)
-    c.reset(ch)
-    q, v = c.start_state(ch, np.random.default_rng(0))
-    ch.reset(q, v)
-    c.reset(ch)
-    n = 3000
-    t0 = time.perf_counter()
-    for _ in range(n):
-        ch.step(c.act(ch, ch.time))
-    ctl = time.perf_counter() - t0
-    m, d = ch.model, mujoco.MjData(ch.model)
-    d.qpos[:] = q
-    t0 = time.perf_counter()
-    for _ in range(n):
-        mujoco.mj_step(m, d)
-    raw = time.perf_counter() - t0
-    ratio = ctl / raw
-    log(
-        f"timing: SIMBICON step costs {ratio:.1f}x a bare mj_step "
-        f"({n / ctl:.0f} vs {n / raw:.0f} steps/s at dt {ch.timestep * 1000:g} ms)"
-    )
-    return {"ratio": ratio, "steps_per_s": n / ctl, "raw_steps_per_s": n / raw}
+    probe = make_simbicon(gait=gait)
+    probe.reset(ch)
+    q, v = probe.start_state(ch, np.random.default_rng(0))
+    c = step_cost(ch, lambda: make_simbicon(gait=gait), qpos=q, qvel=v, steps=steps,
+                  repeats=repeats)
+    log(f"timing: SIMBICON step costs {c.ratio:.1f}x a bare mj_step ({c.controller_us:.0f} vs "
+        f"{c.raw_us:.0f} us per step at dt {ch.timestep * 1000:g} ms, process CPU time)")
+    return c.to_dict()
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.simbicon",
+                                 description=__doc__.splitlines()[0])
     ap.add_argument(
         "parts", nargs="*", default=[], help=f"parts to run: {', '.join(PARTS)} (default: all)"
     )
@@ -169,31 +154,21 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         ap.error(f"unknown part(s) {', '.join(bad)}; choose from {', '.join(PARTS)}")
     out: dict = {"gait": a.gait, "timestep_s": DEFAULT_TIMESTEP}
-    t0 = time.time()
-    for part in parts:
-        log(f"== {part} ({a.gait})")
-        if part == "walk":
-            out[part] = bench_walk(a.gait, a.duration)
-        elif part == "feedback-off":
-            out[part] = bench_feedback_off(a.gait)
-        elif part == "pushes":
-            out[part] = bench_pushes(a.gait)
-        elif part == "search":
-            out[part] = bench_search(a.gait)
-        elif part == "slopes":
-            out[part] = bench_slopes(a.gait)
-        elif part == "timing":
-            out[part] = bench_timing(a.gait)
-    out["wall_s"] = time.time() - t0
+
+    parts_fn = {"walk": lambda: bench_walk(a.gait, a.duration),
+                "feedback-off": lambda: bench_feedback_off(a.gait),
+                "pushes": lambda: bench_pushes(a.gait), "search": lambda: bench_search(a.gait),
+                "slopes": lambda: bench_slopes(a.gait), "timing": lambda: bench_timing(a.gait)}
+
+    def run() -> None:
+        for part in parts:
+            log(f"== {part} ({a.gait})")
+            out[part] = parts_fn[part]()
+
+    out["wall_s"] = timed(run)[1].wall_s
     log(f"done in {out['wall_s'] / 60:.1f} min")
     if a.json:
-
-        def clean(x):
-            if isinstance(x, float) and not math.isfinite(x):
-                return None
-            return x
-
-        Path(a.json).write_text(json.dumps(out, indent=1, default=clean))
+        write_json(a.json, out)
     return 0
 
 

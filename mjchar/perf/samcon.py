@@ -14,8 +14,8 @@ average is printed with each part; read ratios rather than absolute timings).
   (mean tracking cost and the replays' tracking error).
 - ``--jump``: the CMA-ES standing vertical jump (clearance, landing).
 
-    python benchmarks/bench_samcon.py --all --write     # everything, update docs/sampling.md
-    python benchmarks/bench_samcon.py --throughput      # one part
+    python -m mjchar.perf.samcon --all --write     # everything, update docs/sampling.md
+    python -m mjchar.perf.samcon --throughput      # one part
 """
 
 from __future__ import annotations
@@ -23,28 +23,23 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import mujoco
+import mujoco.rollout
+import numpy as np
 
-import mujoco  # noqa: E402
-import mujoco.rollout  # noqa: E402
-import numpy as np  # noqa: E402
-
-from mjchar import bvh  # noqa: E402
-from mjchar.bvh.bundled.assets import humanoid_path  # noqa: E402
-from mjchar.bvh.reference.reference_motion import ReferenceMotion  # noqa: E402
-from mjchar.controllers.core.character import Character  # noqa: E402
-from mjchar.controllers.sampling.executors import LocalExecutor  # noqa: E402
-from mjchar.controllers.sampling.rollout import FULLPHYSICS, RolloutRequest  # noqa: E402
-from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions  # noqa: E402
-from mjchar.controllers.sampling.tracking import CostWeights  # noqa: E402
-from mjchar.controllers.sampling.trajectory import replay  # noqa: E402
-from mjchar.controllers.sampling.trajopt import (  # noqa: E402
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import humanoid_path
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.sampling.executors import LocalExecutor
+from mjchar.controllers.sampling.rollout import FULLPHYSICS, RolloutRequest
+from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
+from mjchar.controllers.sampling.tracking import CostWeights
+from mjchar.controllers.sampling.trajectory import replay
+from mjchar.controllers.sampling.trajopt import (
     JUMP_OPTIONS,
     TrajoptOptions,
     optimise_jump,
@@ -53,28 +48,18 @@ from mjchar.controllers.sampling.trajopt import (  # noqa: E402
     trajectory_cost,
 )
 
-DOC = ROOT / "docs" / "sampling.md"
-START, END = "<!-- bench_samcon:start -->", "<!-- bench_samcon:end -->"
-SHARED = ROOT.parent / "shared" / "data" / "bvh"
-
-
-def clip(name: str) -> Path:
-    path = SHARED / f"{name}.bvh"
-    if not path.is_file():
-        sys.exit(f"shared clip {path} not found")
-    return path
-
-
-def cpu() -> float:
-    return time.process_time()
+from .report import DOCS, machine_line, write_block, write_json
+from .report import shared_clip as clip
+from .timing import load_average, rounds, timed
 
 
 def load() -> float:
-    return os.getloadavg()[0]
+    a = load_average()
+    return float("nan") if a is None else a
 
 
 # ------------------------------------------------------------------------------------------------
-def throughput(samples: int, rounds: int, threads: int) -> dict:
+def throughput(samples: int, n_rounds: int, threads: int) -> dict:
     """SAMCON slice throughput vs bare mujoco.rollout and the LocalExecutor, interleaved."""
     ch = Character()
     ref = ReferenceMotion(ch.model, bvh.load(clip("walk60")), info=ch.info)
@@ -112,22 +97,17 @@ def throughput(samples: int, rounds: int, threads: int) -> dict:
         return n_slices * samples
 
     cases = {"samcon": run_samcon, "executor": run_executor, "bare": run_bare}
-    best = {name: (np.inf, np.nan, 0) for name in cases}
     load0 = load()
-    for fn in cases.values():  # warm-up
-        fn()
-    for _ in range(rounds):
-        for name, fn in cases.items():
-            w0, c0 = time.perf_counter(), cpu()
-            n = fn()
-            w, cc = time.perf_counter() - w0, cpu() - c0
-            if w / n < best[name][0] / max(best[name][2], 1) or not best[name][2]:
-                best[name] = (w, cc, n)
+    runs = rounds(cases, repeats=n_rounds, warmup=True, keep_results=True)
+    best = {}
+    for name, r in runs.items():  # the run with the least wall time per sample-slice
+        i = min(range(len(r.timings)), key=lambda i, r=r: r.timings[i].wall_s / r.results[i])
+        best[name] = (r.timings[i].wall_s, r.timings[i].cpu_s, r.results[i])
     pool.close()
     s.close()
     ex.close()
     out = {"samples": samples, "slices": n_slices, "steps_per_slice": c * k, "threads": threads,
-           "rounds": rounds, "load_avg": load0}
+           "rounds": n_rounds, "load_avg": load0}
     for name, (w, cc, per) in best.items():  # per: sample-slices simulated by the case
         out[name] = {"wall_s": w, "cpu_s": cc, "samples_per_s": per / w,
                      "steps_per_s": per * c * k / w, "samples_per_cpu_s": per / cc}
@@ -152,11 +132,10 @@ def reconstruct(name: str, outdir: Path, threads: int, seed: int,
     opts = SamconOptions(**dict(RECONSTRUCTION_OPTIONS, seed=seed,
                                 weights=CostWeights(**weights)))
     load0 = load()
-    w0, c0 = time.perf_counter(), cpu()
     with LocalExecutor(threads=threads) as ex, Samcon(ref, options=opts, executor=ex,
                                                        source_motion=str(clip(name))) as s:
-        res = s.run(progress=True)
-    wall, cpu_s = time.perf_counter() - w0, cpu() - c0
+        res, t = timed(s.run, progress=True)
+    wall, cpu_s = t.wall_s, t.cpu_s
     path = res.trajectory.save(outdir / f"samcon_{name}.npz")
     r1 = replay(path)
     r2 = replay(path)
@@ -178,10 +157,10 @@ def cmaes(outdir: Path, threads: int, seed: int) -> dict:
     ref = ReferenceMotion(ch.model, bvh.load(clip("walk60")), info=ch.info)
     o = TrajoptOptions(duration=1.5, seed=seed)
     load0 = load()
-    w0 = time.perf_counter()
     with LocalExecutor(threads=threads) as ex:
-        res = track_clip(ref, options=o, executor=ex, source_motion=str(clip("walk60")))
-    wall = time.perf_counter() - w0
+        res, t = timed(track_clip, ref, options=o, executor=ex,
+                       source_motion=str(clip("walk60")))
+    wall = t.wall_s
     path = res.trajectory.save(outdir / "cmaes_walk60_1.5s.npz")
     pd = plain_pd_trajectory(ref, duration=1.5)
     c_pd, c_opt = trajectory_cost(pd, ref), trajectory_cost(res.trajectory, ref)
@@ -201,10 +180,9 @@ def cmaes(outdir: Path, threads: int, seed: int) -> dict:
 def jump(outdir: Path, threads: int, seed: int) -> dict:
     o = TrajoptOptions(**dict(JUMP_OPTIONS, seed=seed))
     load0 = load()
-    w0 = time.perf_counter()
     with LocalExecutor(threads=threads) as ex:
-        res = optimise_jump(options=o, executor=ex)
-    wall = time.perf_counter() - w0
+        res, t = timed(optimise_jump, options=o, executor=ex)
+    wall = t.wall_s
     tr = res.trajectory
     path = tr.save(outdir / "cmaes_jump.npz")
     r = replay(tr, duration=tr.duration + 1.0)
@@ -223,9 +201,7 @@ def fell(flag: bool, when) -> str:
 
 
 def table(results: dict) -> str:
-    lines = [f"Measured {time.strftime('%Y-%m-%d')} on {platform.processor() or 'this machine'}"
-             f" ({os.cpu_count()} cores, shared), MuJoCo {mujoco.__version__}, "
-             "`python benchmarks/bench_samcon.py`.", ""]
+    lines = [f"Measured by `python -m mjchar.perf.samcon` on {machine_line()}.", ""]
     t = results.get("throughput")
     if t:
         lines += [f"Throughput ({t['samples']} samples x {t['slices']} slices of "
@@ -279,17 +255,9 @@ def table(results: dict) -> str:
     return "\n".join(lines)
 
 
-def write_doc(text: str) -> None:
-    doc = DOC.read_text()
-    if START not in doc or END not in doc:
-        sys.exit(f"{DOC} has no {START} ... {END} block")
-    head, rest = doc.split(START, 1)
-    _, tail = rest.split(END, 1)
-    DOC.write_text(f"{head}{START}\n{text}\n{END}{tail}")
-
-
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m mjchar.perf.samcon",
+                                description=__doc__.splitlines()[0])
     p.add_argument("--all", action="store_true", help="every part")
     p.add_argument("--throughput", action="store_true")
     p.add_argument("--reconstruct", nargs="*", metavar="CLIP",
@@ -302,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="/tmp/mjchar_bench_samcon", help="trajectories and JSON")
-    p.add_argument("--write", action="store_true", help=f"update {DOC.relative_to(ROOT)}")
+    p.add_argument("--write", action="store_true", help="update docs/sampling.md")
     args = p.parse_args(argv)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
@@ -326,11 +294,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.jump or args.all:
         results["jump"] = jump(outdir, args.threads, args.seed)
         print(json.dumps(results["jump"], indent=1), flush=True)
-    results_path.write_text(json.dumps(results, indent=1))
+    write_json(results_path, results)
     text = table(results)
     print(text)
     if args.write:
-        write_doc(text)
+        print(f"updated {write_block(DOCS / 'sampling.md', 'samcon', text)}", file=sys.stderr)
     return 0
 
 

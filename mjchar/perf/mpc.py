@@ -19,8 +19,8 @@ with every part; the real-time factor is simulated seconds per wall second of th
   settings simulate per simulated second give the factor the cores could reach if rollouts
   were all the work (``bound``), and ``efficiency`` = factor / bound.
 
-    python benchmarks/bench_mpc.py --all          # everything (about half an hour)
-    python benchmarks/bench_mpc.py --clips        # one part
+    python -m mjchar.perf.mpc --all          # everything (about half an hour)
+    python -m mjchar.perf.mpc --clips        # one part
 """
 
 from __future__ import annotations
@@ -28,29 +28,27 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
-import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from mjchar import bvh  # noqa: E402
-from mjchar.bvh.editing.clips import make_cyclic  # noqa: E402
-from mjchar.bvh.reference.reference_motion import ReferenceMotion  # noqa: E402
-from mjchar.controllers.core import scenarios as S  # noqa: E402
-from mjchar.controllers.core.character import Character  # noqa: E402
-from mjchar.controllers.core.registry import make_controller  # noqa: E402
-from mjchar.controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep  # noqa: E402
-from mjchar.controllers.sampling.trajectory import (  # noqa: E402
+from mjchar import bvh
+from mjchar.bvh.bundled.assets import TRAJECTORIES
+from mjchar.bvh.editing.clips import make_cyclic
+from mjchar.bvh.reference.reference_motion import ReferenceMotion
+from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.registry import make_controller
+from mjchar.controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep
+from mjchar.controllers.sampling.trajectory import (
     ReplayController,
     StoredReference,
     load_trajectory,
 )
 
-SHARED = ROOT.parent / "shared" / "data" / "bvh"
+from .physics import raw_step_rate
+from .report import shared_clip, write_json
+from .timing import load_average, timed
+
 CLIPS = ("walk60", "walk_forward", "walk_and_turn_right", "idle")
 DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 RECOVERED = 0.08  # m: the joint error a pushed tracker must return below
@@ -58,15 +56,13 @@ RECOVERY_WINDOW = 2.0  # s after the push's end
 SETTLE = 4.0  # s simulated after the push's end (the error must stay low once recovered)
 
 
-def load() -> float:
-    return round(os.getloadavg()[0], 2)
+def load() -> float | None:
+    a = load_average()
+    return None if a is None else round(a, 2)
 
 
 def reference(ch: Character, name: str, cyclic: bool = False) -> ReferenceMotion:
-    path = SHARED / f"{name}.bvh"
-    if not path.is_file():
-        raise SystemExit(f"{path} not found: the MPC benchmark needs ../shared/data")
-    motion = bvh.load(path)
+    motion = bvh.load(shared_clip(name))
     if cyclic:
         motion = make_cyclic(motion)
     return ReferenceMotion(ch.model, motion, info=ch.info, cyclic=True if cyclic else None)
@@ -92,11 +88,9 @@ class ErrorTrace:
 def run_mpc(ref, duration=None, options=None, **kw):
     ch = Character()
     c = make_mpc(ch, ref, progress=False, **(options or {}))
-    t0 = time.perf_counter()
-    r = S.track(ch, c, ref, duration=duration, **kw)
-    wall = time.perf_counter() - t0
+    r, t = timed(S.track, ch, c, ref, duration=duration, **kw)
     c.close()
-    return r, wall, c.stats
+    return r, t.wall_s, c.stats
 
 
 def summary(r, wall: float, stats=None) -> dict:
@@ -131,7 +125,7 @@ def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
     """One pushed run; the recovery time is measured from the push's end."""
     ch = Character()
     if controller == "samcon_replay":
-        tr = load_trajectory(ROOT / "assets" / "trajectories" / "samcon_walk60.npz")
+        tr = load_trajectory(TRAJECTORIES / "samcon_walk60.npz")
         ref = StoredReference(ch.model, tr.reference_qpos, tr.control_dt, ch.joint_bodies)
         ch.set_timestep(tr.timestep)
         c = ReplayController(tr)
@@ -223,8 +217,6 @@ def determinism(options: dict) -> dict:
 
 def speed(options: dict) -> dict:
     """Real-time factor on walk60, against bare ``mj_step`` throughput on this machine now."""
-    from mjchar.perf import raw_step_rate
-
     ch = Character()
     ref = reference(ch, "walk60")
     before = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
@@ -245,7 +237,8 @@ def speed(options: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python -m mjchar.perf.mpc",
+                                description=__doc__.split("\n")[0])
     for part in ("clips", "loop", "pushes", "perturbed", "curve", "determinism", "speed", "all"):
         p.add_argument(f"--{part}", action="store_true")
     p.add_argument("--loop-duration", type=float, default=60.0)
@@ -278,8 +271,7 @@ def main(argv=None) -> int:
         results["curve"] = curve(options)
     if a or args.speed:
         results["speed"] = speed(options)
-    Path(args.out).write_text(json.dumps(results, indent=1))
-    print(f"wrote {args.out}")
+    print(f"wrote {write_json(args.out, results)}")
     return 0
 
 

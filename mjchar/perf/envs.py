@@ -1,0 +1,231 @@
+"""Gymnasium env throughput: mjchar's envs against Gymnasium's ``Humanoid-v5`` (the table of
+docs/envs.md; the bench's ``envs`` part is :func:`env_throughput`).
+
+    python -m mjchar.perf.envs                         # measure and print
+    python -m mjchar.perf.envs --steps 2000 --repeats 5 --write   # update docs/envs.md
+
+Each env (``gymnasium.make``, default options, so the same checker/order wrappers for all) runs
+uniform random actions (``action_space.sample()``, seeded) for ``steps`` env steps, resetting
+whenever an episode ends (random actions end episodes within about a second, so resets are part
+of the cost, as in training). The envs take turns within each of ``repeats`` rounds and the
+median round is reported, so all rows share the machine's load. Columns:
+
+- env steps/s: policy steps per wall second;
+- physics steps/s: env steps/s x physics steps per env step (17 for the mjchar envs at 30 Hz with
+  1.96 ms steps, ``frame_skip`` = 5 for Humanoid-v5 at 3 ms);
+- bare mj_step/s (with ``bare=True``): plain ``mujoco.mj_step(m, d, n_substeps)`` calls from the
+  physics states the same seeded run visited (every 5th env step, controls as the env set them),
+  timed in the same round: the ceiling of the physics column for that state distribution;
+- physics share: physics steps/s over bare mj_step/s (the rest is Python: observation, reward,
+  termination, resets, the wrappers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from .errors import PerfUnavailable, positive_int
+from .report import DOCS, machine_line, write_block
+from .timing import Timing, timed
+
+__all__ = ["ENV_IDS", "random_env_steps", "visited_states", "bare_step_rate", "env_throughput",
+           "main"]
+
+#: envs compared by :func:`env_throughput` (the last one is the yardstick)
+ENV_IDS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
+
+
+def random_env_steps(env, steps: int, seed: int) -> tuple[float, int]:
+    """``(wall seconds, episodes ended)`` for ``steps`` uniformly random actions in a Gymnasium
+    ``env`` (seeded ``reset`` and action space; resets when an episode ends, timed too)."""
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+
+    def run() -> int:
+        ended = 0
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(env.action_space.sample())
+            if term or trunc:
+                ended += 1
+                env.reset()
+        return ended
+
+    ended, t = timed(run)
+    return t.wall_s, ended
+
+
+def _substeps(env) -> int:
+    """Physics steps per env step."""
+    u = env.unwrapped
+    return int(getattr(u, "n_substeps", None) or getattr(u, "frame_skip", 1))
+
+
+def _model_data(env) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The env's MuJoCo model and data."""
+    u = env.unwrapped
+    if hasattr(u, "character"):
+        return u.character.model, u.character.data
+    return u.model, u.data
+
+
+def visited_states(env, steps: int, seed: int, every: int = 5) -> list[np.ndarray]:
+    """Full physics states (``mjSTATE_INTEGRATION``) after every ``every``-th env step of the
+    same seeded random run as :func:`random_env_steps` (not timed)."""
+    m, d = _model_data(env)
+    sig = mujoco.mjtState.mjSTATE_INTEGRATION
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    out = []
+    for i in range(steps):
+        _, _, term, trunc, _ = env.step(env.action_space.sample())
+        if i % every == 0:
+            s = np.empty(mujoco.mj_stateSize(m, sig))
+            mujoco.mj_getState(m, d, s, sig)
+            out.append(s)
+        if term or trunc:
+            env.reset()
+    return out
+
+
+def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
+    """``mj_step``/s of plain ``mujoco.mj_step(m, d, n_substeps)`` calls from ``states``
+    (controls as the env left them) on a fresh MjData of the env's model (wall clock)."""
+    m, _ = _model_data(env)
+    d = mujoco.MjData(m)
+    sig = mujoco.mjtState.mjSTATE_INTEGRATION
+    n = _substeps(env)
+    total = Timing()
+    for s in states:
+        mujoco.mj_setState(m, d, s, sig)
+        total += timed(mujoco.mj_step, m, d, n)[1]
+    return len(states) * n / total.wall_s
+
+
+def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repeats: int = 3,
+                   seed: int = 0, bare: bool = False, log=None) -> dict:
+    """Env steps per second with uniform random actions (seeded), resetting when an episode
+    ends, for each env id; the envs take turns in ``repeats`` rounds and the median round is
+    reported. Physics steps per second = env steps/s x physics steps per env step.
+
+    With ``bare``, each round also times bare ``mj_step`` from the states that round visited
+    (:func:`visited_states`, :func:`bare_step_rate`; median over rounds), and each env gets
+    ``"bare_steps_per_s"`` and ``"physics_share"`` (physics steps/s over bare ``mj_step``/s).
+
+    Returns:
+        ``{"steps", "repeats", "envs": {id: {"env_steps_per_s", "physics_steps_per_s",
+        "physics_steps_per_env_step", "timestep_s", "episodes_per_round", "obs_dim",
+        "act_dim"}}, "reference": id, "ratios": {id: {"env_steps": x, "physics_steps": y}}}``
+        where ratios are against the last id (``Humanoid-v5``).
+    Raises:
+        PerfUnavailable: Gymnasium, its MuJoCo envs or the project's envs do not load.
+    """
+    steps, repeats = positive_int(steps, "steps"), positive_int(repeats, "repeats")
+    try:
+        import gymnasium as gym  # importing mjchar registered the mjchar/... ids
+    except Exception as e:  # a broken Gymnasium: report, do not crash the bench
+        raise PerfUnavailable(f"gymnasium does not import ({type(e).__name__}: {e})") from None
+    made = {}
+    try:
+        for eid in env_ids:
+            try:
+                made[eid] = gym.make(eid)
+            except Exception as e:
+                raise PerfUnavailable(f"gymnasium.make({eid!r}) failed ({type(e).__name__}: "
+                                      f"{str(e).splitlines()[0] if str(e) else ''})") from None
+        rounds: dict[str, list[tuple[float, int]]] = {eid: [] for eid in env_ids}
+        bares: dict[str, list[float]] = {eid: [] for eid in env_ids}
+        for r in range(repeats):
+            for eid, env in made.items():
+                wall, ended = random_env_steps(env, steps, seed + r)
+                rounds[eid].append((steps / wall, ended))
+                if bare:
+                    bares[eid].append(bare_step_rate(env, visited_states(env, steps, seed + r)))
+                if log is not None:
+                    log(f"round {r + 1}/{repeats} {eid}: {steps / wall:.0f} env steps/s")
+        out = {}
+        for eid, env in made.items():
+            rates = sorted(rounds[eid])
+            rate, ended = rates[len(rates) // 2]
+            u = env.unwrapped
+            sub = _substeps(env)
+            dt = (u.character.timestep if hasattr(u, "character")
+                  else float(u.model.opt.timestep))
+            out[eid] = {"env_steps_per_s": rate, "physics_steps_per_s": rate * sub,
+                        "physics_steps_per_env_step": sub, "timestep_s": float(dt),
+                        "episodes_per_round": ended,
+                        "obs_dim": int(np.prod(env.observation_space.shape)),
+                        "act_dim": int(np.prod(env.action_space.shape))}
+            if bare:
+                b = statistics.median(bares[eid])
+                out[eid].update(bare_steps_per_s=b, physics_share=rate * sub / b,
+                                nv=int(_model_data(env)[0].nv))
+    finally:
+        for env in made.values():
+            env.close()
+    ref = env_ids[-1]
+    ratios = {eid: {"env_steps": v["env_steps_per_s"] / out[ref]["env_steps_per_s"],
+                    "physics_steps": v["physics_steps_per_s"] / out[ref]["physics_steps_per_s"]}
+              for eid, v in out.items()}
+    return {"steps": steps, "repeats": repeats, "envs": out, "reference": ref, "ratios": ratios}
+
+
+def table(res: dict) -> str:
+    """The Markdown table of docs/envs.md from ``env_throughput(..., bare=True)``."""
+    import gymnasium as gym
+
+    lines = [
+        f"Measured by `python -m mjchar.perf.envs` on {machine_line(Gymnasium=gym.__version__)}"
+        f"; random actions, {res['steps']} env steps per round, median of {res['repeats']} "
+        f"interleaved rounds, one process.",
+        "",
+        "| env | obs / act | nv | physics dt | physics steps per env step | env steps/s | "
+        "physics steps/s | bare mj_step/s | physics share | episodes per round |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for eid, r in res["envs"].items():
+        lines.append(
+            f"| {eid} | {r['obs_dim']} / {r['act_dim']} | {r['nv']} | "
+            f"{r['timestep_s'] * 1000:.2f} ms | {r['physics_steps_per_env_step']} | "
+            f"{r['env_steps_per_s']:.0f} | {r['physics_steps_per_s']:.0f} | "
+            f"{r['bare_steps_per_s']:.0f} | {r['physics_share']:.0%} | "
+            f"{r['episodes_per_round']} |")
+    first, ref = res["envs"][ENV_IDS[0]], res["envs"][res["reference"]]
+    ratio = res["ratios"][ENV_IDS[0]]
+    lines += ["", f"{ENV_IDS[0].split('/')[-1]} / {res['reference']}: "
+              f"{ratio['physics_steps']:.2f}x the physics steps per second, "
+              f"{ratio['env_steps']:.2f}x the env steps per second (it simulates "
+              f"{first['physics_steps_per_env_step']} steps per action against "
+              f"{ref['physics_steps_per_env_step']})."]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.envs",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=3000, help="env steps per env per round")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median kept)")
+    ap.add_argument("--write", action="store_true", help="update docs/envs.md")
+    a = ap.parse_args(argv)
+    if a.steps <= 0 or a.repeats <= 0:
+        ap.error("--steps and --repeats must be positive")
+    try:
+        res = env_throughput(steps=a.steps, repeats=a.repeats, bare=True,
+                             log=lambda s: print(s, file=sys.stderr, flush=True))
+    except PerfUnavailable as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    body = table(res)
+    print(body)
+    if a.write:
+        print(f"updated {write_block(DOCS / 'envs.md', 'envs', body)}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,178 @@
+"""``mjchar.perf``: the measurements' outcomes and bookkeeping, never their timings (no
+thresholds on speed: a shared machine makes any of them flaky).
+
+- The one timing primitive: :func:`timed` returns what the call returned and non-negative times
+  on three clocks; :func:`rounds` takes turns in order, repeats, warms up, resets untimed.
+- Every timing of the package goes through it: no other module reads a clock itself.
+- The measurements report finite, positive numbers and say why an optional part is unavailable.
+- The entry points (``python -m mjchar.perf.<name>``) parse their options; ``--write`` rewrites
+  only its block of a docs page.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from mjchar import perf
+from mjchar.controllers.core import registry
+from mjchar.perf import report
+from mjchar.perf.timing import Timing, rounds, timed
+
+PERF = Path(perf.__file__).parent
+ENTRY_POINTS = ("pd", "rollouts", "envs", "bvh", "simbicon", "ipm", "mpc", "samcon")
+
+
+# -- the timing primitive -----------------------------------------------------------------------
+def test_timed_returns_the_result_and_three_clocks():
+    out, t = timed(lambda a, b=0: a + b, 2, b=3)
+    assert out == 5
+    assert all(v >= 0 for v in (t.wall_s, t.cpu_s, t.thread_s))
+    assert (t + t).wall_s == 2 * t.wall_s and t.on("cpu_s") == t.cpu_s
+    with pytest.raises(perf.PerfError, match="wall_s"):
+        t.on("gpu_s")
+
+
+def test_rounds_take_turns_repeat_warm_up_and_reset_untimed():
+    calls: list[str] = []
+    resets: list[str] = []
+    runs = rounds({"a": lambda: calls.append("a") or 1, "b": lambda: calls.append("b") or 2},
+                  repeats=3, calls={"b": 2}, warmup=True, before=resets.append,
+                  keep_results=True)
+    assert calls == ["a", "b"] + ["a", "b", "b"] * 3
+    assert resets == calls
+    assert len(runs["a"].timings) == 3 and len(runs["b"].timings) == 6
+    assert runs["b"].results == [2] * 6
+    best = runs["b"].best("wall_s")
+    assert best.wall_s == min(t.wall_s for t in runs["b"].timings)
+    assert runs["a"].median("cpu_s") in runs["a"].timings
+    assert isinstance(runs["a"].total(), Timing)
+    budgeted = rounds({"x": lambda: 1}, repeats=2, budget_s=0.01, max_rounds=5)
+    assert 2 <= len(budgeted["x"].timings) <= 5 and budgeted["x"].results == []
+    with pytest.raises(perf.PerfError):
+        rounds({"x": lambda: None}, repeats=0)
+
+
+def _clock_reads(path: Path) -> list[str]:
+    names = {"perf_counter", "process_time", "thread_time", "monotonic", "time"}
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if (isinstance(node, ast.Attribute) and node.attr in names
+                and isinstance(node.value, ast.Name) and node.value.id == "time"):
+            found.append(f"{path.name}:{node.lineno} time.{node.attr}")
+    return found
+
+
+def test_every_measurement_times_through_the_one_primitive():
+    """Only :mod:`mjchar.perf.timing` reads a clock; the bench's performance section times its
+    parts with it too."""
+    files = [p for p in PERF.glob("*.py") if p.name != "timing.py"]
+    files.append(PERF.parent / "bench" / "performance.py")
+    assert not [r for f in files for r in _clock_reads(f)]
+
+
+def test_no_path_manipulation_in_the_measurements():
+    for f in PERF.glob("*.py"):
+        assert "sys.path" not in f.read_text(), f.name
+
+
+# -- the measurements: outcomes, not timings ----------------------------------------------------
+def test_envelope_separates_explicit_from_stable_pd():
+    env = perf.stability_envelope(kps=(1000.0,), variants=("pd", "spd"), grid=(60,), finer=(),
+                                  duration=1.5)
+    rows = {r["variant"]: r for r in env["rows"]}
+    assert rows["pd"]["status"]["60"] == "diverged" and rows["pd"]["largest_held_hz"] is None
+    assert rows["spd"]["status"]["60"] == "held" and rows["spd"]["largest_held_hz"] == 60
+    with pytest.raises(perf.PerfError):
+        perf.stability_envelope(duration=0.5)
+    from mjchar.perf.pd import envelope_table
+
+    text = envelope_table(env, "test")
+    assert "| pd | < 1/8000 s |" in text and "| spd | 1/60 s |" in text
+    assert "| spd, 1000 | H |" in text
+
+
+def test_step_cost_and_raw_rate_report_positive_finite_numbers():
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
+
+    ch = Character()
+    pose = S.standing_pose(ch)
+    c = perf.step_cost(ch, lambda: registry.make_controller("spd", ch, pose), qpos=pose, steps=50,
+                       repeats=1, block=25)
+    assert math.isfinite(c.ratio) and c.ratio > 0 and c.resets == 0 and c.steps == 50
+    raw = perf.raw_step_rate(ch.model, pose, steps=50, repeats=1)
+    assert raw["c_loop_steps_per_s"] > 0 and raw["python_loop_steps_per_s"] > 0
+    with pytest.raises(perf.PerfError):
+        perf.raw_step_rate(ch.model, steps=0)
+
+
+def test_rollout_throughput_compares_against_the_python_loop():
+    r = perf.rollout_throughput(samples=2, steps=3, repeats=1, threads=(1,))
+    assert [c["threads"] for c in r["cases"]] == [1, 1]
+    assert r["cases"][0]["speedup_vs_python_loop"] == 1.0
+    assert all(c["steps_per_s"] > 0 and math.isfinite(c["cores_busy"]) for c in r["cases"])
+
+
+def test_optional_parts_report_unavailable(monkeypatch):
+    monkeypatch.setitem(sys.modules, "bvhio", None)
+    with pytest.raises(perf.PerfUnavailable, match="bvhio"):
+        perf.bvh_parse_speed([])
+    monkeypatch.setitem(sys.modules, "mjchar.envs.imitation", None)  # a broken env module
+    with pytest.raises(perf.PerfUnavailable, match="Imitation-v0"):
+        perf.env_throughput(steps=1, repeats=1)
+
+
+def test_the_long_bvh_file_is_cmu_style():
+    from mjchar.perf.bvh import long_cmu_style_motion
+
+    m = long_cmu_style_motion(130)
+    assert m.n_frames == 130 and m.skeleton.names[0] == "Hips"
+    assert {"LHipJoint", "RHipJoint"} <= set(m.skeleton.names)
+    assert all(ch[-3:] == ("Zrotation", "Yrotation", "Xrotation") for ch in m.skeleton.channels)
+
+
+# -- entry points and docs blocks ---------------------------------------------------------------
+@pytest.mark.parametrize("name", ENTRY_POINTS)
+def test_every_entry_point_parses_its_options(name, capsys):
+    module = importlib.import_module(f"mjchar.perf.{name}")
+    with pytest.raises(SystemExit) as e:
+        module.main(["--help"])
+    assert e.value.code == 0
+    assert f"python -m mjchar.perf.{name}" in capsys.readouterr().out
+
+
+def test_write_block_replaces_only_its_block(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("# Page\n\n<!-- perf:t -->\nold\n<!-- /perf:t -->\n\nkept\n")
+    report.write_block(page, "t", "new table")
+    assert page.read_text() == "# Page\n\n<!-- perf:t -->\nnew table\n<!-- /perf:t -->\n\nkept\n"
+    report.write_block(page, "u", "other")
+    assert page.read_text().endswith("<!-- perf:u -->\nother\n<!-- /perf:u -->\n")
+    assert not list(tmp_path.glob(".*.tmp"))
+    with pytest.raises(perf.PerfError, match="not found"):
+        report.write_block(tmp_path / "missing.md", "t", "x")
+
+
+def test_the_docs_hold_every_block_an_entry_point_writes():
+    blocks = {"controllers.md": ("pd-envelope", "pd-cost"), "rollouts.md": ("rollouts",),
+              "envs.md": ("envs",), "bvh.md": ("bvh",), "sampling.md": ("samcon",)}
+    for page, names in blocks.items():
+        text = (report.DOCS / page).read_text()
+        for n in names:
+            assert f"<!-- perf:{n} -->" in text and f"<!-- /perf:{n} -->" in text, (page, n)
+
+
+def test_write_json_is_strict_json(tmp_path):
+    import json
+
+    import numpy as np
+
+    path = report.write_json(tmp_path / "x.json", {"a": np.float64(1.5), "b": math.nan,
+                                                   "c": (1, np.int64(2)), "d": tmp_path})
+    assert json.loads(path.read_text()) == {"a": 1.5, "b": None, "c": [1, 2], "d": str(tmp_path)}
