@@ -163,6 +163,8 @@ def test_options_are_checked():
     assert type(c.params.tracking.hip_kp) is float  # a JSON integer becomes a float
     assert c.params.feet.ankle_back_speeds == (0.6, 0.8) and c.params.stance.ankle_limit is None
     assert c.params.flat()["timing.step_time"] == 0.45
+    q = IPMParams().updated({"timing.step_time": np.float32(0.5), "swing.heights": np.zeros(3)})
+    assert type(q.timing.step_time) is float and q.swing.heights == (0.0, 0.0, 0.0)
     assert c.params.updated({}) is c.params
     assert c.name == "ipm" and c.actuation == "torque"
 

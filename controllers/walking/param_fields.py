@@ -5,16 +5,20 @@ field of a group is declared through one of the helpers below, which stores a :c
 the field's metadata::
 
     @dataclass(frozen=True)
-    class Timing:
-        step_time: float = time(0.5, gt=0)          # s, scales with sqrt(L / L_t), must be > 0
-        swing_heights: tuple[float, float, float] = length((0.04, 0.15, 0.02))
+    class Swing:
+        duration: float = time(0.5, gt=0)           # s, scales by sqrt(L / L_t), must be > 0
+        heights: tuple[float, float, float] = length((0.04, 0.15, 0.02))   # m, x L / L_t
         blend: str = choice("smooth", ("quadratic", "smooth"))
+
+    @dataclass(frozen=True)
+    class Params:
+        swing: Swing = field(default_factory=Swing)
 
 From those declarations alone the set is carried to another body by dynamic similarity
 (:func:`scaled`, factors from :func:`~mjchar.controllers.walking.similarity.similarity_factors`),
 checked (:func:`checked`: types, finite numbers, ranges, one line per bad value naming the
 field and what it accepts) and overridden by dotted names (:func:`overridden`,
-``{"timing.step_time": 0.45}``). No list of field names is kept anywhere else.
+``{"swing.duration": 0.45}``). No list of field names is kept anywhere else.
 
 Dimensions: ``length`` (m), ``time`` (s), ``speed`` (m/s), ``rate`` (1/s), ``per_length`` (1/m),
 ``torque_gain`` (N m/rad), ``damping_gain`` (N m s/rad), ``force`` (N), ``torque`` (N m), as
@@ -26,8 +30,11 @@ from __future__ import annotations
 
 import difflib
 import math
+import numbers
 from collections.abc import Iterator, Mapping
 from dataclasses import Field, dataclass, field, fields, is_dataclass, replace
+
+import numpy as np
 
 from .similarity import similarity_factors
 
@@ -102,7 +109,7 @@ class Spec:
         return REFUSED if any(x is REFUSED for x in out) else out
 
     def _number(self, x):
-        if isinstance(x, bool) or not isinstance(x, int | float):
+        if isinstance(x, bool | np.bool_) or not isinstance(x, numbers.Real):
             return REFUSED
         try:
             x = float(x)
@@ -271,8 +278,8 @@ def overridden(params, overrides: Mapping[str, object], error: type[Exception], 
 def _likely(name: str, valid: list[str]) -> list[str]:
     """The dotted names ``name`` most likely means: those with ``name`` as their field, or as
     their group and field joined by ``_`` either way round (a flat name: ``human_top``,
-    ``slow_speed``); else those whose field ends ``name`` (``human_push_off``) or is close to
-    it."""
+    ``slow_speed``); else those whose field ``name`` ends with (``human_push_off``) or that is
+    close to it."""
     group, _, leaf = name.rpartition(".")
     pool = [v for v in valid if v.startswith(group + ".")] or valid
     parts = {v: v.split(".") for v in pool}
