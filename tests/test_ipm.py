@@ -569,3 +569,17 @@ def test_every_parameter_is_declared_with_a_dimension():
     with pytest.raises(TypeError, match="step_time was not declared with a dimension"):
         F.names(Params)
 
+
+def test_docs_list_every_parameter_with_its_default():
+    """docs/ipm.md's parameter table has a row per parameter, with its default."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "ipm.md").read_text()
+    for name, value in IPMParams().flat().items():
+        if isinstance(value, tuple):
+            shown = "(" + ", ".join(f"{x:g}" for x in value) + ")"
+        elif isinstance(value, bool) or value is None:
+            shown = {True: "true", False: "false", None: "null"}[value]
+        else:
+            shown = f"{value:g}" if isinstance(value, float) else repr(value)
+        assert f"| `{name}` | {shown} |" in text, name
