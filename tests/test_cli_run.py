@@ -3,6 +3,7 @@ non-zero exit for malformed options, and --render writing an MP4."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -65,8 +66,12 @@ def test_malformed_options_give_one_line_and_non_zero_exit(args, needle, capsys)
     (["run", "mpc", "--param", "samples=1"], "samples must be an integer >= 2"),
     (["run", "mpc", "--param", "plan_timestep=0.003"], "not a whole number"),
     (["run", "mpc", "--param", "sample=8"], "unknown MPC option(s) sample; valid: samples"),
-    (["run", "ipm", "--param", "step_time=-1"], "step_time"),
-    (["run", "ipm", "--param", "stepp_time=0.5"], "unknown IPM option(s) stepp_time"),
+    (["run", "ipm", "--param", "timing.step_time=-1"],
+     "IPM parameter timing.step_time must be a finite number > 0 (s), got -1"),
+    (["run", "ipm", "--param", "timing.stepp_time=0.5"],
+     "unknown IPM parameter(s) timing.stepp_time (did you mean timing.step_time?); valid: "),
+    (["run", "ipm", "--param", "step_time=0.5"],
+     "step_time (did you mean timing.step_time, human.step_time?)"),
     (["run", "simbicon", "--param", "torso_pitchx=0.2"], "unknown gait parameter"),
     (["run", "ipm", "--param", "speed=1"], "give it as --speed"),
     (["run", "mpc", "--param", "samples"], "must be NAME=VALUE"),
@@ -89,8 +94,11 @@ def test_param_values_are_json_or_text():
     parse = assignment("--param")
     assert parse("samples=96") == ("samples", 96)
     assert parse("update=cem") == ("update", "cem")
-    assert parse("swing_heights=[0.04, 0.1, 0.02]") == ("swing_heights", [0.04, 0.1, 0.02])
+    assert parse("swing.heights=[0.04, 0.1, 0.02]") == ("swing.heights", [0.04, 0.1, 0.02])
     assert parse("antithetic=true") == ("antithetic", True)
+    for bad in ("timing..step_time=1", ".step_time=1", "timing.=1", "timing step=1"):
+        with pytest.raises(argparse.ArgumentTypeError, match="must be NAME=VALUE"):
+            parse(bad)
 
 
 def test_param_changes_the_run(capsys):
@@ -101,7 +109,7 @@ def test_param_changes_the_run(capsys):
         assert main(["run", "ipm", "--duration", "3", "--json", *extra]) == 0
         return json.loads(capsys.readouterr().out)["foot_travel_m"]
 
-    assert steps() != pytest.approx(steps("--param", "step_time=0.45"), rel=1e-3)
+    assert steps() != pytest.approx(steps("--param", "timing.step_time=0.45"), rel=1e-3)
 
 
 def test_malformed_option_in_a_subprocess():

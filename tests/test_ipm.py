@@ -24,6 +24,7 @@ from mjchar.controllers.walking.ipm import (
     ipm_step_offset,
     make_ipm,
 )
+from mjchar.controllers.walking.ipm_params import StepTiming
 from mjchar.controllers.walking.swing import (
     SwingError,
     SwingTrajectory,
@@ -118,38 +119,65 @@ def test_two_link_ik_out_of_reach_is_clamped():
 
 
 def test_options_are_checked():
-    with pytest.raises(IPMError, match="unknown IPM option"):
-        IPMController(speed=1.0, stepp_time=0.5)
-    with pytest.raises(IPMError):
-        IPMController(step_time=-0.1)
-    with pytest.raises(IPMError):
-        IPMController(swing_blend="linear")
+    """Overrides go by dotted name; an unknown one lists the valid names (the likely ones
+    first); a value a parameter does not accept is one line naming it and what it accepts."""
+    with pytest.raises(IPMError, match=r"unknown IPM parameter\(s\) timing.stepp_time \(did you "
+                       r"mean timing.step_time\?\); valid: timing.step_time, "):
+        IPMController(speed=1.0, **{"timing.stepp_time": 0.5})
+    # a bare (flat) name is not a parameter: the message names the dotted ones it may mean
+    with pytest.raises(IPMError, match=r"step_time \(did you mean timing.step_time, "
+                       r"human.step_time\?\)"):
+        IPMController(step_time=0.5)
+    with pytest.raises(IPMError, match=r"human_top \(did you mean speed.human_top\?\)"):
+        IPMController(human_top=1.4)
+    for name, value, accepted in (
+            ("timing.step_time", -0.1, "a finite number > 0 (s)"),
+            ("timing.step_time", float("nan"), "a finite number > 0 (s)"),
+            ("timing.step_time", "fast", "a finite number > 0 (s)"),
+            ("tracking.hip_kp", math.inf, "a finite number >= 0 (N m/rad)"),
+            ("tracking.hip_kd", True, "a finite number >= 0 (N m s/rad)"),
+            ("feet.push_off_phase", 1.0, "a finite number >= 0 and < 1 (step phase)"),
+            ("swing.blend", "linear", "one of 'quadratic', 'smooth'"),
+            ("swing.heights", 0.1, "3 finite numbers (m)"),
+            ("feet.ankle_back_speeds", 0.8, "2 finite numbers, each >= 0 (m/s)"),
+            ("turning.ankle_limit", None, "3 finite numbers, each >= 0 (m)"),
+            ("stance.ankle_limit", (0.08, -0.01, 0.02), "3 finite numbers, each >= 0 (m), or null"),
+            ("tracking.feedforward", 1, "true or false")):
+        with pytest.raises(IPMError) as e:
+            IPMController(**{name: value})
+        assert str(e.value) == f"IPM parameter {name} must be {accepted}, got {value!r}"
+    with pytest.raises(IPMError, match="speed.fast <= speed.human_top < speed.human_end"):
+        IPMController(**{"speed.human_top": 1.7})
+    with pytest.raises(IPMError, match="timing.min_phase < timing.max_phase"):
+        IPMController(**{"timing.max_phase": 0.4})
+    with pytest.raises(IPMError, match="from < full"):
+        IPMController(**{"feet.ankle_back_speeds": (0.9, 0.7)})
+    with pytest.raises(IPMError, match="group timing must be a StepTiming"):
+        IPMParams(timing={"step_time": 0.5})
     with pytest.raises(IPMError):
         IPMController(speed=float("nan"))
-    with pytest.raises(IPMError, match="turn_ankle_limit"):
-        IPMController(turn_ankle_limit=None)
-    for bad in ({"ankle_back_speeds": 0.8}, {"swing_heights": 0.1}):
-        with pytest.raises(IPMError, match="sequence of numbers"):
-            IPMController(**bad)  # one number where a tuple belongs (e.g. --param)
-    for bad in ({"ankle_back_speeds": (0.9, 0.7)}, {"human_toe_up": -0.1}, {"toe_up_phase": 0}):
-        with pytest.raises(IPMError):
-            IPMController(**bad)
-    c = IPMController(speed=1.0, params=IPMParams(step_time=0.45), hip_kp=500.0,
-                      ankle_back_speeds=[0.6, 0.8])
-    assert c.params.step_time == 0.45 and c.params.hip_kp == 500.0
-    assert c.params.ankle_back_speeds == (0.6, 0.8)
+    c = IPMController(speed=1.0, params=IPMParams(timing=StepTiming(step_time=0.45)),
+                      **{"tracking.hip_kp": 500, "feet.ankle_back_speeds": [0.6, 0.8],
+                         "stance.ankle_limit": None})
+    assert c.params.timing.step_time == 0.45 and c.params.tracking.hip_kp == 500.0
+    assert type(c.params.tracking.hip_kp) is float  # a JSON integer becomes a float
+    assert c.params.feet.ankle_back_speeds == (0.6, 0.8) and c.params.stance.ankle_limit is None
+    assert c.params.flat()["timing.step_time"] == 0.45
+    q = IPMParams().updated({"timing.step_time": np.float32(0.5), "swing.heights": np.zeros(3)})
+    assert type(q.timing.step_time) is float and q.swing.heights == (0.0, 0.0, 0.0)
+    assert c.params.updated({}) is c.params
     assert c.name == "ipm" and c.actuation == "torque"
 
 
 def test_toe_up_ankle_limit_weight_follows_the_speed():
-    """The toe-up ankle limit (``human_ankle_back``) takes over between ankle_back_speeds and
-    holds at every faster speed, at least as much as the human band's blend."""
+    """The toe-up ankle limit (``feet.ankle_back``) takes over between feet.ankle_back_speeds
+    and holds at every faster speed, at least as much as the human band's blend."""
     p = IPMParams()
-    lo, hi = p.ankle_back_speeds
+    lo, hi = p.feet.ankle_back_speeds
     assert p.ankle_back_weight(0.0) == p.ankle_back_weight(lo) == 0.0
     assert p.ankle_back_weight((lo + hi) / 2) == pytest.approx(0.5)
     assert all(p.ankle_back_weight(v) == 1.0 for v in (hi, 1.2, 1.6, 3.0, -1.2))
-    late = IPMParams(ankle_back_speeds=(1.5, 2.0))
+    late = p.updated({"feet.ankle_back_speeds": (1.5, 2.0)})
     assert late.ankle_back_weight(1.2) == late.speed_blend(1.2) == 1.0
 
 
@@ -173,7 +201,7 @@ def test_foot_placement_follows_velocity_width_and_clamp(character):
     assert c.foot_placement(np.zeros(2), h, swing=1, v_desired=0.0)[1] < 0
     # never closer than min_width beside the stance foot (no crossed legs)
     off = c.foot_placement(np.array([0.0, -1.0]), h, swing=0, v_desired=0.0, stance_lateral=-0.1)
-    assert off[1] >= -0.1 + c.params.min_width - 1e-12
+    assert off[1] >= -0.1 + c.params.placement.min_width - 1e-12
     # clamped to +-0.4 leg length
     huge = c.foot_placement(np.array([10.0, 10.0]), h, swing=0, v_desired=0.0)
     assert np.all(np.abs(huge) <= 0.4 * c.leg_length + 1e-12)
@@ -446,64 +474,111 @@ def test_survives_200N_push_from_every_direction(character, direction):
 
 
 def test_step_time_and_stance_knee_follow_the_commanded_speed():
-    """Up to slow_speed the slow values (today's walk, unchanged); from fast_speed to human_top
-    the human-like ones (longer steps, a stiff stance knee from landing); from human_end on the
-    fast ones (quick steps, a soft stance knee easing from its landing flexion); linear between;
-    the speeds scale with the body like every speed."""
+    """Up to speed.slow the slow values (today's walk, unchanged); from speed.fast to
+    speed.human_top the human-like ones (longer steps, a stiff stance knee from landing); from
+    speed.human_end on the fast ones (quick steps, a soft stance knee easing from its landing
+    flexion); linear between; the speeds scale with the body like every speed."""
     p = IPMParams()
-    assert p.fast_step_time < p.step_time
-    for v in (0.0, 0.5, p.slow_speed, -0.8):
-        assert p.at_speed(v) == (p.step_time, p.knee_kp, p.stance_knee_ramp)
+    tm, sp, st, hu = p.timing, p.speed, p.stance, p.human
+    assert tm.fast_step_time < tm.step_time
+    for v in (0.0, 0.5, sp.slow, -0.8):
+        assert p.at_speed(v) == (tm.step_time, p.tracking.knee_kp, st.knee_ramp)
         assert p.human_weight(v) == 0.0
-    for v in (p.fast_speed, 1.2, p.human_top):
+    for v in (sp.fast, 1.2, sp.human_top):
         assert p.human_weight(v) == 1.0
-        assert p.at_speed(v)[1:] == (p.human_stance_knee_kp, p.human_stance_knee_ramp)
-    assert p.at_speed(p.fast_speed)[0] == pytest.approx(p.human_step_time)
-    for v in (p.human_end, 3.0):
+        assert p.at_speed(v)[1:] == (hu.stance_knee_kp, hu.stance_knee_ramp)
+    assert p.at_speed(sp.fast)[0] == pytest.approx(hu.step_time)
+    for v in (sp.human_end, 3.0):
         assert p.human_weight(v) == 0.0
-        assert p.at_speed(v)[1:] == (p.fast_stance_knee_kp, p.fast_stance_knee_ramp)
+        assert p.at_speed(v)[1:] == (st.fast_knee_kp, st.fast_knee_ramp)
         assert 1 / p.at_speed(v)[0] == pytest.approx(
-            1 / p.fast_step_time + p.cadence_gain * (v - p.fast_speed))
+            1 / tm.fast_step_time + tm.cadence_gain * (v - sp.fast))
     # the cadence grows with speed all the way; the step length up to human_top
     times = [p.at_speed(v)[0] for v in (1.1, 1.2, 1.3, 1.4, 1.5, 1.6)]
     assert all(a > b for a, b in zip(times, times[1:], strict=False))
     lengths = [v * p.at_speed(v)[0] for v in (1.1, 1.2, 1.3)]
     assert all(a < b for a, b in zip(lengths, lengths[1:], strict=False))
     assert 1 / p.at_speed(1.2)[0] == pytest.approx(
-        1 / p.human_step_time + p.cadence_gain * (1.2 - p.fast_speed))
-    mid = 0.5 * (p.slow_speed + p.fast_speed)
+        1 / hu.step_time + tm.cadence_gain * (1.2 - sp.fast))
+    mid = 0.5 * (sp.slow + sp.fast)
     assert p.human_weight(mid) == pytest.approx(0.5)
-    fast_mid = 0.5 * (p.step_time + p.fast_step_time)       # the fast band's own blend
-    assert p.at_speed(mid)[0] == pytest.approx(fast_mid + 0.5 * (p.human_step_time - fast_mid))
-    assert IPMParams(stance_knee_kp=250.0).at_speed(0.5)[1] == 250.0
+    fast_mid = 0.5 * (tm.step_time + tm.fast_step_time)       # the fast band's own blend
+    assert p.at_speed(mid)[0] == pytest.approx(fast_mid + 0.5 * (hu.step_time - fast_mid))
+    assert p.updated({"stance.knee_kp": 250.0}).at_speed(0.5)[1] == 250.0
     big = p.for_body(2 * 0.878, 140.0)
-    assert big.at_speed(p.fast_speed * math.sqrt(2))[0] == pytest.approx(
-        p.human_step_time * math.sqrt(2))
-    assert big.human_weight(p.human_end * math.sqrt(2)) == 0.0
-    with pytest.raises(IPMError):
-        IPMParams(fast_step_time=0.0).check()
-    with pytest.raises(IPMError):
-        IPMParams(human_top=1.7, human_end=1.6).check()
+    assert big.at_speed(sp.fast * math.sqrt(2))[0] == pytest.approx(hu.step_time * math.sqrt(2))
+    assert big.human_weight(sp.human_end * math.sqrt(2)) == 0.0
+    with pytest.raises(IPMError, match="timing.fast_step_time must be a finite number > 0"):
+        p.updated({"timing.fast_step_time": 0.0})
+    with pytest.raises(IPMError, match="speed.human_top < speed.human_end"):
+        p.updated({"speed.human_top": 1.7, "speed.human_end": 1.6})
 
 
 def test_parameters_follow_the_body_by_similarity():
-    """Every IPM parameter is classified (dimensional ones scale, the rest are dimensionless);
-    the tuned body keeps them exactly; a body twice as long and heavy scales them."""
-    import dataclasses
-    import math
-
+    """Every IPM parameter declares its dimension on its field; the body scaling is derived from
+    those declarations (each value times its dimension's factor); the tuned body keeps them
+    exactly (the same object); and a few declarations are pinned here."""
     from mjchar.controllers.walking import ipm_params as P
+    from mjchar.controllers.walking import param_fields as F
+    from mjchar.controllers.walking.similarity import similarity_factors
 
-    groups = (P._LENGTH + P._TIME + P._SPEED + P._RATE + P._RATE2 + P._TORQUE_GAIN
-              + P._DAMPING_GAIN + P._FORCE + P._TORQUE + P._DIMENSIONLESS)
-    assert sorted(groups) == sorted(f.name for f in dataclasses.fields(P.IPMParams))
+    dims = {f"{g}.{n}": spec.dimension for g, n, spec in F.leaves(P.IPMParams)}
+    assert list(dims) == P.IPMParams.names() and len(dims) == 79
+    assert set(dims.values()) <= set(F.SCALED + F.UNSCALED)
     base = P.IPMParams()
     assert base.for_body(P.TUNED_LEG_LENGTH, P.TUNED_MASS) is base
     big = base.for_body(2 * P.TUNED_LEG_LENGTH, 2 * P.TUNED_MASS)
-    assert big.step_time == pytest.approx(base.step_time * math.sqrt(2))
-    assert big.step_width == pytest.approx(2 * base.step_width)
-    assert big.hip_kp == pytest.approx(4 * base.hip_kp)
-    assert big.hip_kd == pytest.approx(4 * math.sqrt(2) * base.hip_kd)
-    assert big.vf_max_sagittal == pytest.approx(2 * base.vf_max_sagittal)
-    assert big.swing_heights == pytest.approx(tuple(2 * h for h in base.swing_heights))
-    assert big.clamp == base.clamp and big.min_phase == base.min_phase
+    factor = similarity_factors(2.0, 2.0)
+    for name, value in base.flat().items():
+        k = factor.get(dims[name], 1.0)
+        scaled = big.flat()[name]
+        if isinstance(value, tuple):
+            assert scaled == tuple(x * k for x in value), name
+        elif isinstance(value, float):
+            assert scaled == value * k, name
+        else:
+            assert scaled == value, name
+    pinned = {"timing.step_time": "time", "placement.step_width": "length",
+              "tracking.hip_kp": "torque_gain", "tracking.hip_kd": "damping_gain",
+              "force.max_sagittal": "force", "swing.heights": "length",
+              "timing.cadence_gain": "per_length", "force.coronal_pos": "per_length",
+              "upper.lean": "rate", "stance.yaw_limit": "torque", "speed.human_end": "speed",
+              "speed.acceleration": "acceleration", "placement.clamp": "none",
+              "timing.min_phase": "none", "feet.toe_up": "none"}
+    assert {n: dims[n] for n in pinned} == pinned
+    assert big.timing.step_time == pytest.approx(base.timing.step_time * math.sqrt(2))
+    assert big.tracking.hip_kd == pytest.approx(4 * math.sqrt(2) * base.tracking.hip_kd)
+    assert big.stance.knee_kp is None  # None (use the swing knee's) stays None
+
+
+def test_every_parameter_is_declared_with_a_dimension():
+    """A parameter group field without a dimension helper is refused when the set is used."""
+    import dataclasses
+
+    from mjchar.controllers.walking import param_fields as F
+
+    @dataclasses.dataclass(frozen=True)
+    class Plain:
+        step_time: float = 0.5
+
+    @dataclasses.dataclass(frozen=True)
+    class Params:
+        timing: Plain = dataclasses.field(default_factory=Plain)
+
+    with pytest.raises(TypeError, match="step_time was not declared with a dimension"):
+        F.names(Params)
+
+
+def test_docs_list_every_parameter_with_its_default():
+    """docs/ipm.md's parameter table has a row per parameter, with its default."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "ipm.md").read_text()
+    for name, value in IPMParams().flat().items():
+        if isinstance(value, tuple):
+            shown = "(" + ", ".join(f"{x:g}" for x in value) + ")"
+        elif isinstance(value, bool) or value is None:
+            shown = {True: "true", False: "false", None: "null"}[value]
+        else:
+            shown = f"{value:g}" if isinstance(value, float) else repr(value)
+        assert f"| `{name}` | {shown} |" in text, name

@@ -15,12 +15,12 @@ ends when the swing foot touches the ground after half the step):
        d_sagittal = s_s d(v_s) - k_v v_d - b        b: integral speed bias, updated every step
        d_coronal  = s_c d(v_c) +- w                 w towards the swing side
 
-   relative to the COM, at least ``min_width`` beside the stance foot (no crossed legs; the hip
-   width when coming to a stop with the COM's sideways speed under ``stop_speed``: a step
-   widened across a sideways drift puts the COM outside the new stance foot), each axis
-   clamped to +-0.4 leg length.
+   relative to the COM, at least ``placement.min_width`` beside the stance foot (no crossed
+   legs; the hip width when coming to a stop with the COM's sideways speed under
+   ``standing.stop_speed``: a step widened across a sideways drift puts the COM outside the new
+   stance foot), each axis clamped to +-0.4 leg length (``placement.clamp``).
 2. **Swing foot** (:class:`~mjchar.controllers.walking.swing.SwingTrajectory`): sole height through
-   ``swing_heights`` at phases 0, 0.5, 1 (then sinking until contact); the horizontal offset from
+   ``swing.heights`` at phases 0, 0.5, 1 (then sinking until contact); the horizontal offset from
    the COM blends from the lift-off offset to the IPM point. Hip and knee come from analytic
    two-link IK (:func:`~mjchar.controllers.walking.swing.two_link_ik`) for the ankle; the foot is
    kept flat at the desired heading.
@@ -34,10 +34,11 @@ ends when the swing foot touches the ground after half the step):
        T_stance_hip = -T_pelvis - T_swing_hip - T_spine
 
    Its vertical component is limited to what the stance foot's contact patch can hold
-   (``yaw_friction m g r``), and the stance ankle's moment to what keeps the centre of pressure
-   inside the foot, so the stance foot neither spins nor rolls; in a turning step that pressure
-   stays ahead of the ankle and nearer the foot's middle (``turn_ankle_limit``): a foot rocked
-   back onto its heel edge holds half the yaw moment, on one heel corner none.
+   (``stance.yaw_friction m g r``), and the stance ankle's moment to what keeps the centre of
+   pressure inside the foot (``stance.ankle_limit``), so the stance foot neither spins nor rolls;
+   in a turning step that pressure stays ahead of the ankle and nearer the foot's middle
+   (``turning.ankle_limit``): a foot rocked back onto its heel edge holds half the yaw moment, on
+   one heel corner none.
 4. **Gravity compensation**: an upward ``m_i g`` at the COM of every link that is not part of the
    stance leg, mapped by the Jacobian transpose to the joints between the link and the pelvis;
    for dof ``j`` (axis ``a_j`` at ``p_j``) with subtree mass ``M_j`` and subtree COM ``C_j``
@@ -52,22 +53,22 @@ ends when the swing foot touches the ground after half the step):
 
 The damping of all these PD terms is linear in ``qdot``: ``tau = tau0 - D qdot``. Explicitly the
 pelvis term, applied through the stance hip to the light pelvis body, oscillates at the model's
-2 ms step (it needs about 0.5 ms); with ``implicit_damping`` it is evaluated at the next step's
-velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-diagonal ``D``::
+2 ms step (it needs about 0.5 ms); with ``tracking.implicit_damping`` it is evaluated at the next
+step's velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-diagonal ``D``::
 
     (M + dt D) qddot = tau0 - D qdot - C + tau_ext,    tau = tau0 - D (qdot + dt qddot)
 
 Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
 counter-clockwise), each a number or a function of time. The speed target follows the command at
-``acceleration``; the heading target turns at ``turn_rate`` (less when fast); swing feet land
-turned with it. Steps that start while it turns, or within ``turn_hold`` after, are turning
-steps (the stance ankle's ``turn_ankle_limit``); a walk whose heading command stays at its
-start heading never takes one.
+``speed.acceleration``; the heading target turns at ``turning.rate`` (less when fast); swing
+feet land turned with it. Steps that start while it turns, or within ``turning.hold`` after, are
+turning steps (the stance ankle's ``turning.ankle_limit``); a walk whose heading command stays
+at its start heading never takes one.
 
 Standing: the controller starts standing and stands whenever nothing is commanded, with
 :class:`~mjchar.controllers.balance.static_balance.StaticBalance` on a standing pose fitted to where
 the feet are (feet flat, the pelvis low enough that each leg reaches its foot with the knee bent
-``stance_knee``). A speed or heading command starts a walk with a short first step (the COM,
+``stance.knee``). A speed or heading command starts a walk with a short first step (the COM,
 centred between the feet, falls a little towards the swing side, which starts the lateral sway);
 a push starts stepping when the capture point ``c + v sqrt(h/g)`` leaves the support polygon. A
 zero command brings the character to a stop: a step ends in standing once the sagittal speed is
@@ -79,27 +80,19 @@ docs/ipm.md): step time 0.5 s (paper ~0.6), scales ``s_s = s_c = 1.0`` (1.1 / 1.
 blend (``(1 - phase)^2`` is available), swing hip 600/60 (300/35), pelvis yaw 300/60 (1000/200)
 and no coronal virtual force (20 / 9): the stance ankle cannot apply the roll moment it asks for.
 
-Speed dependence (:meth:`IPMParams.at_speed`, chosen at every step start from the ramped speed
-target): up to 1.0 m/s the step takes 0.5 s and the stance knee is a plain PD (kp 300) on
-``stance_knee``; from 1.1 m/s the step takes 0.4 s and the stance knee (kp 200) eases from its
-landing flexion (at most 0.9 rad) to ``stance_knee`` over the step, linear in between; above
-1.1 m/s the step rate keeps growing with speed (``cadence_gain`` steps/s per m/s), so cadence
-and step length both grow with speed. Long steps land on a bent knee; pulling it straight at
-once saturates the knee (200 N m) and, with 0.4 s steps alone, 1.2 m/s fell at 16.5 s and
-1.5 m/s at 6.8 s; with the eased knee, 0.4 s steps sank into a deepening crouch at 1.4 m/s and
-fell at 1.5 (docs/ipm.md, speed range). Between them a human-like band (issue 14;
-``IPMParams.human_weight``: the ``human_*`` values from 1.1 to 1.35 m/s, giving way to the fast
-ones by 1.6): ~0.47 s steps, a stiff stance knee from landing (kp 300, no ramp), push-off
-(a toes-down stance-ankle moment late in stance, so the heel lifts and the hip does not sink
-over a flat trailing foot), a 5 cm swing that starts with its target 0.12 m up
-(``human_liftoff_height``: the trailing foot comes straight off the floor instead of being
-dragged along it by the COM-relative target), a stance ankle that pushes the toes up with at
-most 0.01 m x body weight (``human_ankle_back``: the foot stays flat instead of rocking onto its
-heel in mid stance) and damps the leg's twist over the foot harder (``human_ankle_yaw_kd``),
-and narrower lateral steps (``human_coronal_scale``). The lift-off, the ankle limit and the
-twist damping, with a swing foot that leaves the floor toes up (``human_toe_up``), hold above
-the band (blended in with it from ``slow_speed``), and the toe-up limit from 0.7-0.9 m/s
-(``ankle_back_speeds``): stance slip 0.46-0.95 cm per step at 0.6, 0.8-1.4 m/s (docs/ipm.md).
+Speed dependence (:meth:`IPMParams.at_speed` and the weights beside it, taken at every step
+start from the ramped speed target; the groups ``speed``, ``human`` and ``feet`` of
+:class:`IPMParams`): up to 1.0 m/s 0.5 s steps and a plain PD stance knee (kp 300) on
+``stance.knee``; from 1.1 m/s 0.4 s steps whose rate keeps growing with speed
+(``timing.cadence_gain``) and a soft stance knee (kp 200) easing from its landing flexion (at
+most 0.9 rad), so long steps that land on a bent knee are not pulled straight at once (that
+saturated the knee: 1.2 m/s fell at 16.5 s). Between them, from 1.1 to 1.35 m/s and giving way
+by 1.6, a human-like band (``human.*``): ~0.47 s steps, a stiff stance knee from landing,
+narrower lateral steps, a 5 cm swing. The feet's measures (``feet.*``: the swing target 0.12 m
+up at lift-off, toes up, push-off late in stance so the heel lifts, a toe-up ankle limit of
+0.01 m x body weight so the foot stays flat, harder twist damping over the planted foot) blend
+in with the band and hold above it, the toe-up limit from 0.7-0.9 m/s: stance slip 0.46-0.95 cm
+per step at 0.6, 0.8-1.4 m/s (docs/ipm.md).
 
 Use :func:`make_ipm` or :class:`IPMController` directly::
 
@@ -111,7 +104,6 @@ Use :func:`make_ipm` or :class:`IPMController` directly::
 from __future__ import annotations
 
 import math
-from dataclasses import fields
 
 import mujoco
 import numpy as np
@@ -136,7 +128,11 @@ class IPMController:
         heading: desired heading (degrees, world yaw, 0 = +X, counter-clockwise), a number,
             ``t -> degrees`` or ``None`` (keep the heading the character starts with).
         lateral_speed: desired coronal speed (m/s, + = left), a number or ``t -> m/s``.
-        params: an :class:`IPMParams`; keyword ``options`` override its fields.
+        params: an :class:`IPMParams` (default: the defaults).
+        overrides: parameters by dotted name, ``**{"timing.step_time": 0.45}`` (what
+            ``mjchar run ipm --param timing.step_time=0.45`` passes), applied to ``params`` by
+            :meth:`IPMParams.updated`: an unknown name or a value the parameter does not accept
+            raises :class:`IPMError`.
 
     Attributes (readable during a run):
         mode: ``"step"`` or ``"stand"``.
@@ -159,21 +155,17 @@ class IPMController:
     actuation = "torque"
 
     def __init__(self, speed=0.0, heading=None, *, lateral_speed=0.0,
-                 params: IPMParams | None = None, **options):
+                 params: IPMParams | None = None, **overrides):
         base = params if params is not None else IPMParams()
-        unknown = set(options) - {f.name for f in fields(IPMParams)}
-        if unknown:
-            raise IPMError(f"unknown IPM option(s) {', '.join(sorted(unknown))}; choose from "
-                           f"{', '.join(f.name for f in fields(IPMParams))}")
         #: the parameters as given (for the tuned body, see ``ipm_params.TUNED_LEG_LENGTH``);
         #: ``params`` is them carried to the driven body at :meth:`reset`
-        self.body_params = base.updated(options)
+        self.body_params = base.updated(overrides)
         self.params = self.body_params
         self.speed = schedule(speed, "speed")
         self.heading = schedule(heading, "heading", math.pi / 180.0)
         self.lateral_speed = schedule(lateral_speed, "lateral_speed")
-        self.trajectory = SwingTrajectory(self.params.swing_heights, self.params.descent_speed,
-                                          blend=self.params.swing_blend)
+        sw = self.params.swing
+        self.trajectory = SwingTrajectory(sw.heights, sw.descent_speed, blend=sw.blend)
         self._ready = False
 
     # -- set-up -------------------------------------------------------------------------------
@@ -187,13 +179,13 @@ class IPMController:
         self._pelvis = ch.root_body
         self.leg_length = self._legs[0].l1 + self._legs[0].l2 + float(-self._legs[0].site_offset[2])
         self.params = self.body_params.for_body(self.leg_length, ch.mass)
-        self.trajectory = SwingTrajectory(self.params.swing_heights, self.params.descent_speed,
-                                          blend=self.params.swing_blend)
+        sw = self.params.swing
+        self.trajectory = SwingTrajectory(sw.heights, sw.descent_speed, blend=sw.blend)
         self._trajectory = self.trajectory
         # the ball of each foot (its toe joint) ahead of the ankle (m): how far forward the
         # pressure can go once the heel is up in push-off (the forward ankle limit without toes)
         # (horizontal, in the rest pose: a rig's foot frame need not be level)
-        fwd = self.params.stance_ankle_limit[0] if self.params.stance_ankle_limit else 0.0
+        fwd = self.params.stance.ankle_limit[0] if self.params.stance.ankle_limit else 0.0
         rest = mujoco.MjData(m)
         mujoco.mj_kinematics(m, rest)
         self._ball = {lg.side: float(np.linalg.norm(
@@ -225,7 +217,7 @@ class IPMController:
         toes = np.concatenate([lg.toe for lg in self._legs])
         self._upper = np.concatenate([upper, toes]).astype(int)
         kp, kd = ch.default_gains()
-        s = self.params.upper_gain_scale
+        s = self.params.upper.gain_scale
         self._upper_kp = kp[self._upper] * s
         self._upper_kd = kd[self._upper] * s
         self._limits = ch.torque_limits()
@@ -279,7 +271,7 @@ class IPMController:
             p_sh = scratch.xpos[ch.body_id(sh)]
             p_hand = scratch.xpos[ch.body_id(hand)]
             arm = float(np.linalg.norm(p_hand - p_sh))
-            a = self.params.arm_abduction
+            a = self.params.upper.arm_abduction
             target = p_sh + arm * np.array([0.0, sgn * math.sin(a), -math.cos(a)])
             q = ch.solve_ik(q, [(hand, target, None)], ch.joint_dofs(sh))
         return q
@@ -302,16 +294,16 @@ class IPMController:
         return "right" if self._swing == _LEFT else "left"
 
     def _update_commands(self, t: float) -> None:
-        """Move the speed target towards the command at ``acceleration`` m/s^2 and the heading
+        """Move the speed target towards the command at ``speed.acceleration`` m/s^2 and the heading
         target towards the commanded heading at the turn rate (sets ``_heading_rate``)."""
         p = self.params
         dt = max(t - self._last_t, 0.0)
         self._last_t = t
         err = self.desired_speed(t) - self.speed_target
-        step = p.acceleration * dt
+        step = p.speed.acceleration * dt
         self.speed_target += max(-step, min(step, err))
         err = wrap_angle(self.desired_heading(t) - self.heading_target)
-        rate = min(p.turn_rate, p.turn_acceleration / max(abs(self.speed_target), 1e-3))
+        rate = min(p.turning.rate, p.turning.acceleration / max(abs(self.speed_target), 1e-3))
         step = rate * dt
         self.heading_target = wrap_angle(self.heading_target + max(-step, min(step, err)))
         self._heading_rate = rate * (1.0 if err > step else -1.0 if err < -step else 0.0)
@@ -326,7 +318,7 @@ class IPMController:
         R = ch.data.xmat[self._pelvis].reshape(3, 3)
         turn = abs(wrap_angle(self.desired_heading(t) - yaw_of(R)))
         walk = (abs(self.desired_speed(t)) > 0.05 or abs(float(self.lateral_speed(t) or 0)) > 0.05
-                or turn > self.params.heading_tolerance)
+                or turn > self.params.standing.heading_tolerance)
         self._walk_cache = (t, walk)
         return walk
 
@@ -345,20 +337,20 @@ class IPMController:
         self._back = p.ankle_back_weight(self.speed_target)
         self.trajectory = self._trajectory
         if w > 0 or fw > 0:  # a lower swing, lifted off at once, at human-like speeds
-            h0, h1, h2 = p.swing_heights
-            self.trajectory = SwingTrajectory((h0 + fw * (p.human_liftoff_height - h0),
-                                               h1 + w * (p.human_swing_height - h1), h2),
-                                              p.descent_speed, blend=p.swing_blend)
+            h0, h1, h2 = p.swing.heights
+            self.trajectory = SwingTrajectory((h0 + fw * (p.feet.liftoff_height - h0),
+                                               h1 + w * (p.human.swing_height - h1), h2),
+                                              p.swing.descent_speed, blend=p.swing.blend)
         self._T = step_time if duration is None else duration
         # a step that starts while the heading target turns keeps its centre of pressure ahead
         # of the ankle: rocked back onto its heel edge the foot holds little yaw moment
-        self._turning = t - self._turned <= self.params.turn_hold
+        self._turning = t - self._turned <= self.params.turning.hold
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
         self._step_com0 = ch.com()
         self._knee0 = min(float(ch.qpos[self._legs[1 - swing].knee_q]),
-                          self.params.stance_knee_ramp_max)
+                          self.params.stance.knee_ramp_max)
         self.step_switches.append(t)
         # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
         # stride-phase tools (mjchar.controllers.core.terrain.push_walk) work with IPM too
@@ -385,7 +377,7 @@ class IPMController:
         q[ch.root_qpos[2]] = min(q[ch.root_qpos[2]], soles[:, 2].mean() + self._root_above_soles)
         # knees bent like the stance knee while walking (no sudden drop when a step starts):
         # seed hip and ankle pitch with half the flexion each, lower the pelvis, then IK
-        k = self.params.stance_knee
+        k = self.params.stance.knee
         m = ch.model
         drop = 0.0
         for lg in self._legs:
@@ -460,21 +452,23 @@ class IPMController:
             swing: 0 (left foot swings) or 1 (right).
             v_desired: desired forward speed (m/s).
             stance_lateral: coronal offset (m) of the stance foot from the COM; when given the
-                swing foot lands at least ``min_width`` beside it (no crossed legs), or the
-                standing width when stopping with a sideways speed under ``stop_speed``.
+                swing foot lands at least ``placement.min_width`` beside it (no crossed legs),
+                or the standing width when stopping with a sideways speed under
+                ``standing.stop_speed``.
         """
         p = self.params
         d = np.asarray(ipm_step_offset(np.asarray(v_heading, float), h))
         side = 1.0 if swing == _LEFT else -1.0
         w = self._human if self.mode == "step" else 0.0
-        cs = p.coronal_scale + w * (p.human_coronal_scale - p.coronal_scale)
-        out = np.array([p.sagittal_scale * d[0] - p.speed_offset * v_desired - self.speed_bias,
-                        cs * d[1] + side * p.step_width])
+        pl = p.placement
+        cs = pl.coronal_scale + w * (p.human.coronal_scale - pl.coronal_scale)
+        out = np.array([pl.sagittal_scale * d[0] - pl.speed_offset * v_desired - self.speed_bias,
+                        cs * d[1] + side * pl.step_width])
         if stance_lateral is not None:
-            stopping = self._stopping and abs(float(v_heading[1])) < p.stop_speed
-            width = self.stand_width if stopping else p.min_width
+            stopping = self._stopping and abs(float(v_heading[1])) < p.standing.stop_speed
+            width = self.stand_width if stopping else pl.min_width
             out[1] = stance_lateral + side * max(side * (out[1] - stance_lateral), width)
-        lim = p.clamp * self.leg_length
+        lim = pl.clamp * self.leg_length
         return np.clip(out, -lim, lim)
 
     def act(self, character: Character, t: float) -> Action:
@@ -483,21 +477,22 @@ class IPMController:
             raise IPMError("ipm: act() called before reset()")
         ch = character
         self._update_commands(t)
+        timing = self.params.timing
         if self.mode == "stand":
             trigger = self._should_step(ch, t)
             if trigger == "push":
                 self._start_stepping(ch, t, swing=self._first_swing(ch),
-                                     duration=self.params.push_step_time)
+                                     duration=timing.push_step_time)
             elif trigger == "walk":
-                self._start_stepping(ch, t, swing=_LEFT, duration=self.params.first_step_time)
+                self._start_stepping(ch, t, swing=_LEFT, duration=timing.first_step_time)
             else:
                 self.speed_target = 0.0
                 return self._stand.act(ch, t)
         # step mode: end the step on swing-foot contact
-        p = self.params
         self.phase = (t - self._t0) / self._T
         contacts = ch.foot_contacts()
-        if (self.phase >= p.min_phase and contacts[self._swing]) or self.phase >= p.max_phase:
+        if ((self.phase >= timing.min_phase and contacts[self._swing])
+                or self.phase >= timing.max_phase):
             self.steps += 1
             self._adapt_speed_bias(ch, t)
             if self._should_stand(ch, t):
@@ -509,15 +504,16 @@ class IPMController:
 
     def _adapt_speed_bias(self, ch: Character, t: float) -> None:
         """Integral speed control: after each step, move the sagittal placement bias by
-        ``speed_integral`` x (desired - mean forward speed over the step)."""
-        p = self.params
-        if p.speed_integral <= 0 or t <= self._t0:
+        ``placement.speed_integral`` x (desired - mean forward speed over the step)."""
+        pl = self.params.placement
+        if pl.speed_integral <= 0 or t <= self._t0:
             return
         f, _ = self._heading_axes(ch)
         mean = float((ch.com()[:2] - self._step_com0[:2]) @ f[:2]) / (t - self._t0)
-        gain = p.speed_integral + self._human * (p.human_speed_integral - p.speed_integral)
+        gain = pl.speed_integral + self._human * (self.params.human.speed_integral
+                                                  - pl.speed_integral)
         self.speed_bias += gain * (self.speed_target - mean)
-        self.speed_bias = min(max(self.speed_bias, -p.max_speed_bias), p.max_speed_bias)
+        self.speed_bias = min(max(self.speed_bias, -pl.max_speed_bias), pl.max_speed_bias)
 
     def _first_swing(self, ch: Character) -> int:
         """Swing the foot on the side the capture point moves to (left on a tie)."""
@@ -532,30 +528,31 @@ class IPMController:
 
     def _should_step(self, ch: Character, t: float) -> str | None:
         """``"walk"`` (a command), ``"push"`` (capture point outside the feet) or ``None``."""
-        if self._wants_to_walk(ch, t) and t - self.stand_switches[-1] >= self.params.settle_time:
+        settle = self.params.standing.settle_time
+        if self._wants_to_walk(ch, t) and t - self.stand_switches[-1] >= settle:
             return "walk"
         c = ch.com()
         v = ch.com_velocity()
         h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
         cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
         poly = ch.support_polygon()
-        if len(poly) < 3 or t - self._reset_time < self.params.settle_time:
+        if len(poly) < 3 or t - self._reset_time < settle:
             return None  # not (yet) standing on the feet: nothing to measure against
         # just after a stop the landing foot's contact patch is still forming: be lenient
-        margin = self.params.capture_margin
-        if t - self.stand_switches[-1] < self.params.settle_time:
+        margin = self.params.standing.capture_margin
+        if t - self.stand_switches[-1] < settle:
             margin *= 3.0
         return "push" if point_in_polygon_margin(cp, poly) < -margin else None
 
     def _should_stand(self, ch: Character, t: float) -> bool:
         """At the end of a step: stand when no walk is commanded, the sagittal speed is below
-        ``stop_speed``, both feet are down and the capture point is over the feet."""
+        ``standing.stop_speed``, both feet are down and the capture point is over the feet."""
         if self._wants_to_walk(ch, t) or not all(ch.foot_contacts()):
             return False
         c = ch.com()
         v = ch.com_velocity()
         f, _ = self._heading_axes(ch)
-        if abs(float(v @ f)) > self.params.stop_speed:
+        if abs(float(v @ f)) > self.params.standing.stop_speed:
             return False
         h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
         cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
@@ -563,12 +560,13 @@ class IPMController:
 
     def _step_torques(self, ch: Character, t: float) -> np.ndarray:
         """``(nv,)`` stepping torques. Every PD term is split into a part that depends on the
-        position, ``tau0``, and a linear damping ``-D qdot``; with ``implicit_damping`` the
+        position, ``tau0``, and a linear damping ``-D qdot``; with ``tracking.implicit_damping`` the
         damping is evaluated at the next step's velocity (stable PD's trick, Tan et al. 2011)::
 
             (M + dt D) qddot = tau0 - D qdot - C + tau_ext,   tau = tau0 - D (qdot + dt qddot)
         """
         p = self.params
+        tr = p.tracking  # the PD gains and switches
         d = ch.data
         sw = self._legs[self._swing]
         st = self._legs[1 - self._swing]
@@ -588,7 +586,7 @@ class IPMController:
         vcd = float(self.lateral_speed(t) or 0.0)
         # coming to a stop: the next foot lands at standing width
         self._stopping = (not self._wants_to_walk(ch, t) and abs(vd) < 0.05
-                          and abs(vh[0]) < 2 * p.stop_speed)
+                          and abs(vh[0]) < 2 * p.standing.stop_speed)
 
         # 1. foot placement and 2. swing-foot target
         stance_lat = float((d.site_xpos[st.site][:2] - c[:2]) @ l[:2])
@@ -602,10 +600,10 @@ class IPMController:
         R_foot_des = rotation_z(self.heading_target)
         ankle_target = site_target - R_foot_des @ sw.site_offset
         R_sw_foot = R_foot_des
-        if self._foot > 0 and p.human_toe_up > 0 and self.phase < p.toe_up_phase:
+        if self._foot > 0 and p.feet.toe_up > 0 and self.phase < p.feet.toe_up_phase:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
-            x = self.phase / p.toe_up_phase
-            toe_up = self._foot * p.human_toe_up * (1.0 - smoothstep(x))
+            x = self.phase / p.feet.toe_up_phase
+            toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(x))
             R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
         hip_pos = d.xanchor[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
@@ -615,30 +613,31 @@ class IPMController:
         # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
         # target velocities by finite differences (feed-forward: no lag from the damping)
         w_des, flex_rate = np.zeros(3), 0.0
-        if self._prev_swing is not None and p.feedforward:
+        if self._prev_swing is not None and tr.feedforward:
             R_prev, flex_prev, t_prev = self._prev_swing
             if t > t_prev:
                 w_des = rotation_error(R_thigh_des, R_prev) / (t - t_prev)
                 flex_rate = (flexion - flex_prev) / (t - t_prev)
                 n = float(np.linalg.norm(w_des))
-                if n > p.max_target_rate:
-                    w_des *= p.max_target_rate / n
-                flex_rate = max(-p.max_target_rate, min(p.max_target_rate, flex_rate))
+                if n > tr.max_target_rate:
+                    w_des *= tr.max_target_rate / n
+                flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
         self._prev_swing = (R_thigh_des, flexion, t)
         R_thigh = d.xmat[sw.thigh].reshape(3, 3)
         A_sw = d.xaxis[sw.hip_jnt].T                         # (3, 3) columns = hinge axes
-        tau[sw.hip] = A_sw.T @ (p.hip_kp * rotation_error(R_thigh_des, R_thigh) + p.hip_kd * w_des)
+        tau[sw.hip] = A_sw.T @ (tr.hip_kp * rotation_error(R_thigh_des, R_thigh)
+                                + tr.hip_kd * w_des)
         _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
-        D[sw.hip] = p.hip_kd * (A_sw.T @ jr_thigh)
-        tau[sw.knee_dof] = p.knee_kp * (flexion - qpos[sw.knee_q]) + p.knee_kd * flex_rate
-        knee_target = p.stance_knee
-        if self._knee_ramp > 0:  # from the landing flexion to stance_knee, no impulse
+        D[sw.hip] = tr.hip_kd * (A_sw.T @ jr_thigh)
+        tau[sw.knee_dof] = tr.knee_kp * (flexion - qpos[sw.knee_q]) + tr.knee_kd * flex_rate
+        knee_target = p.stance.knee
+        if self._knee_ramp > 0:  # from the landing flexion to stance.knee, no impulse
             x = min(self.phase / self._knee_ramp, 1.0)
-            knee_target += (self._knee0 - p.stance_knee) * (1.0 - smoothstep(x))
+            knee_target += (self._knee0 - p.stance.knee) * (1.0 - smoothstep(x))
         tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
-        D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = p.knee_kd
-        for leg, R_des, kp, kd in ((sw, R_sw_foot, p.swing_ankle_kp, p.swing_ankle_kd),
-                                   (st, None, p.ankle_kp, p.ankle_kd)):
+        D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = tr.knee_kd
+        for leg, R_des, kp, kd in ((sw, R_sw_foot, tr.swing_ankle_kp, tr.swing_ankle_kd),
+                                   (st, None, tr.ankle_kp, tr.ankle_kd)):
             R_foot = d.xmat[leg.foot].reshape(3, 3)
             if R_des is None:  # stance foot: flat, keep its own yaw
                 R_des = rotation_z(yaw_of(R_foot))
@@ -648,23 +647,23 @@ class IPMController:
             if leg is st and self._foot > 0:
                 # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
                 n = A.T @ R_foot[:, 2]                    # the foot's vertical on the hinges
-                extra = self._foot * (p.human_ankle_yaw_kd - kd)
+                extra = self._foot * (p.feet.ankle_yaw_kd - kd)
                 D[np.ix_(leg.ankle, leg.ankle)] += extra * np.outer(n, n)
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0
-        if self._foot > 0 and p.human_push_off > 0 and self.phase > p.push_off_phase:
-            x = min((self.phase - p.push_off_phase) / (1.0 - p.push_off_phase), 1.0)
+        if self._foot > 0 and p.feet.push_off > 0 and self.phase > p.feet.push_off_phase:
+            x = min((self.phase - p.feet.push_off_phase) / (1.0 - p.feet.push_off_phase), 1.0)
             self._push_w = self._foot * smoothstep(x)
             R_foot = d.xmat[st.foot].reshape(3, 3)
-            moment = p.human_push_off * self._push_w * self.mass * GRAVITY
+            moment = p.feet.push_off * self._push_w * self.mass * GRAVITY
             tau[st.ankle] += d.xaxis[st.ankle_jnt] @ (R_foot[:, 1] * moment)
         up = self._upper
         tau[up] = self._upper_kp * (self._q_upper - qpos[self._dof_qpos[up]])
         D[up, up] = self._upper_kd
 
         # 4. gravity compensation on everything but the stance leg
-        if p.gravity_compensation:
+        if tr.gravity_compensation:
             gdofs = np.concatenate([up, sw.all])
             b = self._dof_body[gdofs]
             j = self._dof_jnt[gdofs]
@@ -676,13 +675,13 @@ class IPMController:
 
         # pelvis in the world frame; the stance hip takes the difference:
         # T_stance = -T_pelvis - T_swing_hip - T_spine, each as (position part, damping rows)
-        lean = p.lean * vd
+        lean = p.upper.lean * vd
         R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
                                                                   lean)
         R_p = d.xmat[self._pelvis].reshape(3, 3)
         _, jr_p = ch.point_jacobian(self._pelvis, d.xpos[self._pelvis])
-        kp_p = np.array([p.pelvis_kp, p.pelvis_kp, p.pelvis_yaw_kp])
-        kd_p = np.array([p.pelvis_kd, p.pelvis_kd, p.pelvis_yaw_kd])
+        kp_p = np.array([tr.pelvis_kp, tr.pelvis_kp, tr.pelvis_yaw_kp])
+        kd_p = np.array([tr.pelvis_kd, tr.pelvis_kd, tr.pelvis_yaw_kd])
         T0 = -(kp_p * rotation_error(R_p_des, R_p)
                + kd_p * np.array([0.0, 0.0, self._heading_rate]))
         DT = -kd_p[:, None] * jr_p                            # world torque rows on qdot
@@ -700,18 +699,18 @@ class IPMController:
         # 5. virtual COM force through the stance leg
         dc = (c[:2] - d.site_xpos[st.site][:2]) @ l[:2]
         side = 1.0 if self._swing == _LEFT else -1.0
-        fs = self.mass * p.vf_sagittal * (vd - vh[0])
-        fc = self.mass * (p.vf_coronal_pos * (side * p.coronal_offset - dc)
-                          + p.vf_coronal_vel * (vcd - vh[1]))
-        fs = max(-p.vf_max_sagittal, min(p.vf_max_sagittal, fs))
-        fc = max(-p.vf_max_coronal, min(p.vf_max_coronal, fc))
+        fs = self.mass * p.force.sagittal * (vd - vh[0])
+        fc = self.mass * (p.force.coronal_pos * (side * p.force.coronal_offset - dc)
+                          + p.force.coronal_vel * (vcd - vh[1]))
+        fs = max(-p.force.max_sagittal, min(p.force.max_sagittal, fs))
+        fc = max(-p.force.max_coronal, min(p.force.max_coronal, fc))
         F = fs * f + fc * l
         self.last_force = F
         jacp, _ = ch.point_jacobian(st.foot, c)
         tau[st.leg] -= jacp[:, st.leg].T @ F
 
         # damping: explicit or implicit (next-step velocity)
-        if p.implicit_damping:
+        if tr.implicit_damping:
             dt = ch.timestep
             M = ch.mass_matrix()
             rhs = tau - D @ qvel - d.qfrc_bias + d.qfrc_passive + d.qfrc_constraint
@@ -728,22 +727,22 @@ class IPMController:
         if abs(T_st[2]) > lim:
             T_st[2] = math.copysign(lim, T_st[2])
             tau[st.hip] = A_st @ T_st
-        if p.stance_ankle_limit is not None:
+        if p.stance.ankle_limit is not None:
             self._limit_stance_ankle(ch, st, tau)
         tau[ch.root_dofs] = 0.0
         return np.clip(tau, -self._limits, self._limits)
 
     def _yaw_capacity(self, ch: Character, st: Leg) -> float:
-        """Yaw moment (N m) the stance foot can hold: ``yaw_friction x m g x r``, with ``r`` the
-        mean distance of its floor contact points from their centroid (a flat foot ~0.1 m, a
-        foot on its toes or heel much less), at most ``stance_yaw_limit``."""
+        """Yaw moment (N m) the stance foot can hold: ``stance.yaw_friction x m g x r``, with
+        ``r`` the mean distance of its floor contact points from their centroid (a flat foot
+        ~0.1 m, a foot on its toes or heel much less), at most ``stance.yaw_limit``."""
         p = self.params
         names = {st.ankle_name, st.toe_name}
         pts = np.array([c.position[:2] for c in ch.ground_contacts() if c.body in names])
         if len(pts) < 2:
             return 0.0
         r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
-        return min(p.stance_yaw_limit, p.yaw_friction * self.mass * GRAVITY * r)
+        return min(p.stance.yaw_limit, p.stance.yaw_friction * self.mass * GRAVITY * r)
 
     def _limit_stance_ankle(self, ch: Character, st: Leg, tau: np.ndarray) -> None:
         """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
@@ -751,10 +750,10 @@ class IPMController:
         d = ch.data
         p = self.params
         if self._turning:
-            fwd, back, roll = p.turn_ankle_limit
+            fwd, back, roll = p.turning.ankle_limit
         else:
-            fwd, back, roll = p.stance_ankle_limit
-            back += self._back * (p.human_ankle_back - back)
+            fwd, back, roll = p.stance.ankle_limit
+            back += self._back * (p.feet.ankle_back - back)
         W = self.mass * GRAVITY
         A = d.xaxis[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]
@@ -778,7 +777,8 @@ def make_ipm(character: Character | None = None, speed=0.0, heading=None, **opts
         speed: desired forward speed (m/s), number or ``t -> m/s``.
         heading: desired heading (degrees, world yaw, 0 = +X, CCW), number, ``t -> degrees``
             or ``None`` (keep the start heading).
-        opts: ``lateral_speed`` and any :class:`IPMParams` field (e.g. ``step_time=0.5``).
+        opts: ``lateral_speed``, ``params`` (an :class:`IPMParams`) and parameters by dotted
+            name (``**{"timing.step_time": 0.5}``).
     """
     return IPMController(speed=speed, heading=heading, **opts)
 

@@ -66,14 +66,15 @@ def add_floor_argument(p: argparse.ArgumentParser, default: str | None = "contac
 
 
 def assignment(what: str):
-    """A parser of ``NAME=VALUE``: ``(name, value)``, the value read as JSON (numbers, true,
-    lists, objects) and otherwise kept as text (``update=cem``)."""
+    """A parser of ``NAME=VALUE``: ``(name, value)``, NAME an identifier or dotted identifiers
+    (``timing.step_time``), the value read as JSON (numbers, true, lists, objects) and otherwise
+    kept as text (``update=cem``)."""
     import json
 
     def parse(text: str) -> tuple[str, object]:
         name, sep, raw = text.partition("=")
         name = name.strip()
-        if not sep or not name.isidentifier() or not raw.strip():
+        if not sep or not all(w.isidentifier() for w in name.split(".")) or not raw.strip():
             raise argparse.ArgumentTypeError(f"{what} must be NAME=VALUE, got {text!r}")
         try:
             value = json.loads(raw)

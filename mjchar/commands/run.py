@@ -79,7 +79,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a tunable of the controller (repeatable; "
                         f"{', '.join(s.name for s in registry.specs() if 'params' in s.options)}):"
                         " mpc's MpcOptions (samples=96, horizon=0.5, update=cem), ipm's "
-                        "IPMParams (step_time=0.5), simbicon's gait fields (torso_pitch=0.2); "
+                        "IPMParams (timing.step_time=0.5), simbicon's Gait (torso_pitch=0.2); "
                         "VALUE is read as JSON, else as text; an unknown NAME lists the valid "
                         "ones")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
