@@ -38,7 +38,7 @@ from . import registry
 from .character import Character
 from .scenarios import registry as scenario_registry
 from .scenarios.registry import Run
-from .scenarios.simulate import standing_pose
+from .scenarios.shared import standing_pose
 
 
 class RunError(MjcharError):

@@ -52,6 +52,7 @@ import numpy as np
 
 from mjchar.bvh.bundled.assets import find_trajectory
 from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io.files import write_bytes
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
@@ -278,7 +279,7 @@ class Trajectory:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         try:
-            path.write_bytes(buf.getvalue())
+            write_bytes(path, buf.getvalue())  # atomically: a failed write leaves what was there
         except OSError as e:
             raise TrajectoryError(f"{path}: cannot write the trajectory: {e}") from None
         return path
@@ -460,7 +461,7 @@ class ReplayController:
              push=None) -> Result:
         """Play the trajectory open-loop on ``character`` from its initial state and report the
         usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
-        from ..core.scenarios.simulate import simulate, with_push
+        from ..core.scenarios.shared import simulate, with_push
 
         tr = self.trajectory
         tr.validate(character.model)
@@ -512,7 +513,7 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         reference: a ReferenceMotion to measure tracking against (default: the stored
             reference rows; none for a task trajectory).
         push: one push during the replay (a
-            :class:`~mjchar.controllers.core.scenarios.simulate.PushEvent`).
+            :class:`~mjchar.controllers.core.scenarios.shared.PushEvent`).
 
     Returns:
         a :class:`~mjchar.controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra``

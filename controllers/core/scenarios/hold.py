@@ -16,7 +16,7 @@ from ..character import Character
 from ..errors import SimulationDiverged
 from ..registry import make_controller
 from .registry import ScenarioError
-from .simulate import standing_pose
+from .shared import standing_pose
 
 
 @dataclass

@@ -17,7 +17,7 @@ from ..character import Character
 from ..metrics import Result
 from .options import ALLOW_STEPS, DIRECTION, DURATION, FORCE, PUSH_DURATION, PUSH_TIME, SEED
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
-from .simulate import heading_frame_direction, simulate, standing_pose, survived
+from .shared import heading_frame_direction, simulate, standing_pose, survived
 
 #: run lengths in s when no duration is given
 STAND_DURATION, PUSH_RUN_DURATION, RANDOM_PUSH_DURATION = 10.0, 4.0, 30.0

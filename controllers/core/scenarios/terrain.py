@@ -14,7 +14,7 @@
   stride. Rates over phases, seeds and forces:
   :mod:`~mjchar.controllers.core.scenarios.push_search`.
 
-Every run goes through :func:`~mjchar.controllers.core.scenarios.simulate.simulate` (falls,
+Every run goes through :func:`~mjchar.controllers.core.scenarios.shared.simulate` (falls,
 divergence, root force bookkeeping). On a slope the shared fall test (root height in world z, bodies
 touching the floor) is complemented by a terrain-relative one (root height above the floor under
 it), done by :class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
@@ -35,7 +35,7 @@ from mjchar.bvh.errors import MjcharError
 
 from ..character import Character
 from ..metrics import FALL_HEIGHT_FRACTION, Result
-from .simulate import heading_frame_direction, perturbed_start, simulate, standing_pose
+from .shared import heading_frame_direction, perturbed_start, simulate, standing_pose
 
 
 class TerrainError(MjcharError):
