@@ -218,7 +218,7 @@ def test_cli_clip_json_and_plot(tmp_path, capsys):
     (["gait", "ipm", "--speed", "9"], "out of range"),
     (["gait", "hand_of_god"], "SOURCE must be a walker"),
     (["gait", "/no/such.bvh"], "no such file"),
-    (["gait", "ipm", "--filmstrip", "strip.gif"], "--filmstrip writes PNG"),
+    (["gait", "ipm", "--filmstrip", "strip.gif"], "--filmstrip strip.gif: give a .png path"),
     (["gait", "x.bvh", "--duration", "3"], "--duration applies to walkers"),
     (["gait", "simbicon", "--duration", "2", "--from", "3"], "before the end"),
 ])
