@@ -67,14 +67,16 @@ def test_registered_ids_make_both_forms():
 
 @pytest.mark.parametrize("env_id", IDS)
 def test_check_env_passes_without_warnings(env_id):
-    env = gym.make(env_id)
+    """Gymnasium's checker, render check included (it re-creates the env in every declared
+    render mode, "human" too: headless, that one warns that nothing is shown, which is the only
+    warning allowed)."""
+    env = gym.make(env_id, render_mode="rgb_array")
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # any checker warning fails the test
-        # The render check re-creates the env in every declared mode, "human" included, and a
-        # human window needs a display: without one it is skipped here (render_mode="human"
-        # then raises EnvError, tested below) and rgb_array is checked by Gymnasium's render
-        # checker in the next test.
-        check_env(env.unwrapped, skip_render_check=not display_available())
+        if not display_available():
+            warnings.filterwarnings("ignore", "render_mode='human': no display",
+                                    RuntimeWarning)
+        check_env(env.unwrapped)
     env.close()
 
 
@@ -98,12 +100,32 @@ def test_rgb_array_rendering(env_id):
     env.close()  # closing twice is allowed
 
 
-def test_human_mode_without_display_fails_clearly(monkeypatch):
+def test_human_mode_without_display_constructs_resets_and_steps(monkeypatch):
+    """As Gymnasium's own MuJoCo envs, the window opens at the first render (which step calls
+    in human mode); with no display that warns once and shows nothing."""
     monkeypatch.setattr("mjchar.envs.common.display_available", lambda: False)
-    with pytest.raises(EnvError, match="needs a display"):
-        gym.make(STAND, render_mode="human")
+    env = gym.make(IMITATION, render_mode="human")
+    with pytest.warns(RuntimeWarning, match="no display"):
+        env.reset(seed=0)  # reset renders in human mode, as step does
+        env.step(env.action_space.sample())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once only
+        for _ in range(3):
+            env.step(env.action_space.sample())
+        assert env.render() is None
+    env.close()
     with pytest.raises(EnvError, match="render_mode"):
         envs.StandEnv(render_mode="video")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_every_id_states_its_episode_limit(env_id):
+    spec = gym.spec(env_id)
+    assert spec.max_episode_steps == envs.MAX_EPISODE_STEPS == 300
+    env = gym.make(env_id)
+    u = env.unwrapped
+    assert spec.max_episode_steps * u.control_dt == pytest.approx(u.episode_seconds)
+    env.close()
 
 
 @pytest.mark.parametrize("env_id", IDS)
