@@ -234,10 +234,10 @@ def run(controller: str, scenario: str | None = None, *, model=None, motion=None
     sspec = scenario_registry.get(scenario or cspec.default_scenario)
     factory, scen = {}, {}
     for key, value in options.items():
-        if key in cspec.options:
-            factory[key] = value
-        elif sspec.option(key) is not None and key != "seed":
+        if sspec.option(key) is not None and key != "seed":
             scen[key] = value
+        elif key in cspec.options or "params" in cspec.options:  # (its factory checks params)
+            factory[key] = value
         else:
             valid = sorted(set(cspec.options) | {o.name for o in sspec.options} - {"seed"})
             raise RunError(f"{key!r} is neither an option of {cspec.name} nor of the "
