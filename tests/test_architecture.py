@@ -237,7 +237,7 @@ class Limp:
     actuation = "torque"
 
     def reset(self, character) -> None:
-        character.set_actuation(self.actuation)
+        character.actuation.set_mode(self.actuation)
         self.nv = character.nv
 
     def act(self, character, t: float) -> Action:

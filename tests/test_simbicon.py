@@ -145,7 +145,7 @@ def test_make_simbicon_and_protocol(ch):
     a = c.act(ch, ch.time)
     assert a.target is None and a.torque.shape == (ch.nv,)
     assert np.all(a.torque[ch.root_dofs] == 0.0)  # never a force on the root
-    assert np.all(np.abs(a.torque) <= ch.torque_limits() + 1e-9)
+    assert np.all(np.abs(a.torque) <= ch.actuation.torque_limits() + 1e-9)
 
 
 def test_walks_at_one_seed_and_fsm_cycles(ch):
@@ -463,8 +463,8 @@ def test_tilt_floor_and_place_on_floor(ch):
     for _ in range(200):
         ch.step(None)
     # it rests on the tilted plane (not 0.2 m lower on the old one) and MuJoCo sees the plane
-    assert ch.foot_contacts() == (True, True)
-    assert ch.root_height > 0.2 + 0.85
+    assert ch.contacts.feet() == (True, True)
+    assert ch.state.root_height > 0.2 + 0.85
     tilt_floor(ch, 0.0)
     assert floor_height(ch, [5.0, 1.0]) == pytest.approx(0.0)
     with pytest.raises(TerrainError):
@@ -510,7 +510,7 @@ def test_speed_command_on_scaled_bodies(zoo_humanoids, height, end, gait):
     speeds (1.95 m: 0.660-1.761 m/s; 1.5 m: 0.579-1.544)."""
     ch = Character(zoo_humanoids[height], timestep=DEFAULT_TIMESTEP)
     spec = registry.get("simbicon")
-    speed = spec.limit("speed")[end] * (ch.leg_length() / spec.speed_leg_length) ** 0.5
+    speed = spec.limit("speed")[end] * (ch.poses.leg_length() / spec.speed_leg_length) ** 0.5
     c = make_simbicon(ch, gait=gait, speed=speed)
     r = walk(ch, c, duration=60.0, seed=0)
     assert not r.fell, r.fall_reason

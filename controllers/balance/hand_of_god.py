@@ -78,7 +78,7 @@ class HandOfGod:
         lift = self.lift
         if self.support:
             g = -float(character.model.opt.gravity[2])
-            lift += self.support * character.mass * g / self.kp
+            lift += self.support * character.dynamics.mass * g / self.kp
         if lift:
             self.tracker.set_target(LiftedTarget(self.tracker.target, lift), character)
         self.tracker.set_root_gains(character, self.kp, self.kd, self.kp_rot, self.kd_rot)
@@ -93,7 +93,7 @@ class HandOfGod:
         a = self.tracker.act(character, t)
         w = np.zeros(6) if a.torque is None else a.torque[self._r]
         self.last_force = w[:3].copy()
-        self.last_torque = character.root_rotation @ w[3:]
+        self.last_torque = character.state.root_rotation @ w[3:]
         return a
 
 

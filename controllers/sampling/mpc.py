@@ -360,11 +360,11 @@ class MpcController:
         grid, a fresh plan and random stream."""
         o, ch = self.options, character
         o.check(ch.timestep)
-        if not np.all(ch.position_actuators):
+        if not np.all(ch.actuation.position_actuators):
             raise ControllerError("mpc needs <position> actuators on every actuated dof")
-        ch.set_actuation("native")
-        kp, kd = ch.default_gains()
-        ch.set_native_gains(kp, kd)
+        ch.actuation.set_mode("native")
+        kp, kd = ch.actuation.default_gains()
+        ch.actuation.set_native_gains(kp, kd)
         source = _model_file(ch)
         plan_dt = plan_timestep(o, ch.timestep)
         key = (source, plan_dt)

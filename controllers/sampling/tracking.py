@@ -281,7 +281,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     d = mujoco.MjData(mi)
     feet = [character.site_id("left_foot"), character.site_id("right_foot")]
     root = character.root_dofs
-    kp, kd = character.default_gains()
+    kp, kd = character.actuation.default_gains()
     act = character.actuator_dof
     jacp = np.zeros((3, m.nv))
     jacr = np.zeros((3, m.nv))
@@ -430,7 +430,7 @@ class TrackingCost:
         if fall_height is None:
             from ..core.metrics import FALL_HEIGHT_FRACTION
 
-            standing = ch.on_floor(ch.model.qpos0)[rq[2]]
+            standing = ch.poses.standing()[rq[2]]
             fall_height = FALL_HEIGHT_FRACTION * float(standing)
         self.fall_height = float(fall_height)
 

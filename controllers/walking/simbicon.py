@@ -135,7 +135,7 @@ def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]
     mujoco.mj_fwdAcceleration(m, d)
     mujoco.mj_fwdConstraint(m, d)
     f = np.zeros(6)
-    floor = character.floor_geom
+    floor = character.contacts.floor_geom
     for i in range(n):
         c = d.contact[i]
         g1, g2 = int(c.geom[0]), int(c.geom[1])
@@ -231,7 +231,7 @@ class Simbicon:
     # -- set-up ---------------------------------------------------------------------------------
     def reset(self, character: Character) -> None:
         """Switch to torque actuation, map the model (hinges, signs, gains) and start state 0."""
-        character.set_actuation("torque")
+        character.actuation.set_mode("torque")
         self._map(character)
         m = character.model
         R = character.data.xmat[self._pelvis].reshape(3, 3)
@@ -241,9 +241,9 @@ class Simbicon:
         self.transitions = [(character.time, 0)]
         self.speed_offset = 0.0
         self.step_speed: float | None = None
-        self._step_start = (character.time, character.com())
+        self._step_start = (character.time, character.state.com())
         self._command_time = character.time
-        self._limits = character.torque_limits()[self._act_dof]
+        self._limits = character.actuation.torque_limits()[self._act_dof]
         del m
         self._ready = True
 
@@ -265,15 +265,15 @@ class Simbicon:
     def _body_gait(self, ch: Character) -> Gait:
         """The gait for this body (see the class docstring); with a speed command, the gait at
         the command's start (the gait's own speed)."""
-        self.leg_length = ch.leg_length()
-        self._mass = ch.mass
+        self.leg_length = ch.poses.leg_length()
+        self._mass = ch.dynamics.mass
         g = self.base_gait
         missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
         if missing:
             g = g.with_overrides(**missing)
         self._full_gait = g
         if self.speed is None:
-            return g.scaled(self.leg_length, ch.mass)
+            return g.scaled(self.leg_length, ch.dynamics.mass)
         self._froude_unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
         self.command = g.froude * self._froude_unit
         return self._command_gait(self.command)
@@ -325,7 +325,7 @@ class Simbicon:
             return 1.0 if s > 0 else -1.0
 
         g = self.gait
-        kp, kd = ch.default_gains()
+        kp, kd = ch.actuation.default_gains()
         kp, kd = kp[self._act_dof].copy(), kd[self._act_dof].copy()
         self._legs = []
         for side in _SIDES:
@@ -523,7 +523,7 @@ class Simbicon:
             done = phase >= 1.0
         if not done and p.ends_on_contact and phase > self.gait.contact_phase:
             sw = 1 - self._stance_leg(self.state)
-            if character.foot_contacts()[sw]:
+            if character.contacts.feet()[sw]:
                 force = foot_normal_forces(character, self._feet)[sw]
                 done = force > self.gait.contact_force
         if done:
@@ -538,7 +538,7 @@ class Simbicon:
     def _step_update(self, character: Character, t: float) -> None:
         """At lift-off: the last step's mean forward speed and the speed regulation."""
         g = self.gait
-        c = character.com()
+        c = character.state.com()
         if self._step_start is not None:
             t0, c0 = self._step_start
             if t > t0:
@@ -663,7 +663,7 @@ class Simbicon:
         g, d = self.gait, character.data
         weight = self._mass * GRAVITY
         unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
-        v = character.com_velocity()
+        v = character.state.com_velocity()
         lat = -st["out"][1] * H[:, 1]
         F = np.array([0.0, 0.0, g.stance_support * weight])
         if g.velocity_force and g.speed_target is not None:
@@ -671,7 +671,7 @@ class Simbicon:
         if g.velocity_force_coronal:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
         js = st["support_joints"]
-        r = character.com() - d.xanchor[js]
+        r = character.state.com() - d.xanchor[js]
         return -np.einsum("ij,ij->i", d.xaxis[js], np.cross(r, F))
 
     def _feedback_terms(
@@ -679,8 +679,8 @@ class Simbicon:
     ) -> tuple[np.ndarray, np.ndarray]:
         d = character.data
         fwd, lat = H[:, 0], -st["out"][1] * H[:, 1]  # lateral: towards the swing leg's side
-        off = character.com() - d.xpos[st["ankle_body"]]
-        v = character.com_velocity()
+        off = character.state.com() - d.xpos[st["ankle_body"]]
+        v = character.state.com_velocity()
         return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
     def act(self, character: Character, t: float) -> Action:
@@ -730,7 +730,7 @@ class Simbicon:
             q[self._act_qpos] = np.clip(q[self._act_qpos], lo, hi)
             qv[character.root_dofs[:2]] = rng.normal(0.0, velocity_noise, size=2)
         qv[character.root_dofs[0]] += self.gait.start_speed
-        q = character.on_floor(q, clearance=0.0)
+        q = character.poses.on_floor(q, clearance=0.0)
         return q, qv
 
 

@@ -56,7 +56,7 @@ def run(ch: Character, ctrl, duration: float):
 
     def record(c: Character) -> None:
         times.append(c.time)
-        com.append(c.com()[:2].copy())
+        com.append(c.state.com()[:2].copy())
         R = c.data.xmat[c.root_body].reshape(3, 3)
         yaw.append(math.atan2(R[1, 0], R[0, 0]))
 

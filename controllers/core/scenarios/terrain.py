@@ -59,7 +59,7 @@ def tilt_floor(
     if not (math.isfinite(heading) and math.isfinite(height)):
         raise TerrainError("slope heading and height must be finite numbers")
     m = character.model
-    g = character.floor_geom
+    g = character.contacts.floor_geom
     a = math.radians(degrees)
     h = math.radians(heading)
     # rotation about the horizontal axis perpendicular to the heading: a rotation by -a about
@@ -71,12 +71,12 @@ def tilt_floor(
     # the compiler marks a geom at its body's frame ("sameframe") and kinematics then skips its
     # own transform: clear the flag so the new pose is used
     m.geom_sameframe[g] = 0
-    character.reset(character.qpos.copy(), character.qvel.copy())
+    character.reset(character.state.qpos.copy(), character.state.qvel.copy())
 
 
 def floor_normal(character: Character) -> np.ndarray:
     """``(3,)`` unit upward normal of the floor plane."""
-    q = character.model.geom_quat[character.floor_geom]
+    q = character.model.geom_quat[character.contacts.floor_geom]
     w, x, y, z = q / np.linalg.norm(q)
     return np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
 
@@ -84,7 +84,7 @@ def floor_normal(character: Character) -> np.ndarray:
 def floor_height(character: Character, xy) -> float:
     """Height (m) of the floor plane at world horizontal position ``xy`` ``(2,)``."""
     n = floor_normal(character)
-    p0 = character.model.geom_pos[character.floor_geom]
+    p0 = character.model.geom_pos[character.contacts.floor_geom]
     x = np.asarray(xy, dtype=float)[:2]
     return float(p0[2] - (n[0] * (x[0] - p0[0]) + n[1] * (x[1] - p0[1])) / n[2])
 
@@ -101,7 +101,7 @@ def place_on_floor(character: Character, qpos: np.ndarray, clearance: float = 0.
     scratch.qpos[:] = q
     mujoco.mj_kinematics(m, scratch)
     n = floor_normal(character)
-    p0 = m.geom_pos[character.floor_geom]
+    p0 = m.geom_pos[character.contacts.floor_geom]
     lowest = math.inf
     for gid in np.flatnonzero(np.isin(m.geom_bodyid, character.character_bodies)):
         c = scratch.geom_xpos[gid]
@@ -195,7 +195,7 @@ class GaitDriver:
 
     def reset(self, character: Character) -> None:
         self.controller.reset(character)
-        standing = character.on_floor(character.model.qpos0)[character.root_qpos[2]]
+        standing = character.poses.standing()[character.root_qpos[2]]
         self.fall_height = self.fall_fraction * float(standing)
         self.push_time = None
         self.fell, self.fall_time = False, None
@@ -207,7 +207,7 @@ class GaitDriver:
         if self.push is not None and self.push_time is None:
             self._maybe_schedule(character, t)
         if t >= self._next_sample - 1e-9:
-            p = character.root_position
+            p = character.state.root_position
             self.path.append((t, float(p[0]), float(p[1]), float(p[2])))
             self._next_sample += self.sample_dt
             if not self.fell and p[2] - floor_height(character, p[:2]) < self.fall_height:
@@ -230,7 +230,7 @@ class GaitDriver:
         self.push_time = t0 + self.push.phase * stride
         self.push_world = f
         if self.push.force > 0:
-            character.push(body, f, self.push.duration, start=self.push_time)
+            character.pushes.add(body, f, self.push.duration, start=self.push_time)
 
     def speed(self, t0: float, t1: float) -> float:
         """Mean horizontal root speed (m/s) between ``t0`` and ``t1`` (s) from the path."""
