@@ -22,7 +22,6 @@ from mjchar.controllers.core.scenarios import slope_walk, walk
 from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
 from mjchar.controllers.core.scenarios.terrain import (
     TerrainError,
-    floor_height,
     place_on_floor,
     push_walk,
     stride_phases,
@@ -455,9 +454,9 @@ def test_natural_gait_unchanged_at_its_own_speed():
 # -- terrain -----------------------------------------------------------------------------------
 def test_tilt_floor_and_place_on_floor(ch):
     tilt_floor(ch, 5.0, height=0.2)
-    assert floor_height(ch, [0.0, 0.0]) == pytest.approx(0.2)
-    assert floor_height(ch, [1.0, 0.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
-    assert floor_height(ch, [1.0, 3.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    assert ch.contacts.floor_height([0.0, 0.0]) == pytest.approx(0.2)
+    assert ch.contacts.floor_height([1.0, 0.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    assert ch.contacts.floor_height([1.0, 3.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
     q = place_on_floor(ch, ch.model.qpos0, clearance=0.0)
     ch.reset(q)
     for _ in range(200):
@@ -466,7 +465,7 @@ def test_tilt_floor_and_place_on_floor(ch):
     assert ch.contacts.feet() == (True, True)
     assert ch.state.root_height > 0.2 + 0.85
     tilt_floor(ch, 0.0)
-    assert floor_height(ch, [5.0, 1.0]) == pytest.approx(0.0)
+    assert ch.contacts.floor_height([5.0, 1.0]) == pytest.approx(0.0)
     with pytest.raises(TerrainError):
         tilt_floor(ch, 60.0)
 

@@ -16,7 +16,8 @@ the pelvis alone, with a small inertia, meets the explicit root damping.)
 
 It makes tracking work and looks like a puppet on a string: every other controller's goal is to
 need none of it. The wrench it applied is recorded (:attr:`HandOfGod.last_force`,
-:attr:`HandOfGod.last_torque`, and per step by the scenarios through ``Character.root_wrench``).
+:attr:`HandOfGod.last_torque`, and per step by the scenarios through
+``character.actuation.root_wrench``).
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ class HandOfGod:
         self.tracker.reset(character)
         lift = self.lift
         if self.support:
-            g = -float(character.model.opt.gravity[2])
+            g = -float(character.dynamics.gravity[2])
             lift += self.support * character.dynamics.mass * g / self.kp
         if lift:
             self.tracker.set_target(LiftedTarget(self.tracker.target, lift), character)

@@ -451,7 +451,7 @@ class ReplayController:
         tr = self.trajectory
         i = int(round(t / tr.control_dt))
         if i in self._resets:
-            character.data.qacc_warmstart[:] = 0.0  # as every rollout batch started
+            character.state.clear_warm_start()  # as every rollout batch started
         return Action(target=tr.targets[min(max(i, 0), tr.n_controls - 1)])
 
 
