@@ -510,8 +510,7 @@ def test_ik_lowers_pelvis_with_feet_in_place(humanoid):
     humanoid.reset(q)
     feet = [humanoid.role(f"{s}_ankle") for s in ("left", "right")]
     state = humanoid.state
-    targets = [(f, state.body_positions[humanoid.body_id(f)].copy(),
-                state.body_quaternions[humanoid.body_id(f)].copy()) for f in feet]
+    targets = [(f, *humanoid.poses.body_pose(q, f)) for f in feet]
     dofs = humanoid.dofs(["left_hip", "left_knee", "left_ankle", "right_hip", "right_knee",
                           "right_ankle"])
     q2 = q.copy()
