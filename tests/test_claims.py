@@ -38,7 +38,7 @@ def _survives_everywhere(run_spec, force: float) -> None:
 def test_the_bundled_humanoid_is_1_63_m_and_70_kg():
     ch = Character()
     assert round(ch.info.extra["height"], 2) == 1.63
-    assert round(ch.mass) == 70
+    assert round(ch.dynamics.mass) == 70
 
 
 # hand_of_god: "tracks walk60 within 2 cm"

@@ -206,10 +206,10 @@ def test_reward_is_one_on_the_reference_and_follows_the_formula(imitation):
     assert all(v == pytest.approx(1.0, abs=1e-9) for v in terms.values())
     # one hinge off by 0.1 rad: pose term exp(-2 * 0.1^2) exactly (mj_differentiatePos)
     ch = u.character
-    q = ch.qpos.copy()
+    q = ch.state.qpos.copy()
     knee = ch.joint_qpos(ch.role("left_knee"))[0]
     q[knee] += 0.1
-    ch.reset(q, ch.qvel.copy())
+    ch.reset(q, ch.state.qvel.copy())
     r, terms = u.current_reward()
     assert terms["pose"] == pytest.approx(math.exp(-2 * 0.01), rel=1e-9)
     assert terms["velocity"] == pytest.approx(1.0)
@@ -238,8 +238,8 @@ def test_reference_state_initialisation_covers_the_clip(imitation):
         obs, info = imitation.reset(seed=seed)
         phases.append(info["start_phase"])
         # the start state is the reference at that phase
-        assert np.allclose(u.character.qpos, u.reference.qpos(info["reference_time_s"]))
-        assert np.allclose(u.character.qvel, u.reference.qvel(info["reference_time_s"]))
+        assert np.allclose(u.character.state.qpos, u.reference.qpos(info["reference_time_s"]))
+        assert np.allclose(u.character.state.qvel, u.reference.qvel(info["reference_time_s"]))
     phases = np.array(phases)
     assert phases.min() >= 0 and phases.max() < 1
     hist, _ = np.histogram(phases, bins=10, range=(0, 1))
@@ -318,7 +318,7 @@ def test_pushes_follow_the_configuration():
         _, _, term, _, info = env.step(np.zeros(env.action_space.shape))
         assert not term
     assert info["pushes"] == 1 and info["push_N"] == 100.0 and info["push_direction_deg"] == 90
-    (p,) = u.character.pushes
+    (p,) = u.character.pushes.scheduled
     assert p.start == pytest.approx(0.5, abs=u.control_dt) and p.duration == 0.1
     R = u.character.data.xmat[u.character.root_body].reshape(3, 3)
     left = np.array([-R[1, 0], R[0, 0], 0.0]) / math.hypot(R[0, 0], R[1, 0])
@@ -328,7 +328,7 @@ def test_pushes_follow_the_configuration():
     quiet.reset(seed=0)
     for _ in range(45):
         info = quiet.step(np.zeros(quiet.action_space.shape))[-1]
-    assert info["pushes"] == 0 and not quiet.unwrapped.character.pushes
+    assert info["pushes"] == 0 and not quiet.unwrapped.character.pushes.scheduled
     quiet.close()
 
 

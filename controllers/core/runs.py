@@ -175,7 +175,7 @@ def check_speed(spec, speed: float, character: Character | None = None) -> None:
     reg = spec.limit("speed")
     if reg is None:
         return
-    leg = character.leg_length() if character is not None and spec.speed_leg_length else None
+    leg = character.poses.leg_length() if character is not None and spec.speed_leg_length else None
     lim = spec.limit("speed", leg)
     if lim[0] <= speed <= lim[1]:
         return

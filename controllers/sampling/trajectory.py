@@ -435,14 +435,14 @@ class ReplayController:
         """Check that the trajectory fits ``character`` (model, time step) and switch it to
         native PD with the model's own gains."""
         tr = self.trajectory
-        if not np.all(character.position_actuators):
+        if not np.all(character.actuation.position_actuators):
             raise ControllerError("replay needs <position> actuators on every actuated dof")
         if abs(character.timestep - tr.timestep) > 1e-12:
             raise TrajectoryError(f"the trajectory was optimised at a {tr.timestep} s time step, "
                                   f"the character runs at {character.timestep} s")
-        character.set_actuation("native")
-        kp, kd = character.default_gains()
-        character.set_native_gains(kp, kd)
+        character.actuation.set_mode("native")
+        kp, kd = character.actuation.default_gains()
+        character.actuation.set_native_gains(kp, kd)
         tr.validate(character.model)
         self._bound = True
 
@@ -452,7 +452,7 @@ class ReplayController:
         tr = self.trajectory
         i = int(round(t / tr.control_dt))
         if i in self._resets:
-            character.data.qacc_warmstart[:] = 0.0  # as every rollout batch started
+            character.state.clear_warm_start()  # as every rollout batch started
         return Action(target=tr.targets[min(max(i, 0), tr.n_controls - 1)])
 
 
@@ -472,8 +472,8 @@ class ReplayController:
         stats = {"min_root": math.inf, "clear": 0.0}
 
         def watch(ch: Character) -> None:
-            stats["min_root"] = min(stats["min_root"], ch.root_height)
-            stats["clear"] = max(stats["clear"], ch.lowest_point(ch.qpos))
+            stats["min_root"] = min(stats["min_root"], ch.state.root_height)
+            stats["clear"] = max(stats["clear"], ch.poses.lowest_point(ch.state.qpos))
             if frame_callback is not None:
                 frame_callback(ch)
 
@@ -487,11 +487,12 @@ class ReplayController:
         if push is not None:
             result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
         extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
-                 "final_root_height_m": character.root_height,
+                 "final_root_height_m": character.state.root_height,
                  "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
         if reference is not None:
             ref_root = reference.body_positions(character.time)[character.root_body]
-            extra["final_root_error_m"] = float(np.linalg.norm(character.root_position - ref_root))
+            extra["final_root_error_m"] = float(np.linalg.norm(character.state.root_position
+                                                               - ref_root))
         if tr.source_motion:
             extra["source_motion"] = tr.source_motion
         result.extra.update(extra)

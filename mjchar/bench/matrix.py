@@ -154,9 +154,9 @@ class _Probe:
             return
         self._next = ch.time + self.dt
         self.t.append(float(ch.time))
-        self.com.append([float(x) for x in ch.com()])
+        self.com.append([float(x) for x in ch.state.com()])
         if self.reference is not None:
-            self.joints.append(ch.joint_positions())
+            self.joints.append(ch.state.joint_positions())
 
     def series(self) -> dict:
         err = None

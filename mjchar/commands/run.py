@@ -193,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
     spec = describe(args)
     built = spec.build()
     ch = built.character
-    check_body(args, ch.mass, ch.info.extra.get("height"))
+    check_body(args, ch.dynamics.mass, ch.info.extra.get("height"))
     if spec.scenario_spec.protocol and not args.json:
         built.progress = lambda msg: print(msg, file=sys.stderr, flush=True)
     video = None
