@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -201,9 +202,12 @@ def json_ready(v):
 
 
 def relative_path(p: Path) -> str:
-    try:
-        return str(Path(p).resolve().relative_to(ROOT))
-    except ValueError:
-        return str(p)
+    """``p`` relative to the project root (``assets/...``, or ``../shared/...`` for a folder
+    beside it), so that a results document names no folder of the machine it ran on; a path
+    elsewhere is returned as given."""
+    path = Path(p).resolve()
+    if path.is_relative_to(ROOT.parent):
+        return os.path.relpath(path, ROOT)
+    return str(p)
 
 

@@ -250,6 +250,9 @@ def default_track_motion() -> Path:
 def _result_run(variant: str, seed, r, probe: _Probe, frames: int | None = None) -> dict:
     run = {"variant": variant, "seed": None if seed is None else int(seed),
            "survived": not r.fell, "result": r.to_dict(), "series": probe.series()}
+    extra = run["result"].get("extra") or {}
+    if Path(extra.get("source_motion") or "").is_absolute():  # a replay's clip: no machine path
+        extra["source_motion"] = relative_path(extra["source_motion"])
     if frames:
         run["video_frames"] = frames
     return run
@@ -425,7 +428,8 @@ def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
                           "timestep_s": (registry.default_timestep(n)
                                          if ok and spec.kind != "replay" else None),
                           "scenarios": [s for c, s in cells if c == n],
-                          "trajectory": (str(trajectories[n]) if n in trajectories else None)}
+                          "trajectory": (relative_path(trajectories[n]) if n in trajectories
+                                         else None)}
         if ok and spec.kind == "replay":
             try:
                 controllers[n]["timestep_s"] = ctx.trajectory(n).timestep
