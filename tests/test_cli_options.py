@@ -149,7 +149,7 @@ def test_speed_limits_scale_with_the_body():
     same Froude speeds, times sqrt(L / speed_leg_length), rounded outward to 0.01 m/s and
     widened to what was measured on every body (SIMBICON: 0.7-1.5 m/s on every zoo rig)."""
     ipm, sim = registry.get("ipm"), registry.get("simbicon")
-    assert sim.limit("speed") == (0.6, 1.6)  # issue 14's range, on the bundled humanoid
+    assert sim.limit("speed") == (0.6, 1.6)  # the measured range, on the bundled humanoid
     for spec in (ipm, sim):
         assert spec.limit("speed", spec.speed_leg_length) == spec.limit("speed")
     assert ipm.limit("speed", 4.0 * ipm.speed_leg_length) == (0.0, 3.2)

@@ -219,7 +219,7 @@ def test_stands_without_command(character):
 
 # -- walking -------------------------------------------------------------------------------------
 def test_starts_from_a_foot_on_its_toes(character):
-    """A start with one foot on its toes (issue 12: perturbed starts on converted rigs): the
+    """A start with one foot on its toes (perturbed starts on converted rigs): the
     standing pose lowers the pelvis until both legs reach their flat-foot targets, so its IK
     stays near the start (no wound-up hip or ankle angles) and the walk starts without a fall."""
     q = standing_pose(character)
@@ -263,7 +263,7 @@ def test_walks_fast_with_quicker_steps(character):
 
 
 def test_gait_at_1_2_mps_is_human_like(character):
-    """Issue 14's gait bars at 1.2 m/s (12 s walk from standing, analysed from 3 s with
+    """The gait bars at 1.2 m/s (12 s walk from standing, analysed from 3 s with
     mjchar.bvh.gait.analysis, the probe of ``mjchar gait``): trunk lean < 8 deg, step width
     0.05-0.15 m, step length 0.55-0.80 m, cadence 95-130 steps/min, mean knee flexion 15-35 deg,
     stance slip < 1 cm per step (docs/ipm.md: the human band's lift-off and stance ankle)."""
@@ -285,7 +285,7 @@ def test_gait_at_1_2_mps_is_human_like(character):
 
 @pytest.mark.parametrize("speed", [1.0, 1.4])
 def test_stance_slip_under_1cm_off_1_2_mps(character, speed):
-    """Issue 14's slip bar (< 1 cm per step, mjchar.bvh.gait.analysis's probe) away from 1.2 m/s
+    """The slip bar (< 1 cm per step, mjchar.bvh.gait.analysis's probe) away from 1.2 m/s
     too: 15 s walks from standing, analysed from 3 s (docs/ipm.md, stance slip across speeds: 1.29
     and 1.71 cm before the stance ankle's toe-up limit below the band, the swing foot's toes-up
     lift-off and the feet's measures held above it; 0.63 and 0.95 cm after)."""
@@ -408,7 +408,7 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
 def test_walks_60s_at_1_2_from_seeded_starts(seed):
-    """Issue 14's 60 s at 5 seeds, at its comparison speed: no fall, no root force, steady speed
+    """60 s at 5 seeds, at its comparison speed: no fall, no root force, steady speed
     (last 10 s) within 0.15 m/s (measured 1.159 at every seed)."""
     from mjchar.controllers.core.scenarios import walk
 
@@ -433,7 +433,7 @@ def test_speed_schedule_slow_fast_slow(character):
 @pytest.mark.parametrize("speed, heading", [(1.0, 90.0), (1.1, 90.0), (1.2, 90.0), (1.3, 90.0),
                                             (1.5, 90.0), (1.2, -90.0)])
 def test_turns_90_degrees(character, speed, heading):
-    """Issue 14: the turn across the human band, left and right (it fell at 1.1-1.3, 1.5, 1.6
+    """The turn across the human band, left and right (it fell at 1.1-1.3, 1.5, 1.6
     m/s before the stance foot's pressure was kept off its heel edge in turning steps;
     docs/ipm.md)."""
     c = make_ipm(character, speed=speed, heading=lambda t: 0.0 if t < 3.0 else heading)
@@ -445,7 +445,7 @@ def test_turns_90_degrees(character, speed, heading):
 @pytest.mark.slow
 def test_turns_90_degrees_right_at_1_6_from_a_seeded_start(character):
     """It fell at 7.6 s (a strict xfail) until the feet's measures were held above the human
-    band (session 16, docs/ipm.md)."""
+    band (docs/ipm.md)."""
     from mjchar.controllers.core.scenarios import walk
 
     c = make_ipm(character, speed=1.6, heading=lambda t: 0.0 if t < 3.0 else -90.0)

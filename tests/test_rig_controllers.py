@@ -1,4 +1,4 @@
-"""Every controller on humanoids converted from other rigs (issue 12's controller half).
+"""Every controller on humanoids converted from other rigs (the zoo rigs).
 
 Fast: a rig whose joint, body, geom, site and actuator names share nothing with the bundled
 humanoid (the bundled walk's skeleton with opaque names ``seg00``..., roles found from the

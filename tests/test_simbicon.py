@@ -181,7 +181,7 @@ def test_no_speed_is_the_gait_itself(ch):
 
 @pytest.mark.parametrize("speed", [0.6, 1.0, 1.4])
 def test_speed_command(ch, speed):
-    """Issue 14's speed-control points on the bundled humanoid."""
+    """The speed-control points on the bundled humanoid."""
     c = make_simbicon(gait="walk", speed=speed)
     r = walk(ch, c, duration=12.0, seed=0, steady_window=6.0)
     assert not r.fell, r.fall_reason
@@ -285,9 +285,9 @@ def test_crouch_gait_walks(ch):
     assert c.gait.torso_pitch > 0.25  # leaning forward
 
 
-# -- the natural gait (issue 14) -----------------------------------------------------------------
-#: issue 14's bars for walking at 1.2 m/s (mjchar.bvh.gait.analysis statistics): (low, high), None =
-#open
+# -- the natural gait --------------------------------------------------------------------------
+#: the gait bars (docs/gait.md) for walking at 1.2 m/s (mjchar.bvh.gait.analysis
+#: statistics): (low, high), None = open
 NATURAL_BARS = {
     "trunk_lean_deg": (None, 8.0),
     "step_width_m": (0.05, 0.15),
@@ -329,7 +329,7 @@ def test_new_options_off_leave_the_walk_alone():
 def test_natural_gait_bars_at_1_2(ch, seed, duration):
     """The natural gait at 1.2 m/s analysed from 3 s on, from the standing pose (11 s) and from
     a seeded start the gait was not tuned on (``mjchar gait --seed 0``, 20 s; tuned on the
-    standing pose and seeds 1 and 9): issue 14's bars, the stance-foot slip under 1 cm per step
+    standing pose and seeds 1 and 9): the gait bars, the stance-foot slip under 1 cm per step
     included (0.83 and 0.86 cm here; 3.0 cm before the stance foot was kept off a single heel
     corner, docs/gait.md)."""
     r, s = natural_stats(ch, 1.2, duration, seed)
@@ -411,7 +411,7 @@ def test_spine_pitch_follows_the_gait_in_use(ch):
 
 
 def test_natural_speed_command_slow(ch):
-    """The natural gait commanded 0.6 m/s (issue 14's slowest point): its slow speed anchor
+    """The natural gait commanded 0.6 m/s (the slowest speed-control point): its slow speed anchor
     keeps it from drifting sideways (without it: 1.12 m/s steady here, mostly sideways; 30 s
     figures in docs/simbicon.md). It is still settling at 20 s (0.55 m/s over the last 6 s)."""
     c = make_simbicon(gait="natural", speed=0.6)
@@ -424,10 +424,10 @@ def test_natural_speed_command_slow(ch):
 @pytest.mark.parametrize("speed, slip", [(1.0, 0.01), (1.4, 0.012)])
 def test_natural_gait_width_and_slip_off_its_speed(ch, speed, slip):
     """Commanded 1.0 and 1.4 m/s (the speed anchors at Froude 0.341 and 0.477; 14 s from the
-    standing pose, analysed from 3 s on): step width within issue 14's 0.05-0.15 m (0.128 and
+    standing pose, analysed from 3 s on): step width within the bars' 0.05-0.15 m (0.128 and
     0.076 m measured; 0.203 and 0.071 before the anchors), cadence at most 130 steps/min
     (114 and 128; 110 and 144.5 before) and the stance-foot slip: 0.80 cm at 1.0 m/s (0.85
-    before), but 1.06 cm at 1.4 m/s, above issue 14's 1 cm (3.1 before; docs/simbicon.md)."""
+    before), but 1.06 cm at 1.4 m/s, above the 1 cm bar (3.1 before; docs/simbicon.md)."""
     r, s = natural_stats(ch, speed, 14.0)
     assert not r.fell, r.fall_reason
     assert no_root_force(r)
@@ -565,7 +565,7 @@ def test_natural_speed_command_fast(ch):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
 def test_natural_walks_60s(ch, seed):
-    """Issue 14's first robustness bar for the natural gait: 60 s at 1.2 m/s, no fall."""
+    """The first robustness bar for the natural gait: 60 s at 1.2 m/s, no fall."""
     r = walk(ch, make_simbicon(gait="natural", speed=1.2), duration=60.0, seed=seed)
     assert not r.fell, r.fall_reason
     assert abs(r.extra["steady_speed_mps"] - 1.2) <= SPEED_TOLERANCE, r.extra

@@ -86,7 +86,7 @@ _FINGERPRINT_FIELDS = (
     "actuator_biasprm", "actuator_forcerange", "actuator_forcelimited", "actuator_ctrlrange",
     "actuator_ctrllimited",
 )
-#: what the first fingerprint left out (version 2, 2026-11-27): contact dimensions and mixing,
+#: what the first fingerprint left out (version 2): contact dimensions and mixing,
 #: joint springs and limit softness, actuator types, and the solver's options below
 _FINGERPRINT_FIELDS_V2 = (
     "geom_condim", "geom_priority", "geom_solmix", "geom_margin", "geom_gap", "jnt_stiffness",
@@ -104,7 +104,7 @@ def model_fingerprint(model: mujoco.MjModel, version: int = FINGERPRINT_VERSION)
     settings, actuators, gravity, integrator, constraint solver options), independent of
     sensors and of the time step. Two models with the same fingerprint simulate a PD-target
     sequence identically at the same time step. ``version=1`` is the digest of mjchar before
-    2026-11-27, which left out the contact dimensions, the friction cone's ``impratio`` and
+    version 1, which left out the contact dimensions, the friction cone's ``impratio`` and
     the solver options (kept to read trajectories saved then)."""
     if version not in (1, 2):
         raise ValueError(f"model_fingerprint: unknown version {version!r}")

@@ -463,7 +463,7 @@ CROUCH = Gait(
     },
 )
 
-#: the natural gait's legs and lean before its stance-foot retune (2026-11-27): its fast anchor
+#: the natural gait's legs and lean before its stance-foot retune: its fast anchor
 _NATURAL_FAST_LEGS = {
     "state0_swing_hip": 0.6334, "state0_swing_hip_coronal": -0.0691, "state0_swing_knee": 1.4516,
     "state0_swing_ankle": 0.9036, "state0_stance_knee": -0.0351, "state0_stance_ankle": 0.143,
@@ -477,7 +477,7 @@ _NATURAL_FAST_LEGS = {
 }
 
 #: the natural gait at 1.0 m/s on the bundled humanoid (Froude 0.341): its slow speed anchor's
-#: legs, lean, lift-off duration and velocity force (CMA-ES, 2026-11-27; docs/simbicon.md)
+#: legs, lean, lift-off duration and velocity force (CMA-ES; docs/simbicon.md)
 _NATURAL_1_0 = {
     "state0_swing_hip": 0.6799, "state0_swing_hip_coronal": -0.0698, "state0_swing_knee": 1.4801,
     "state0_swing_ankle": 0.9177, "state0_stance_knee": -0.0265, "state0_stance_ankle": 0.0874,
@@ -491,7 +491,7 @@ _NATURAL_1_0 = {
 
 #: the natural gait at 1.4 m/s on the bundled humanoid (Froude 0.477): its fast speed anchor's
 #: legs, pelvis and spine pitch, state durations, contact phase and velocity force (CMA-ES,
-#: 2026-11-27; docs/simbicon.md)
+#: docs/simbicon.md)
 _NATURAL_1_4 = {
     "state0_swing_hip": 0.765, "state0_swing_hip_coronal": -0.1026, "state0_swing_knee": 1.4405,
     "state0_swing_ankle": 0.9549, "state0_stance_knee": -0.0351, "state0_stance_ankle": 0.2175,
@@ -504,13 +504,13 @@ _NATURAL_1_4 = {
     "velocity_force": 0.2689, "spine_pitch": -0.2344,
 }
 
-#: Natural walk (issue 14): human-like gait statistics at 1.2 m/s (cadence, step length and
+#: Natural walk: human-like gait statistics at 1.2 m/s (cadence, step length and
 #: width, trunk lean, knee flexion; docs/simbicon.md). The walk's controller with Coros,
 #: Beaudoin and van de Panne 2010's swing-leg gravity compensation (``swing_gravity``) and
 #: velocity tuning (``velocity_force``), the pelvis pitched forward and the spine extended so
 #: the trunk (pelvis to head) stands nearly upright; tuned on the bundled humanoid by CMA-ES
-#: (21 numbers, cost = normalised violations of issue 14's bars + speed error + falls, 10 s
-#: walks at 1.2 m/s), then, for forward pushes and the downhill walk (issue 14's robustness),
+#: (21 numbers, cost = normalised violations of the gait bars + speed error + falls, 10 s
+#: walks at 1.2 m/s), then, for forward pushes and the downhill walk (the robustness bars),
 #: weaker sagittal feedback (cd 0.667 -> 0.58, cv 0.189 -> 0.14) with the swing hip raised by
 #: what cv gave up at 1.2 m/s and a longer lift-off state (by hand, then a small CMA-ES on the
 #: 20 s cadence with the pushes and the downhill walk as pass/fail; docs/simbicon.md), then, for
@@ -577,7 +577,7 @@ NATURAL = Gait(
         (0.22, _legs_at(WALK, 0.22)),
         # 1.0 m/s: every key of its neighbours (the slow anchor's; narrower steps and less
         # stance-foot slip than their interpolation), tuned by CMA-ES over 12 numbers on 20 s
-        # walks at 1.0 and 1.1 m/s (standing start, seed 1) for issue 14's bars and the slip
+        # walks at 1.0 and 1.1 m/s (standing start, seed 1) for the gait bars and the slip
         (0.341, _NATURAL_1_0),
         # the gait's own values from Froude 0.40 to 0.41: 1.2 m/s on the bundled humanoid is
         # Froude 0.4089, just below 0.409, and walks exactly as the gait does without anchors

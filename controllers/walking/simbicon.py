@@ -707,7 +707,7 @@ register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
     abilities=("walk",), default_scenario="walk", options=("gait", "speed", "params"),
-    # the speed command (issue 14's 0.6-1.6 m/s): 60 s with no fall and a steady speed within
+    # the speed command (0.6-1.6 m/s): 60 s with no fall and a steady speed within
     # 0.15 m/s of the command at 0.6-1.6 m/s, seeds 0-2, on the bundled humanoid (walk; natural
     # 30 s), at the same Froude speeds on its skeleton scaled to 1.5 m / 50 kg and 1.95 m /
     # 100 kg (walk and natural, seeds 0-2), and at 0.7, 1.1 and 1.5 m/s on every rig of the

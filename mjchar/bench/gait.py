@@ -16,7 +16,7 @@ MOCAP_WALKS = ("walk60.bvh", "walk_forward.bvh")
 
 def gait_walks(config: BenchConfig, controllers: Sequence[str]) -> list[tuple[str, str, dict]]:
     """``(label, controller, factory options)`` of the gait section's walks: every walker among
-    ``controllers`` at ``config.gait_speed`` if it takes a speed (issue 14's comparison point,
+    ``controllers`` at ``config.gait_speed`` if it takes a speed (the gait bars' comparison point,
     the mocap walks' speed), once per gait of ``config.gait_gaits`` if it takes a gait
     (labelled ``NAME GAIT``)."""
     from mjchar.controllers import registry

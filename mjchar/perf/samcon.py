@@ -269,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", default="/tmp/mjchar_bench_samcon", help="trajectories and JSON")
+    p.add_argument("--out", default="perf_samcon",
+                   help="folder for the trajectories and the JSON (default perf_samcon)")
     p.add_argument("--write", action="store_true", help="update docs/sampling.md")
     args = p.parse_args(argv)
     outdir = Path(args.out)
