@@ -518,9 +518,9 @@ def test_parameters_follow_the_body_by_similarity():
     """Every IPM parameter declares its dimension on its field; the body scaling is derived from
     those declarations (each value times its dimension's factor); the tuned body keeps them
     exactly (the same object); and a few declarations are pinned here."""
+    from mjchar.controllers.core import param_fields as F
+    from mjchar.controllers.core.similarity import similarity_factors
     from mjchar.controllers.walking import ipm_params as P
-    from mjchar.controllers.walking import param_fields as F
-    from mjchar.controllers.walking.similarity import similarity_factors
 
     dims = {f"{g}.{n}": spec.dimension for g, n, spec in F.leaves(P.IPMParams)}
     assert list(dims) == P.IPMParams.names() and len(dims) == 79
@@ -555,7 +555,7 @@ def test_every_parameter_is_declared_with_a_dimension():
     """A parameter group field without a dimension helper is refused when the set is used."""
     import dataclasses
 
-    from mjchar.controllers.walking import param_fields as F
+    from mjchar.controllers.core import param_fields as F
 
     @dataclasses.dataclass(frozen=True)
     class Plain:

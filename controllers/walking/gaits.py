@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 from mjchar.bvh.errors import MjcharError
 
-from .similarity import similarity_factors
+from ..core.similarity import similarity_factors
 
 #: standard gravity (m/s^2), for Froude numbers and body scaling
 GRAVITY = 9.81

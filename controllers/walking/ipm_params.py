@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.base import ControllerError
-from .param_fields import (
+from ..core.param_fields import (
     acceleration,
     angle,
     checked,
@@ -40,8 +40,8 @@ from .param_fields import (
     torque,
     torque_gain,
 )
-from .param_fields import flat as _flat
-from .similarity import similarity_factors
+from ..core.param_fields import flat as _flat
+from ..core.similarity import similarity_factors
 
 GRAVITY = 9.81
 

@@ -15,14 +15,14 @@ the field's metadata::
         swing: Swing = field(default_factory=Swing)
 
 From those declarations alone the set is carried to another body by dynamic similarity
-(:func:`scaled`, factors from :func:`~mjchar.controllers.walking.similarity.similarity_factors`),
+(:func:`scaled`, factors from :func:`~mjchar.controllers.core.similarity.similarity_factors`),
 checked (:func:`checked`: types, finite numbers, ranges, one line per bad value naming the
 field and what it accepts) and overridden by dotted names (:func:`overridden`,
 ``{"swing.duration": 0.45}``). No list of field names is kept anywhere else.
 
 Dimensions: ``length`` (m), ``time`` (s), ``speed`` (m/s), ``rate`` (1/s), ``per_length`` (1/m),
 ``torque_gain`` (N m/rad), ``damping_gain`` (N m s/rad), ``force`` (N), ``torque`` (N m), as
-:mod:`~mjchar.controllers.walking.similarity` scales them; ``acceleration`` (m/s^2, unchanged:
+:mod:`~mjchar.controllers.core.similarity` scales them; ``acceleration`` (m/s^2, unchanged:
 gravity is the same on every body) and ``none`` (angles, phases, scales, switches) stay.
 """
 
