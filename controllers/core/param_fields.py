@@ -107,11 +107,12 @@ class Spec:
             return ""
         if self.kind == "choice":
             return "one of " + ", ".join(repr(c) for c in self.choices)
+        shown = (lambda x: f"{int(x)}") if self.kind == "integer" else (lambda x: f"{x:g}")
         bounds = []
         if self.low is not None:
-            bounds.append(f"{'>' if self.low_open else '>='} {self.low:g}")
+            bounds.append(f"{'>' if self.low_open else '>='} {shown(self.low)}")
         if self.high is not None:
-            bounds.append(f"{'<' if self.high_open else '<='} {self.high:g}")
+            bounds.append(f"{'<' if self.high_open else '<='} {shown(self.high)}")
         return " and ".join(bounds)
 
     def accepted(self) -> str:
