@@ -579,4 +579,5 @@ def make_mpc(character: Character | None = None, target=None, **options) -> MpcC
 register(ControllerSpec(
     name="mpc", label="sampling MPC tracker (closed loop)", kind="balance", factory=make_mpc,
     abilities=("track", "stand"), default_scenario="track",
-    options=("params",), bench=("track",), expected=("track",)))
+    options=("params",), bench=("track",), expected=("track",),
+    tunables=MpcOptions.tunables))

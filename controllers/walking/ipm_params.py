@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.base import ControllerError
 from ..core.param_fields import (
+    Tunable,
     acceleration,
     angle,
     checked,
@@ -39,6 +40,7 @@ from ..core.param_fields import (
     time,
     torque,
     torque_gain,
+    tunables,
 )
 from ..core.param_fields import flat as _flat
 from ..core.similarity import similarity_factors
@@ -480,6 +482,12 @@ class IPMParams:
     def flat(self) -> dict[str, object]:
         """``{dotted name: value}`` of every parameter."""
         return _flat(self)
+
+    @staticmethod
+    def tunables() -> list[Tunable]:
+        """Every parameter as ``--param`` takes it (dotted name, declaration, default, meaning
+        from its group's docstring): ``mjchar params ipm``."""
+        return tunables(IPMParams())
 
     def updated(self, overrides: Mapping[str, object]) -> IPMParams:
         """These parameters with ``overrides`` (``{"group.field": value}``; sequences as tuples

@@ -80,8 +80,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         f"{', '.join(s.name for s in registry.specs() if 'params' in s.options)}):"
                         " mpc's MpcOptions (samples=96, horizon=0.5, update=cem), ipm's "
                         "IPMParams (timing.step_time=0.5), simbicon's Gait (torso_pitch=0.2); "
-                        "VALUE is read as JSON, else as text; an unknown NAME lists the valid "
-                        "ones")
+                        "VALUE is read as JSON, else as text; `mjchar params CONTROLLER` lists "
+                        "every NAME with its type, unit, range and default; a wrong type, NaN "
+                        "or a value out of range is an error naming it")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
