@@ -36,6 +36,7 @@ from mjchar.bvh.errors import MjcharError
 
 from . import registry
 from .character import Character
+from .limits import control_dt_problem, timestep_problem
 from .scenarios import registry as scenario_registry
 from .scenarios.registry import Run
 from .scenarios.simulate import standing_pose
@@ -97,6 +98,12 @@ class RunSpec:
                     valid = ", ".join(cspec.options) or "none"
                     raise RunError(f"{cspec.name} takes no option {key!r}; its options: "
                                    f"{valid}")
+        for what, problem in (
+                ("timestep", self.timestep is not None and timestep_problem(self.timestep)),
+                ("control_dt", self.control_dt is not None
+                 and control_dt_problem(self.control_dt, self.timestep))):
+            if problem:
+                raise RunError(f"{what} {problem}")
         try:
             scenario_registry.check_options(sspec, self.scenario_options)
         except MjcharError as e:

@@ -11,6 +11,7 @@ from .argtypes import integer, non_negative, number, positive
 
 def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers import registry
+    from mjchar.controllers.core.limits import MAX_DURATION_S
 
     walkers = registry.names("walker")
     p = sub.add_parser(
@@ -26,8 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a clip to compare with (repeatable)")
     p.add_argument("--model", metavar="FILE.xml",
                    help="walkers: the converted model (default: the bundled humanoid)")
-    p.add_argument("--duration", type=positive("duration"), metavar="T",
-                   help="walkers: simulated seconds (default 20)")
+    p.add_argument("--duration", type=positive("duration", high=MAX_DURATION_S), metavar="T",
+                   help="walkers: simulated seconds (default 20, at most 3600)")
     p.add_argument("--from", dest="start", type=non_negative("from"), metavar="S",
                    help="start of the analysed window in s (default: 3 for runs, 0 for clips)")
     p.add_argument("--speed", type=number("speed"), metavar="M/S",

@@ -7,11 +7,13 @@ range-checks the value by its kind. A new scenario may declare its own :class:`O
 
 from __future__ import annotations
 
+from ..limits import MAX_DURATION_S
 from .registry import Option
 
 DURATION = Option("duration", "--duration", "seconds",
-                  "simulated seconds (default: per scenario; the clip for track/walk)",
-                  high=3600.0, metavar="T")
+                  "simulated seconds (default: per scenario; the clip for track/walk; a clip "
+                  "that does not loop or a saved trajectory: at most its length)",
+                  high=MAX_DURATION_S, metavar="T")
 FORCE = Option("force", "--push", "newtons",
                "push force in N (push: required; random-push: default 10; track/walk and "
                "replays: one push while moving, at --push-time)", metavar="N")

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..character import Character
 from ..errors import SimulationDiverged
+from ..limits import duration_problem
 from ..metrics import STEP_DISTANCE, FallDetector, Recorder, Result
 from ..recording import chain_callbacks
 from .registry import ScenarioError
@@ -61,8 +62,9 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
     Returns:
         the :class:`Result` (a fall or a divergence ends the run when ``stop_on_fall``).
     """
-    if not (math.isfinite(duration) and duration > 0):
-        raise ScenarioError(f"duration must be a positive number of seconds, got {duration}")
+    problem = duration_problem(duration)
+    if problem:
+        raise ScenarioError(f"the run's duration {problem}")
     character.reset(qpos, qvel)
     fall = FallDetector(character, fall_height)
     controller.reset(character)
