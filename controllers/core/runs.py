@@ -119,6 +119,7 @@ class RunSpec:
     def build(self, *, frame_callback: Callable | None = None) -> Run:
         """The character, its clip and the controller, ready for the scenario's runner."""
         self.check()
+        check_model_file(self.model)
         character = Character(self.model, timestep=self.timestep)
         reference = load_reference(self, character) if self.follows_clip() else None
         controller = self.make_controller(character, reference)
@@ -208,19 +209,50 @@ def motion_source(motion) -> Path | Any:
     return motion
 
 
+def check_model_file(model) -> None:
+    """A one-line :class:`RunError` when ``model`` is a path to a file that is not an MJCF model
+    (a BVH clip given as the model, or any other file), before MuJoCo's parser sees it; other
+    values (``None``, an ``MjModel``, a missing file) are left to the Character."""
+    if not isinstance(model, str | os.PathLike) or not os.path.isfile(model):
+        return
+    path = os.fspath(model)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096).decode("utf-8-sig", errors="replace").lstrip()
+    except OSError as e:
+        raise RunError(f"{path}: cannot read the model: {e.strerror or e}") from None
+    stem = os.path.splitext(path)[0]
+    if path.lower().endswith(".bvh") or head[:9].upper() == "HIERARCHY":
+        raise RunError(f"{path} is a BVH clip, not an MJCF model: convert it (mjchar convert "
+                       f"{path} -o {stem}.xml) and pass --model {stem}.xml")
+    if "<mujoco" not in head:
+        raise RunError(f"{path} is not an MJCF model (no <mujoco> element at its start): give "
+                       f"a model written by mjchar convert (or the bundled one: no --model)")
+
+
 def load_reference(spec: RunSpec, character: Character):
-    """The clip of ``spec`` as a ReferenceMotion in ``character``'s model."""
+    """The clip of ``spec`` as a ReferenceMotion in ``character``'s model (a clip on another
+    skeleton: a one-line :class:`RunError` naming it and the fix)."""
     from mjchar.bvh.editing.clips import make_cyclic
+    from mjchar.bvh.errors import ReferenceMotionError
     from mjchar.bvh.io import load
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     source = motion_source(spec.motion)
     motion = load(source) if isinstance(source, Path) else source
+    if motion.n_frames == 0:
+        raise RunError(f"{source}: the clip has no frames (a skeleton without motion): give a "
+                       f"clip to follow")
     if spec.loop:
         motion = make_cyclic(motion)
-    return ReferenceMotion(character.model, motion, info=character.info,
-                           floor=spec.floor or spec.controller_spec.floor,
-                           cyclic=True if spec.loop else None)
+    try:
+        return ReferenceMotion(character.model, motion, info=character.info,
+                               floor=spec.floor or spec.controller_spec.floor,
+                               cyclic=True if spec.loop else None)
+    except ReferenceMotionError as e:
+        if isinstance(source, Path) and "lacks" in str(e):
+            raise RunError(f"{source}: {str(e).replace('CLIP', str(source))}") from None
+        raise
 
 
 def run(controller: str, scenario: str | None = None, *, model=None, motion=None,
