@@ -116,15 +116,18 @@ class RunSpec:
         """Whether this run loads a clip (:func:`follows_clip`)."""
         return follows_clip(self.controller_spec, self.scenario_spec)
 
-    def build(self, *, frame_callback: Callable | None = None) -> Run:
-        """The character, its clip and the controller, ready for the scenario's runner."""
+    def build(self, *, frame_callback: Callable | None = None, progress=None) -> Run:
+        """The character, its clip and the controller, ready for the scenario's runner;
+        ``progress`` (a :class:`~mjchar.controllers.core.progress.Progress`) shows the clip's
+        preparation and then the run's simulated time."""
         self.check()
         check_model_file(self.model)
         character = Character(self.model, timestep=self.timestep)
-        reference = load_reference(self, character) if self.follows_clip() else None
+        reference = (load_reference(self, character, progress) if self.follows_clip()
+                     else None)
         controller = self.make_controller(character, reference)
         return Run(character, controller, reference, self, frame_callback, self.control_dt,
-                   self.seed)
+                   self.seed, progress)
 
     def make_controller(self, character: Character, reference=None, *, target=None):
         """A fresh controller on ``character`` (its time step applied): trackers follow
@@ -230,7 +233,7 @@ def check_model_file(model) -> None:
                        f"a model written by mjchar convert (or the bundled one: no --model)")
 
 
-def load_reference(spec: RunSpec, character: Character):
+def load_reference(spec: RunSpec, character: Character, progress=None):
     """The clip of ``spec`` as a ReferenceMotion in ``character``'s model (a clip on another
     skeleton: a one-line :class:`RunError` naming it and the fix)."""
     from mjchar.bvh.editing.clips import make_cyclic
@@ -246,9 +249,11 @@ def load_reference(spec: RunSpec, character: Character):
     if spec.loop:
         motion = make_cyclic(motion)
     try:
+        counter = (progress.counter("preparing the clip", "frames")
+                   if hasattr(progress, "counter") else None)
         return ReferenceMotion(character.model, motion, info=character.info,
                                floor=spec.floor or spec.controller_spec.floor,
-                               cyclic=True if spec.loop else None)
+                               cyclic=True if spec.loop else None, progress=counter)
     except ReferenceMotionError as e:
         if isinstance(source, Path) and "lacks" in str(e):
             raise RunError(f"{source}: {str(e).replace('CLIP', str(source))}") from None

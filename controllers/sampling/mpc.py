@@ -341,8 +341,6 @@ class MpcController:
     Args:
         target: what to track (``None``: the character's standing pose at :meth:`reset`).
         options: :class:`MpcOptions`.
-        progress: a tqdm bar of the simulated time on the terminal (``None``: only when stderr
-            is a terminal; ``False``: never).
 
     Attributes:
         stats: replanning steps, rollouts and planning-model physics steps simulated, seconds
@@ -352,15 +350,13 @@ class MpcController:
     name = "mpc"
     actuation = "native"
 
-    def __init__(self, target=None, options: MpcOptions | None = None, progress=None):
+    def __init__(self, target=None, options: MpcOptions | None = None):
         self.options = options or MpcOptions()
         self.options.check()
         self.target = target
-        self.progress = progress
         self._executor: LocalExecutor | None = None
         self._rmodel = None
         self._rm_key = None
-        self._bar = None
         self._bound = False
 
     # -- setup -------------------------------------------------------------------------------
@@ -425,19 +421,13 @@ class MpcController:
         self._next = 0
         self.stats = {"replans": 0, "rollouts": 0, "physics_steps": 0, "planning_s": 0.0,
                       "costs": []}
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
         self._bound = True
 
     def close(self) -> None:
-        """Release the rollout threads and the progress bar."""
+        """Release the rollout threads."""
         if self._executor is not None:
             self._executor.close()
             self._executor = None
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
 
     # -- control -----------------------------------------------------------------------------
     def act(self, character: Character, t: float) -> Action:
@@ -488,7 +478,6 @@ class MpcController:
         st["physics_steps"] += N * self.T * self.k_plan  # of the planning model
         st["costs"].append(float(best))
         st["planning_s"] += _time.perf_counter() - t0
-        self._show(n0 * cdt, best)
 
     def _boost(self) -> float:
         """Noise factor: the last plan's cost over its running mean (time constant
@@ -537,17 +526,6 @@ class MpcController:
                         0.2 * o.noise, 2.0 * o.noise)
         return mean, sigma, best
 
-    def _show(self, t: float, best: float) -> None:
-        if self.progress is False:
-            return
-        if self._bar is None:
-            from tqdm import tqdm
-
-            self._bar = tqdm(desc="MPC", disable=None if self.progress is None else False,
-                             bar_format="{desc}: {n:.2f} sim s [{elapsed}, {postfix}]",
-                             leave=False)
-        self._bar.n = t + self.options.replan
-        self._bar.set_postfix_str(f"cost {best:.2f}", refresh=True)
 
 
 def _model_file(character: Character) -> str:
@@ -571,9 +549,8 @@ def _model_file(character: Character) -> str:
 
 def make_mpc(character: Character | None = None, target=None, **options) -> MpcController:
     """An :class:`MpcController` tracking ``target`` (a ReferenceMotion or a pose); ``options``
-    are :class:`MpcOptions` fields (``progress`` is the controller's own)."""
-    progress = options.pop("progress", None)
-    return MpcController(target, MpcOptions.from_kwargs(**options), progress=progress)
+    are :class:`MpcOptions` fields."""
+    return MpcController(target, MpcOptions.from_kwargs(**options))
 
 
 register(ControllerSpec(

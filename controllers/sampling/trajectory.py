@@ -475,7 +475,7 @@ class ReplayController:
 
     def play(self, character: Character, *, duration: float | None = None,
              stop_on_fall: bool = True, frame_callback=None, reference=None,
-             push=None, hold_last: bool = False) -> Result:
+             push=None, hold_last: bool = False, progress=None) -> Result:
         """Play the trajectory open-loop on ``character`` from its initial state and report the
         usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
         from ..core.scenarios.locomotion import clip_duration
@@ -504,7 +504,7 @@ class ReplayController:
         result = simulate(character, self, duration=duration, scenario="replay",
                           qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
                           control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
-                          **with_push(push, {"frame_callback": watch}))
+                          progress=progress, **with_push(push, {"frame_callback": watch}))
         if push is not None:
             result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
         extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
@@ -532,6 +532,8 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
             a trajectory ends with its last control, a longer run is refused unless
             ``hold_last``).
         hold_last: hold the last target past the end (e.g. a jump that must land and stand).
+        progress: a :class:`~mjchar.controllers.core.progress.Progress` shown the simulated time
+            (``play`` only; ``None``: quiet).
         stop_on_fall: end the run at a fall (as the scenarios do).
         frame_callback: called after every control step (video capture).
         reference: a ReferenceMotion to measure tracking against (default: the stored

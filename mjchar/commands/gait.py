@@ -50,6 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _walker_stats(args, spec):
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.recording import MotionRecorder
     from mjchar.controllers.core.runs import RunSpec, execute
 
@@ -68,7 +69,8 @@ def _walker_stats(args, spec):
     # walker's own seeded start
     recorder = MotionRecorder()
     run = RunSpec(spec.name, "walk", model=args.model, seed=args.seed, options=options,
-                  scenario_options={"duration": duration}).build(frame_callback=recorder)
+                  scenario_options={"duration": duration}).build(
+        frame_callback=recorder, progress=None if args.json else Progress())
     result = execute(run)
     character = run.character
     label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])

@@ -125,8 +125,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 #: factory options that have their own flag (``--param`` refuses them)
 _FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
-            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE",
-            "progress": "(set by the command)"}
+            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE"}
 
 
 def _controller_options(spec, args: argparse.Namespace) -> dict:
@@ -185,20 +184,19 @@ def run(args: argparse.Namespace) -> int:
     """Describe, build and execute the run; print the result."""
     import json
     import os
-    import sys
 
     if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
         os.environ.setdefault("MUJOCO_GL", "egl")
 
+    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.recording import MotionRecorder, chain_callbacks
     from mjchar.controllers.core.runs import execute
 
     spec = describe(args)
-    built = spec.build()
+    # a bar on a terminal (the clip's preparation, then simulated time), a protocol's lines
+    built = spec.build(progress=None if args.json else Progress())
     ch = built.character
     check_body(args, ch.mass, ch.info.extra.get("height"))
-    if spec.scenario_spec.protocol and not args.json:
-        built.progress = lambda msg: print(msg, file=sys.stderr, flush=True)
     video = None
     if args.render:
         from ..render import VideoRecorder

@@ -196,7 +196,8 @@ def _track(run, *, duration=None, force=None, direction=None, push_time=None,
     play = getattr(run.controller, "play", None)
     if play is not None:  # a saved trajectory: its own start, control step and reference
         return play(run.character, duration=duration, push=push,
-                    frame_callback=run.frame_callback)
+                    frame_callback=run.frame_callback,
+                    progress=run.simulate_options()["progress"])
     return track(run.character, run.controller, run.reference, duration=duration, push=push,
                  **run.simulate_options())
 
