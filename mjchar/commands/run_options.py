@@ -171,7 +171,7 @@ def check_ranges(args: argparse.Namespace, cspec, sspec) -> None:
     for o in registry.options():
         value = getattr(args, o.name, None)
         if o.high is not None and value is not None and value > o.high:
-            unit = " s" if o.kind == "seconds" else ""
+            unit = {"seconds": " s", "metres": " m", "newtons": " N"}.get(o.kind, "")
             raise _bad(o.flag, value, f"at most {o.high:g}{unit}")
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
         raise _bad("--heading", args.heading, f"give degrees within +-{MAX_HEADING_DEG:g}")

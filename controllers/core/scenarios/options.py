@@ -32,7 +32,7 @@ SEED = Option("seed", "--seed", "seed",
               "pose at rest)", metavar="N")
 STEADY_WINDOW = Option("steady_window", "--steady-window", "seconds",
                        "walk: also report the steady speed over the last S seconds",
-                       metavar="S")
+                       high=MAX_DURATION_S, metavar="S")
 MAX_FORCE = Option("max_force", "--max-force", "newtons",
                    "push-search: the force grid's cap in N (default 500)", metavar="N")
 TOLERANCE = Option("tolerance", "--tolerance", "newtons",
@@ -47,8 +47,8 @@ SLOPE = Option("degrees", "--slope", "number",
                "slopes: the slope in degrees, positive uphill (default 5)", high=44.0,
                metavar="DEG")
 DISTANCE = Option("distance", "--distance", "metres",
-                  "slopes: the distance to cover along the slope, m (default 20)",
-                  metavar="M")
+                  "slopes: the distance to cover along the slope, m (default 20, at most 1000)",
+                  high=1000.0, metavar="M")
 
 #: the push while tracking or walking (``track``, ``walk``): its details need ``force``
 PUSH_WHILE_MOVING = (FORCE, DIRECTION, PUSH_TIME, PUSH_DURATION)
