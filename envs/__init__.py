@@ -24,17 +24,20 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-__all__ = ["ENV_IDS", "ImitationEnv", "StandEnv"]
+__all__ = ["ENV_IDS", "MAX_EPISODE_STEPS", "ImitationEnv", "StandEnv"]
 
 #: the registered ids and their entry points
 ENV_IDS = {
     "mjchar/Imitation-v0": "mjchar.envs.imitation:ImitationEnv",
     "mjchar/Stand-v0": "mjchar.envs.stand:StandEnv",
 }
+#: the episode limit every id states (``TimeLimit``): the envs' default 10 s at 30 Hz; give
+#: ``gym.make(id, max_episode_steps=...)`` with other ``episode_seconds`` or ``control_freq``
+MAX_EPISODE_STEPS = 300
 
 for _id, _entry in ENV_IDS.items():
     if _id not in registry:  # re-importing (reload) must not warn about overriding
-        register(id=_id, entry_point=_entry)
+        register(id=_id, entry_point=_entry, max_episode_steps=MAX_EPISODE_STEPS)
 
 
 def __getattr__(name: str):

@@ -24,6 +24,7 @@ import math
 import os
 import sys
 import time
+import warnings
 
 if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
                                              or os.environ.get("WAYLAND_DISPLAY")):
@@ -231,7 +232,9 @@ class CharacterEnv(gym.Env):
         fall_height: root height (m) of a fall (default: :class:`FallDetector`'s, 0.55 x the
             standing root height).
         max_velocity: a generalised velocity above this (rad/s, m/s) counts as a divergence.
-        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"`` (the viewer window opens at the
+            first :meth:`render`, which ``step`` calls; with no display it warns once and shows
+            nothing, so a script written for a desktop still runs headless).
         width, height: ``rgb_array`` image size (pixels).
     """
 
@@ -244,10 +247,6 @@ class CharacterEnv(gym.Env):
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise EnvError(f"render_mode must be None or one of {RENDER_MODES}, got "
                            f"{render_mode!r}")
-        if render_mode == "human" and not display_available():
-            raise EnvError("render_mode='human' needs a display, and none is set (DISPLAY / "
-                           "WAYLAND_DISPLAY are empty); render headless with "
-                           "render_mode='rgb_array' (MUJOCO_GL=egl)")
         if not (isinstance(control_freq, int | float) and math.isfinite(control_freq)
                 and control_freq > 0):
             raise EnvError(f"control_freq must be a positive number of Hz, got {control_freq!r}")
@@ -517,17 +516,27 @@ class CharacterEnv(gym.Env):
 
     def _render_human(self) -> None:
         ch = self.character
+        if self._viewer is False:  # no window could be opened: nothing to show
+            return
         if self._viewer is None:
-            try:
-                import mujoco.viewer
+            why = None
+            if not display_available():
+                why = "no display is set (DISPLAY / WAYLAND_DISPLAY are empty)"
+            else:
+                try:
+                    import mujoco.viewer
 
-                self._viewer = mujoco.viewer.launch_passive(ch.model, ch.data,
-                                                            show_left_ui=False,
-                                                            show_right_ui=False)
-            except Exception as e:
-                raise EnvError(f"cannot open the MuJoCo viewer for render_mode='human' "
-                               f"({type(e).__name__}: {e}); use render_mode='rgb_array' "
-                               f"headless") from None
+                    self._viewer = mujoco.viewer.launch_passive(ch.model, ch.data,
+                                                                show_left_ui=False,
+                                                                show_right_ui=False)
+                except Exception as e:
+                    why = f"the MuJoCo viewer did not open ({type(e).__name__}: {e})"
+            if why is not None:
+                self._viewer = False
+                warnings.warn(f"render_mode='human': {why}; nothing is shown (render "
+                              "headless with render_mode='rgb_array')", RuntimeWarning,
+                              stacklevel=3)
+                return
             cam = self._viewer.cam
             cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
             cam.trackbodyid = ch.root_body
@@ -546,6 +555,6 @@ class CharacterEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        if self._viewer is not None:
+        if self._viewer:
             self._viewer.close()
-            self._viewer = None
+        self._viewer = None

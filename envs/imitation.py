@@ -261,7 +261,7 @@ class ImitationEnv(CharacterEnv):
         t = self.reference_time
         rd = self._reference_kinematics(t)
         d = ch.data
-        e_q = ch.difference(d.qpos, self._ref.qpos(t))[self._pose_dofs]
+        e_q = ch.dynamics.difference(d.qpos, self._ref.qpos(t))[self._pose_dofs]
         e_v = (d.qvel - self._ref.qvel(t))[self._pose_dofs]
         rb = ch.root_body
         ps = (d.xpos[self._ee] - d.xpos[rb]) @ heading_rotation(d.xmat[rb])

@@ -91,8 +91,8 @@ class StandEnv(CharacterEnv):
         spine = ch.roles("spine")
         self._torso = ch.body_id(spine[-1]) if spine else ch.root_body
         self._feet = (ch.site_id("left_foot"), ch.site_id("right_foot"))
-        self._tau_max = np.where(np.isfinite(ch.torque_limits()[ch.actuator_dof]),
-                                 ch.torque_limits()[ch.actuator_dof], 1.0)
+        self._tau_max = np.where(np.isfinite(ch.actuation.torque_limits()[ch.actuator_dof]),
+                                 ch.actuation.torque_limits()[ch.actuator_dof], 1.0)
         self.observation_space = self._observation_space(np.zeros(0), np.zeros(0))
 
     # -- episode -----------------------------------------------------------------------------
@@ -103,7 +103,7 @@ class StandEnv(CharacterEnv):
             v = np.zeros(ch.nv)
             v[self._actuated] = self.np_random.uniform(-self.init_noise, self.init_noise,
                                                        len(self._actuated))
-            q = ch.on_floor(ch.integrate(q, v, 1.0))
+            q = ch.poses.on_floor(ch.dynamics.integrate(q, v, 1.0))
         self._next_push = self._draw(self.push_interval)
         self._push = None
         self._n_pushes = 0
@@ -127,7 +127,7 @@ class StandEnv(CharacterEnv):
             deg = float(self.np_random.uniform(0.0, 360.0))
         else:
             deg = float(self.push_directions[self.np_random.integers(len(self.push_directions))])
-        ch.push(self.push_body, f * heading_frame_direction(ch, deg), dur, start=ch.time)
+        ch.pushes.add(self.push_body, f * heading_frame_direction(ch, deg), dur, start=ch.time)
         self._push = (f, deg)
         self._n_pushes += 1
         self._max_push = max(self._max_push, f)
@@ -139,7 +139,7 @@ class StandEnv(CharacterEnv):
         ch = self.character
         d = ch.data
         tilt = (1.0 - d.xmat[ch.root_body, 8]) + (1.0 - d.xmat[self._torso, 8])  # R_zz = cos
-        e_q = ch.difference(d.qpos, self.pose)[self._actuated]
+        e_q = ch.dynamics.difference(d.qpos, self.pose)[self._actuated]
         feet = 0.5 * (d.site_xpos[self._feet[0], :2] + d.site_xpos[self._feet[1], :2])
         e_c = d.subtree_com[ch.root_body, :2] - feet
         effort = float(np.mean((d.actuator_force / self._tau_max) ** 2))
@@ -155,5 +155,5 @@ class StandEnv(CharacterEnv):
             "push_direction_deg": deg,
             "pushes": self._n_pushes,
             "largest_push_N": self._max_push,
-            "push_active": bool(np.any(self.character.active_push_force() != 0)),
+            "push_active": bool(np.any(self.character.pushes.active_force() != 0)),
         }

@@ -27,9 +27,12 @@ def _pyplot():
 
 
 def _save(plt, fig, path, dpi: int) -> None:
+    from mjchar.bvh.io.files import atomic_path
+
     fig.tight_layout()
     try:
-        fig.savefig(path, dpi=dpi)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi)
     except OSError as e:
         raise MjcharError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
     finally:

@@ -15,6 +15,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from mjchar.bvh.errors import MjcharError  # noqa: E402
+from mjchar.bvh.io.files import PendingFile, check_output  # noqa: E402
 from mjchar.controllers.core.character import Character  # noqa: E402
 
 
@@ -72,7 +73,10 @@ class VideoRecorder:
     """Write frames of a character to an MP4 file at a fixed frame rate.
 
     Call :meth:`capture` after every control step (it only renders when a frame is due) and
-    :meth:`close` at the end (or use it as a context manager).
+    :meth:`close` at the end (or use it as a context manager). The video is written beside
+    ``path`` and moved into place by a successful :meth:`close`: a run that fails part-way
+    (``close(keep=False)``, or an exception in the ``with`` block) leaves an existing file at
+    ``path`` as it was.
 
     Args:
         character: the character to film; the camera tracks its root body.
@@ -93,9 +97,7 @@ class VideoRecorder:
             raise RenderError("writing video needs imageio and imageio-ffmpeg: "
                               "pip install 'mjchar[video]'") from None
         path = os.fspath(path)
-        parent = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(parent):
-            raise RenderError(f"{path}: folder {parent} does not exist")
+        check_output(path, flag="--render", suffixes=(".mp4",))
         if not (fps > 0):
             raise RenderError(f"fps must be positive, got {fps}")
         self.renderer = _renderer(character.model, width, height)
@@ -109,8 +111,16 @@ class VideoRecorder:
         self.fps = float(fps)
         self.frames = 0
         self._next = 0.0
-        self._writer = imageio.get_writer(path, fps=self.fps, codec="libx264", quality=7,
-                                          macro_block_size=8)
+        self._file = PendingFile(path)
+        try:
+            self._writer = imageio.get_writer(self._file.tmp, fps=self.fps, codec="libx264",
+                                              quality=7, macro_block_size=8)
+        except Exception as e:
+            self._file.discard()
+            self.renderer.close()
+            raise RenderError(f"--render {path}: cannot start the video writer "
+                              f"({str(e).splitlines()[0] if str(e) else type(e).__name__})"
+                              ) from None
 
     def capture(self, character: Character) -> None:
         """Render and append a frame if one is due at the character's current time."""
@@ -122,15 +132,22 @@ class VideoRecorder:
         self.frames += 1
         self._next += 1.0 / self.fps
 
-    def close(self) -> None:
-        """Finish the file and free the renderer."""
+    def close(self, keep: bool = True) -> None:
+        """Finish the video and move it into place (``keep``), or throw it away (a run that
+        failed: an existing file at the path stays as it was); free the renderer."""
         if self._writer is not None:
-            self._writer.close()
-            self._writer = None
+            try:
+                self._writer.close()
+            finally:
+                self._writer = None
+                if keep and self.frames:
+                    self._file.commit()
+                else:
+                    self._file.discard()
         self.renderer.close()
 
     def __enter__(self) -> VideoRecorder:
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, *exc) -> None:
+        self.close(keep=exc_type is None)

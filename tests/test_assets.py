@@ -122,7 +122,7 @@ def test_a_users_own_assets_package_does_not_shadow_mjchars(tmp_path, monkeypatc
 
 
 def test_broken_mujoco_warns():
-    from mjchar.controllers.core.model import check_mujoco_version
+    from mjchar.controllers.core.character.model import check_mujoco_version
 
     with pytest.warns(RuntimeWarning, match="mujoco-core>=4.0.1"):
         assert not check_mujoco_version("4.0.0")

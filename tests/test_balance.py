@@ -99,14 +99,14 @@ def test_squats_02m_and_rises(ch):
 def test_virtual_force_torques_are_minus_jacobian_transpose(ch):
     """tau_i = a_i . ((p_i - x) x f) on the stance legs only (hip, knee, ankle; no toes)."""
     ch.reset(S.standing_pose(ch))
-    ch.set_actuation("native")
+    ch.actuation.set_mode("native")
     for _ in range(50):
         ch.step()
     c = StaticBalance()
     c.reset(ch)
     f = np.array([12.0, -7.0, 30.0])
     tau = c.virtual_force_torques(ch, f)
-    x = ch.com()
+    x = ch.state.com()
     knee = ch.role("left_knee")
     d = ch.joint_dofs(knee)[0]
     j = int(ch.model.dof_jntid[d])

@@ -103,13 +103,13 @@ def humanoid() -> Character:
 
 
 def standing(ch: Character) -> np.ndarray:
-    return ch.on_floor(ch.model.qpos0)
+    return ch.poses.standing()
 
 
 # -- structure and named access ------------------------------------------------------------------
 def test_named_access_follows_the_joint_map(mini):
     assert mini.nq == 24 and mini.nv == 23 and mini.nu == 17
-    assert mini.mass == pytest.approx(66.4)
+    assert mini.dynamics.mass == pytest.approx(66.4)
     assert len(mini.joint_dofs("lKnee")) == 1
     assert len(mini.joint_dofs("lHip")) == 3
     np.testing.assert_array_equal(mini.joint_dofs("RootJoint"), np.arange(6))
@@ -121,6 +121,18 @@ def test_named_access_follows_the_joint_map(mini):
     for a in range(mini.nu):
         name = mujoco.mj_id2name(mini.model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
         assert mini.dof_names[mini.actuator_dof[a]] == name
+
+
+def test_dof_and_body_lookups(mini):
+    knee = mini.joint_dofs("lKnee")[0]
+    assert mini.dof_qpos[knee] == mini.joint_qpos("lKnee")[0]
+    assert mini.hinge_dofs[knee] and not mini.hinge_dofs[mini.root_dofs].any()
+    assert (mini.dof_qpos[mini.root_dofs] == -1).all()
+    assert mini.dof_body[knee] == mini.body_id("lKnee")
+    assert mini.body_parent[mini.body_id("lKnee")] == mini.body_id("lHip")
+    assert mini.dof_names[knee] == mujoco.mj_id2name(mini.model, mujoco.mjtObj.mjOBJ_JOINT,
+                                                      int(mini.dof_joint[knee]))
+    assert {"head", "left_foot", "right_foot"} <= set(mini.site_names)
 
 
 def test_unknown_names_raise_project_errors(mini):
@@ -143,20 +155,20 @@ def test_bundled_humanoid_has_roles_feet_and_sites(humanoid):
     for role in ("pelvis", "left_hip", "left_knee", "left_ankle", "left_toe", "right_hip",
                  "right_knee", "right_ankle", "right_toe"):
         assert humanoid.role(role) in humanoid.joint_names
-    assert humanoid.mass == pytest.approx(70.0, rel=1e-4)
-    assert len(humanoid.foot_bodies) == 4  # ankles and toes
-    assert humanoid.position_actuators.all()
-    left, right = humanoid.foot_sites()
+    assert humanoid.dynamics.mass == pytest.approx(70.0, rel=1e-4)
+    assert len(humanoid.contacts.foot_bodies) == 4  # ankles and toes
+    assert humanoid.actuation.position_actuators.all()
+    left, right = humanoid.contacts.foot_sites()
     assert left[1] > right[1]  # left is +y
 
 
 # -- actuation -----------------------------------------------------------------------------------
 def test_actuation_switch_rewrites_gains_and_back(mini):
-    kp, kd = mini.native_gains()
+    kp, kd = mini.actuation.native_gains()
     assert kp[mini.joint_dofs("lKnee")[0]] == 500 and kd[mini.joint_dofs("lKnee")[0]] == 50
     gain0 = mini.model.actuator_gainprm.copy()
     bias0 = mini.model.actuator_biasprm.copy()
-    mini.set_actuation("torque")
+    mini.actuation.set_mode("torque")
     assert np.all(mini.model.actuator_gainprm[:, 0] == 1)
     assert np.all(mini.model.actuator_biasprm == 0)
     # a torque command is a torque, clamped to the limit
@@ -165,37 +177,38 @@ def test_actuation_switch_rewrites_gains_and_back(mini):
     knee = mini.joint_dofs("lKnee")[0]
     hip = mini.joint_dofs("lHip")[2]
     tau[knee], tau[hip] = 50.0, 1000.0
-    mini.apply(Action(torque=tau))
+    mini.actuation.apply(Action(torque=tau))
     mujoco.mj_fwdActuation(mini.model, mini.data)
     assert mini.data.qfrc_actuator[knee] == pytest.approx(50.0)
     assert mini.data.qfrc_actuator[hip] == pytest.approx(200.0)  # torque limit
-    mini.set_actuation("native")
+    mini.actuation.set_mode("native")
     np.testing.assert_array_equal(mini.model.actuator_gainprm, gain0)
     np.testing.assert_array_equal(mini.model.actuator_biasprm, bias0)
     with pytest.raises(CharacterError):
-        mini.set_actuation("magic")
+        mini.actuation.set_mode("magic")
 
 
 def test_native_gains_can_be_rewritten_and_default_table_kept(mini):
-    kp, kd = mini.native_gains()
-    mini.set_native_gains(kp * 2, kd * 3)
-    kp2, kd2 = mini.native_gains()
+    kp, kd = mini.actuation.native_gains()
+    mini.actuation.set_native_gains(kp * 2, kd * 3)
+    kp2, kd2 = mini.actuation.native_gains()
     np.testing.assert_allclose(kp2, kp * 2)
     np.testing.assert_allclose(kd2, kd * 3)
-    np.testing.assert_allclose(mini.default_gains()[0], kp)
+    np.testing.assert_allclose(mini.actuation.default_gains()[0], kp)
 
 
 def test_root_rows_of_an_action_are_an_external_wrench(mini):
-    mini.set_actuation("torque")
+    mini.actuation.set_mode("torque")
     mini.reset(standing(mini))
     tau = np.zeros(mini.nv)
     tau[:3] = [10.0, -20.0, 30.0]
-    tau[3:6] = mini.root_wrench_to_qfrc(np.zeros(3), [0.0, 0.0, 5.0])[3:]
-    mini.apply(Action(torque=tau))
-    np.testing.assert_allclose(mini.root_wrench, [10, -20, 30, 0, 0, 5], atol=1e-12)
+    # the rotational rows are in the root frame: a world torque R^T-rotated
+    tau[3:6] = mini.state.root_rotation.T @ [0.0, 0.0, 5.0]
+    mini.actuation.apply(Action(torque=tau))
+    np.testing.assert_allclose(mini.actuation.root_wrench, [10, -20, 30, 0, 0, 5], atol=1e-12)
     np.testing.assert_allclose(mini.data.qfrc_applied[:3], [10, -20, 30])
-    mini.apply(Action(torque=np.zeros(mini.nv)))
-    np.testing.assert_array_equal(mini.root_wrench, np.zeros(6))
+    mini.actuation.apply(Action(torque=np.zeros(mini.nv)))
+    np.testing.assert_array_equal(mini.actuation.root_wrench, np.zeros(6))
 
 
 @pytest.mark.parametrize("mode", ["native", "torque"])
@@ -206,12 +219,12 @@ def test_an_oversized_feedforward_torque_is_applied_at_the_limit(mode):
     ch = Character()
     knee = int(ch.joint_dofs(ch.role("left_knee"))[0])
     a = int(np.flatnonzero(ch.actuator_dof == knee)[0])
-    limit = float(ch.torque_limits()[knee])
+    limit = float(ch.actuation.torque_limits()[knee])
     assert 0 < limit < 5000
 
     def applied(lift: bool) -> tuple[float, float]:
-        ch.set_torque_limits(not lift)
-        ch.set_actuation(mode)
+        ch.actuation.set_torque_limits(not lift)
+        ch.actuation.set_mode(mode)
         q = standing(ch)
         ch.reset(q)
         tau = np.zeros(ch.nv)
@@ -225,7 +238,7 @@ def test_an_oversized_feedforward_torque_is_applied_at_the_limit(mode):
     assert total == pytest.approx(limit, rel=1e-9) and force == pytest.approx(limit, rel=1e-9)
     total, _ = applied(lift=True)
     assert total > 4000.0
-    ch.set_torque_limits(True)
+    ch.actuation.set_torque_limits(True)
 
 
 # -- centre of mass, Jacobians, mass matrix ------------------------------------------------------
@@ -237,39 +250,59 @@ def test_com_velocity_and_jacobian_match_finite_differences(humanoid):
     humanoid.reset(q, v)
     m = humanoid.model
     com = (m.body_mass[:, None] * humanoid.data.xipos).sum(0) / m.body_mass.sum()
-    np.testing.assert_allclose(humanoid.com(), com, atol=1e-12)
-    J = humanoid.com_jacobian()
+    np.testing.assert_allclose(humanoid.state.com(), com, atol=1e-12)
+    J = humanoid.dynamics.com_jacobian()
     assert J.shape == (3, humanoid.nv)
     h = 1e-6
-    humanoid.reset(humanoid.integrate(q, v, h), v)
-    fd = (humanoid.com() - com) / h
+    humanoid.reset(humanoid.dynamics.integrate(q, v, h), v)
+    fd = (humanoid.state.com() - com) / h
     np.testing.assert_allclose(J @ v, fd, atol=1e-4)
     humanoid.reset(q, v)
-    np.testing.assert_allclose(humanoid.com_velocity(), J @ v, atol=1e-12)
+    np.testing.assert_allclose(humanoid.state.com_velocity(), J @ v, atol=1e-12)
+
+
+def test_subtree_com_jacobian_matches_finite_differences(humanoid):
+    """``com_jacobian(body)``: the centre of mass of a leg (its hip's subtree), into ``out``."""
+    rng = np.random.default_rng(4)
+    q = standing(humanoid)
+    v = rng.normal(0, 0.5, humanoid.nv)
+    hip = humanoid.body_id(humanoid.role("left_hip"))
+    humanoid.reset(q, v)
+    c0 = humanoid.state.subtree_coms[hip].copy()
+    out = np.full((3, humanoid.nv), np.nan)
+    J = humanoid.dynamics.com_jacobian(hip, out=out)
+    assert J is out
+    np.testing.assert_array_equal(humanoid.dynamics.com_jacobian(humanoid.role("left_hip")), J)
+    h = 1e-6
+    humanoid.reset(humanoid.dynamics.integrate(q, v, h), v)
+    np.testing.assert_allclose(J @ v, (humanoid.state.subtree_coms[hip] - c0) / h, atol=1e-4)
+    leg = humanoid.dynamics.subtree_mass(hip)
+    assert 0.1 * humanoid.dynamics.mass < leg < 0.25 * humanoid.dynamics.mass
+    np.testing.assert_array_equal(humanoid.dynamics.gravity, [0.0, 0.0, -9.81])
 
 
 def test_sparse_mass_solve_equals_dense(humanoid):
     rng = np.random.default_rng(0)
     humanoid.reset(standing(humanoid), rng.normal(0, 0.3, humanoid.nv))
-    M = humanoid.mass_matrix()
+    M = humanoid.dynamics.mass_matrix()
     d = rng.uniform(0, 1, humanoid.nv)
     y = rng.normal(size=humanoid.nv)
-    np.testing.assert_allclose(humanoid.solve_mass(y, d), np.linalg.solve(M + np.diag(d), y),
-                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(humanoid.dynamics.solve_mass(y, d),
+                               np.linalg.solve(M + np.diag(d), y), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(M, M.T, atol=1e-12)
 
 
 # -- contacts ------------------------------------------------------------------------------------
 def test_feet_contacts_and_support_polygon(humanoid):
     humanoid.reset(standing(humanoid))
-    humanoid.set_actuation("native")
+    humanoid.actuation.set_mode("native")
     for _ in range(50):  # settle on the floor
         humanoid.step()
-    assert humanoid.foot_contacts() == (True, True)
-    assert humanoid.non_foot_ground_contact() == []
-    poly = humanoid.support_polygon()
+    assert humanoid.contacts.feet() == (True, True)
+    assert humanoid.contacts.non_foot() == []
+    poly = humanoid.contacts.support_polygon()
     assert len(poly) >= 4
-    left, right = humanoid.foot_sites()
+    left, right = humanoid.contacts.foot_sites()
     mid = 0.5 * (left + right)
     assert point_in_polygon_margin(mid[:2], poly) > 0.03
     # the polygon spans both feet
@@ -277,15 +310,38 @@ def test_feet_contacts_and_support_polygon(humanoid):
     q = standing(humanoid)
     q[humanoid.root_qpos[2]] += 0.3
     humanoid.reset(q)
-    assert humanoid.foot_contacts() == (False, False)
-    assert humanoid.support_polygon().shape == (0, 2)
+    assert humanoid.contacts.feet() == (False, False)
+    assert humanoid.contacts.support_polygon().shape == (0, 2)
+
+
+def test_foot_forces_carry_the_weight(humanoid):
+    """Standing still on both feet, the floor's normal forces under them add up to the weight;
+    reading them changes nothing (the next step recomputes what they solve)."""
+    humanoid.reset(standing(humanoid))
+    humanoid.actuation.set_mode("native")
+    for _ in range(500):
+        humanoid.step()
+    s = humanoid.state.get()
+    forces = humanoid.contacts.foot_forces()
+    weight = humanoid.dynamics.mass * 9.81
+    assert forces.min() > 0.3 * weight
+    assert forces.sum() == pytest.approx(weight, rel=0.05)
+    humanoid.step()
+    after = humanoid.state.qpos.copy()
+    humanoid.state.set(s)
+    humanoid.step()
+    np.testing.assert_array_equal(humanoid.state.qpos, after)
+    q = standing(humanoid)
+    q[humanoid.root_qpos[2]] += 0.3
+    humanoid.reset(q)
+    np.testing.assert_array_equal(humanoid.contacts.foot_forces(), [0.0, 0.0])
 
 
 def test_lying_body_counts_as_non_foot_contact(mini):
-    q = mini.model.qpos0.copy()
+    q = mini.poses.rest()
     q[3:7] = [np.cos(np.pi / 4), np.sin(np.pi / 4), 0, 0]  # on its side
-    mini.reset(mini.on_floor(q, clearance=-0.005))
-    assert "RootJoint" in mini.non_foot_ground_contact()
+    mini.reset(mini.poses.on_floor(q, clearance=-0.005))
+    assert "RootJoint" in mini.contacts.non_foot()
 
 
 def test_convex_hull_and_margin():
@@ -308,22 +364,22 @@ def test_push_delivers_its_impulse_and_only_in_its_window(mini):
     q = standing(mini)
     q[mini.root_qpos[2]] += 1.0
     mini.reset(q)
-    mini.set_actuation("torque")
-    mini.push("RootJoint", [30.0, -12.0, 0.0], duration=0.1, start=0.05)
+    mini.actuation.set_mode("torque")
+    mini.pushes.add("RootJoint", [30.0, -12.0, 0.0], duration=0.1, start=0.05)
     seen = []
     for _ in range(150):
         mini.step(Action(torque=np.zeros(mini.nv)))
-        seen.append((mini.time, mini.active_push_force()[0]))
+        seen.append((mini.time, mini.pushes.active_force()[0]))
     on = [t for t, f in seen if f != 0]
     assert min(on) == pytest.approx(0.052, abs=1e-9) and max(on) == pytest.approx(0.15)
     assert len(on) == 50
     # (armature adds rotor inertia without a reaction: momentum is conserved to ~1e-4)
-    np.testing.assert_allclose(mini.com_velocity(), [30 * 0.1 / 66.4, -12 * 0.1 / 66.4, 0],
+    np.testing.assert_allclose(mini.state.com_velocity(), [30 * 0.1 / 66.4, -12 * 0.1 / 66.4, 0],
                                rtol=1e-3, atol=1e-5)
     with pytest.raises(CharacterError):
-        mini.push("RootJoint", [1.0, 2.0], 0.1)
+        mini.pushes.add("RootJoint", [1.0, 2.0], 0.1)
     with pytest.raises(CharacterError):
-        mini.push("RootJoint", [1.0, 0, 0], -1)
+        mini.pushes.add("RootJoint", [1.0, 0, 0], -1)
 
 
 def test_multi_step_with_push_equals_single_steps(mini):
@@ -331,31 +387,88 @@ def test_multi_step_with_push_equals_single_steps(mini):
     runs = []
     for n in (1, 7):
         mini.reset(q)
-        mini.push("RootJoint", [40.0, 0, 0], duration=0.05, start=0.02)
+        mini.pushes.add("RootJoint", [40.0, 0, 0], duration=0.05, start=0.02)
         for _ in range(140 // n):
             mini.step(None, n)
-        runs.append(mini.qpos.copy())
+        runs.append(mini.state.qpos.copy())
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-12)
 
 
 # -- state -----------------------------------------------------------------------------------
 def test_get_set_state_replays_exactly(humanoid):
     humanoid.reset(standing(humanoid))
-    humanoid.set_actuation("native")
+    humanoid.actuation.set_mode("native")
     rng = np.random.default_rng(1)
     target = rng.normal(0, 0.2, humanoid.nu)
     for _ in range(20):
         humanoid.step(Action(target=target))
-    s = humanoid.get_state()
+    s = humanoid.state.get()
     t0 = humanoid.time
     for _ in range(30):
         humanoid.step(Action(target=target))
-    a = humanoid.qpos.copy()
-    humanoid.set_state(s)
+    a = humanoid.state.qpos.copy()
+    humanoid.state.set(s)
     assert humanoid.time == t0
     for _ in range(30):
         humanoid.step(Action(target=target))
-    np.testing.assert_array_equal(humanoid.qpos, a)
+    np.testing.assert_array_equal(humanoid.state.qpos, a)
+
+
+def test_state_views_follow_the_simulation_and_cannot_be_written(mini):
+    st = mini.state
+    mini.reset(standing(mini))
+    mini.actuation.set_mode("torque")
+    for _ in range(5):
+        mini.step(Action(torque=np.zeros(mini.nv)))
+    d = mini.data
+    np.testing.assert_array_equal(st.qpos, d.qpos)
+    np.testing.assert_array_equal(st.qvel, d.qvel)
+    b = mini.body_id("lKnee")
+    np.testing.assert_array_equal(st.body_rotations[b], d.xmat[b].reshape(3, 3))
+    np.testing.assert_array_equal(st.body_angular_velocities[b], d.cvel[b, :3])
+    np.testing.assert_array_equal(st.site_positions, d.site_xpos)
+    np.testing.assert_array_equal(st.root_position, d.xpos[mini.root_body])
+    np.testing.assert_array_equal(st.joint_positions(), d.xpos[mini.joint_bodies])
+    with pytest.raises(ValueError):
+        st.qpos[0] = 1.0
+    with pytest.raises(ValueError):
+        st.body_positions[b] = 0.0
+
+
+def test_full_physics_state_and_warm_start(humanoid):
+    """``get_physics`` is what a batched rollout starts from; ``clear_warm_start`` makes the
+    next step match such a rollout."""
+    from mjchar.controllers.sampling.rollout import get_state
+
+    humanoid.reset(standing(humanoid))
+    humanoid.actuation.set_mode("native")
+    for _ in range(20):
+        humanoid.step()
+    np.testing.assert_array_equal(humanoid.state.get_physics(),
+                                  get_state(humanoid.model, humanoid.data))
+    assert humanoid.data.qacc_warmstart.any()
+    humanoid.state.clear_warm_start()
+    assert not humanoid.data.qacc_warmstart.any()
+
+
+def test_pose_kinematics_leave_the_state_alone(humanoid):
+    q = standing(humanoid)
+    q[humanoid.root_qpos[2]] += 0.2
+    humanoid.reset(standing(humanoid))
+    before = humanoid.state.body_positions.copy()
+    kin = humanoid.poses.kinematics(q)
+    np.testing.assert_array_equal(humanoid.state.body_positions, before)
+    humanoid.reset(q)
+    st = humanoid.state
+    np.testing.assert_allclose(kin.body_positions, st.body_positions, atol=1e-12)
+    np.testing.assert_allclose(kin.body_rotations, st.body_rotations, atol=1e-12)
+    np.testing.assert_allclose(kin.joint_axes, st.joint_axes, atol=1e-12)
+    np.testing.assert_allclose(kin.joint_anchors, st.joint_anchors, atol=1e-12)
+    np.testing.assert_allclose(kin.site_positions, st.site_positions, atol=1e-12)
+    np.testing.assert_array_equal(humanoid.poses.rest(), humanoid.model.qpos0)
+    dofs = humanoid.joint_dofs(humanoid.role("left_knee"))
+    lo, hi = humanoid.poses.dof_limits(dofs)[0]
+    assert lo < hi
 
 
 def test_weld_holds_the_root_where_it_is(mini):
@@ -363,16 +476,17 @@ def test_weld_holds_the_root_where_it_is(mini):
     q[mini.root_qpos[2]] += 0.2
     q[0] += 0.3
     mini.reset(q)
-    mini.weld_root(True)
-    assert mini.root_welded
-    mini.set_actuation("torque")
+    mini.actuation.weld_root(True)
+    assert mini.data.eq_active[mujoco.mj_name2id(mini.model, mujoco.mjtObj.mjOBJ_EQUALITY,
+                                                 "root_weld")]
+    mini.actuation.set_mode("torque")
     for _ in range(500):
         mini.step(Action(torque=np.zeros(mini.nv)))
-    assert np.linalg.norm(mini.root_position - q[:3]) < 0.01
-    mini.weld_root(False)
+    assert np.linalg.norm(mini.state.root_position - q[:3]) < 0.01
+    mini.actuation.weld_root(False)
     for _ in range(200):
         mini.step(Action(torque=np.zeros(mini.nv)))
-    assert mini.root_height < q[2] - 0.1  # falls once released
+    assert mini.state.root_height < q[2] - 0.1  # falls once released
 
 
 # -- divergence ----------------------------------------------------------------------------------
@@ -382,7 +496,7 @@ def test_exploding_velocity_raises_simulation_diverged(mini):
     with pytest.raises(SimulationDiverged, match="velocity"):
         mini.reset(standing(mini), v)
     mini.reset(standing(mini))
-    mini.set_actuation("torque")
+    mini.actuation.set_mode("torque")
     tau = np.zeros(mini.nv)
     tau[0] = np.nan  # a NaN root force
     with pytest.raises(SimulationDiverged) as e:
@@ -395,16 +509,16 @@ def test_ik_lowers_pelvis_with_feet_in_place(humanoid):
     q = standing(humanoid)
     humanoid.reset(q)
     feet = [humanoid.role(f"{s}_ankle") for s in ("left", "right")]
-    targets = [(f, humanoid.body_position(f), humanoid.data.xquat[humanoid.body_id(f)].copy())
-               for f in feet]
+    state = humanoid.state
+    targets = [(f, *humanoid.poses.body_pose(q, f)) for f in feet]
     dofs = humanoid.dofs(["left_hip", "left_knee", "left_ankle", "right_hip", "right_knee",
                           "right_ankle"])
     q2 = q.copy()
     q2[humanoid.root_qpos[2]] -= 0.1
     for s in ("left", "right"):
         q2[humanoid.joint_qpos(humanoid.role(f"{s}_knee"))] = 0.2
-    sol = humanoid.solve_ik(q2, targets, dofs)
+    sol = humanoid.poses.solve_ik(q2, targets, dofs)
     humanoid.reset(sol)
     for f, p, _ in targets:
-        np.testing.assert_allclose(humanoid.body_position(f), p, atol=1e-4)
-    assert humanoid.root_height == pytest.approx(q[2] - 0.1)
+        np.testing.assert_allclose(state.body_positions[humanoid.body_id(f)], p, atol=1e-4)
+    assert humanoid.state.root_height == pytest.approx(q[2] - 0.1)

@@ -164,8 +164,8 @@ def test_leg_length_follows_the_body(zoo_humanoids):
     from mjchar.controllers.core.character import Character
     from mjchar.controllers.walking.gaits import BUNDLED_LEG_LENGTH
 
-    assert Character().leg_length() == pytest.approx(BUNDLED_LEG_LENGTH, abs=1e-9)
-    small, tall = (Character(zoo_humanoids[h]).leg_length() for h in (1.5, 1.95))
+    assert Character().poses.leg_length() == pytest.approx(BUNDLED_LEG_LENGTH, abs=1e-9)
+    small, tall = (Character(zoo_humanoids[h]).poses.leg_length() for h in (1.5, 1.95))
     assert 0.7 < small < tall < 1.2
     assert tall / small == pytest.approx(1.95 / 1.5, rel=1e-3)  # one skeleton, scaled
 
@@ -176,7 +176,8 @@ def test_speed_range_on_another_body_is_checked_in_its_units(zoo_humanoids, caps
     from mjchar.controllers.core.character import Character
 
     xml = zoo_humanoids[1.95]
-    assert registry.get("simbicon").limit("speed", Character(xml).leg_length()) == (0.66, 1.77)
+    leg = Character(xml).poses.leg_length()
+    assert registry.get("simbicon").limit("speed", leg) == (0.66, 1.77)
     expected = "walks at 0.66 to 1.77 m/s on this body (leg length 1.06 m; 0.6 to 1.6 m/s"
     for command in ("run", "gait"):
         argv = [command, "simbicon", "--model", xml, "--speed", "0.62"]

@@ -47,7 +47,7 @@ def test_static_balance_json_is_exactly_one_object():
     (["run", "spd", "--direction", "up"], "direction must be degrees"),
     (["run", "spd", "--scenario", "push"], "needs a force (mjchar run: --push"),
     (["run", "spd", "--scenario", "track", "--motion", "/no/such.bvh"], "/no/such.bvh"),
-    (["run", "spd", "--render", "out.gif"], "MP4"),
+    (["run", "spd", "--render", "out.gif"], "give a .mp4 path"),
     (["run", "spd", "--floor", "lowest"], "invalid choice"),
 ])
 def test_malformed_options_give_one_line_and_non_zero_exit(args, needle, capsys):

@@ -67,14 +67,16 @@ def test_registered_ids_make_both_forms():
 
 @pytest.mark.parametrize("env_id", IDS)
 def test_check_env_passes_without_warnings(env_id):
-    env = gym.make(env_id)
+    """Gymnasium's checker, render check included (it re-creates the env in every declared
+    render mode, "human" too: headless, that one warns that nothing is shown, which is the only
+    warning allowed)."""
+    env = gym.make(env_id, render_mode="rgb_array")
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # any checker warning fails the test
-        # The render check re-creates the env in every declared mode, "human" included, and a
-        # human window needs a display: without one it is skipped here (render_mode="human"
-        # then raises EnvError, tested below) and rgb_array is checked by Gymnasium's render
-        # checker in the next test.
-        check_env(env.unwrapped, skip_render_check=not display_available())
+        if not display_available():
+            warnings.filterwarnings("ignore", "render_mode='human': no display",
+                                    RuntimeWarning)
+        check_env(env.unwrapped)
     env.close()
 
 
@@ -98,12 +100,32 @@ def test_rgb_array_rendering(env_id):
     env.close()  # closing twice is allowed
 
 
-def test_human_mode_without_display_fails_clearly(monkeypatch):
+def test_human_mode_without_display_constructs_resets_and_steps(monkeypatch):
+    """As Gymnasium's own MuJoCo envs, the window opens at the first render (which step calls
+    in human mode); with no display that warns once and shows nothing."""
     monkeypatch.setattr("mjchar.envs.common.display_available", lambda: False)
-    with pytest.raises(EnvError, match="needs a display"):
-        gym.make(STAND, render_mode="human")
+    env = gym.make(IMITATION, render_mode="human")
+    with pytest.warns(RuntimeWarning, match="no display"):
+        env.reset(seed=0)  # reset renders in human mode, as step does
+        env.step(env.action_space.sample())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once only
+        for _ in range(3):
+            env.step(env.action_space.sample())
+        assert env.render() is None
+    env.close()
     with pytest.raises(EnvError, match="render_mode"):
         envs.StandEnv(render_mode="video")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_every_id_states_its_episode_limit(env_id):
+    spec = gym.spec(env_id)
+    assert spec.max_episode_steps == envs.MAX_EPISODE_STEPS == 300
+    env = gym.make(env_id)
+    u = env.unwrapped
+    assert spec.max_episode_steps * u.control_dt == pytest.approx(u.episode_seconds)
+    env.close()
 
 
 @pytest.mark.parametrize("env_id", IDS)
@@ -184,10 +206,10 @@ def test_reward_is_one_on_the_reference_and_follows_the_formula(imitation):
     assert all(v == pytest.approx(1.0, abs=1e-9) for v in terms.values())
     # one hinge off by 0.1 rad: pose term exp(-2 * 0.1^2) exactly (mj_differentiatePos)
     ch = u.character
-    q = ch.qpos.copy()
+    q = ch.state.qpos.copy()
     knee = ch.joint_qpos(ch.role("left_knee"))[0]
     q[knee] += 0.1
-    ch.reset(q, ch.qvel.copy())
+    ch.reset(q, ch.state.qvel.copy())
     r, terms = u.current_reward()
     assert terms["pose"] == pytest.approx(math.exp(-2 * 0.01), rel=1e-9)
     assert terms["velocity"] == pytest.approx(1.0)
@@ -216,8 +238,8 @@ def test_reference_state_initialisation_covers_the_clip(imitation):
         obs, info = imitation.reset(seed=seed)
         phases.append(info["start_phase"])
         # the start state is the reference at that phase
-        assert np.allclose(u.character.qpos, u.reference.qpos(info["reference_time_s"]))
-        assert np.allclose(u.character.qvel, u.reference.qvel(info["reference_time_s"]))
+        assert np.allclose(u.character.state.qpos, u.reference.qpos(info["reference_time_s"]))
+        assert np.allclose(u.character.state.qvel, u.reference.qvel(info["reference_time_s"]))
     phases = np.array(phases)
     assert phases.min() >= 0 and phases.max() < 1
     hist, _ = np.histogram(phases, bins=10, range=(0, 1))
@@ -296,7 +318,7 @@ def test_pushes_follow_the_configuration():
         _, _, term, _, info = env.step(np.zeros(env.action_space.shape))
         assert not term
     assert info["pushes"] == 1 and info["push_N"] == 100.0 and info["push_direction_deg"] == 90
-    (p,) = u.character.pushes
+    (p,) = u.character.pushes.scheduled
     assert p.start == pytest.approx(0.5, abs=u.control_dt) and p.duration == 0.1
     R = u.character.data.xmat[u.character.root_body].reshape(3, 3)
     left = np.array([-R[1, 0], R[0, 0], 0.0]) / math.hypot(R[0, 0], R[1, 0])
@@ -306,7 +328,7 @@ def test_pushes_follow_the_configuration():
     quiet.reset(seed=0)
     for _ in range(45):
         info = quiet.step(np.zeros(quiet.action_space.shape))[-1]
-    assert info["pushes"] == 0 and not quiet.unwrapped.character.pushes
+    assert info["pushes"] == 0 and not quiet.unwrapped.character.pushes.scheduled
     quiet.close()
 
 

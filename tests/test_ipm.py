@@ -44,7 +44,7 @@ def run_walk(character: Character, controller, duration: float):
 
     def record(ch: Character) -> None:
         times.append(ch.time)
-        com.append(ch.com()[:2].copy())
+        com.append(ch.state.com()[:2].copy())
         R = ch.data.xmat[ch.root_body].reshape(3, 3)
         yaw.append(math.atan2(R[1, 0], R[0, 0]))
 
@@ -226,7 +226,7 @@ def test_starts_from_a_foot_on_its_toes(character):
     stays near the start (no wound-up hip or ankle angles) and the walk starts without a fall."""
     q = standing_pose(character)
     q[character.joint_qpos(character.role("right_ankle"))[0]] += 0.3  # toes down
-    q = character.on_floor(q)
+    q = character.poses.on_floor(q)
     c = make_ipm(character, speed=1.0)
     character.reset(q, np.zeros(character.nv))
     c.reset(character)
@@ -400,7 +400,7 @@ def test_speed_range_ends_on_scaled_bodies(zoo_humanoids, height, end):
     from mjchar.controllers.core.scenarios import walk
 
     ch = Character(zoo_humanoids[height])
-    speed = end * (ch.leg_length() / registry.get("ipm").speed_leg_length) ** 0.5
+    speed = end * (ch.poses.leg_length() / registry.get("ipm").speed_leg_length) ** 0.5
     r = walk(ch, make_ipm(ch, speed=speed), duration=60.0, seed=0)
     assert not r.fell, r.fall_reason
     assert r.root_force_max_N == 0.0

@@ -36,7 +36,7 @@ def _track(character, reference, duration, **options):
     controller = make_mpc(character, reference, **{**FAST, **options})
     rows = []
     r = S.track(character, controller, reference, duration=duration,
-                frame_callback=lambda ch: rows.append(ch.qpos.copy()))
+                frame_callback=lambda ch: rows.append(ch.state.qpos.copy()))
     controller.close()
     return r, np.array(rows), controller
 
@@ -313,7 +313,7 @@ def test_perturbed_start_is_seeded_and_on_the_floor(character, walk_ref):
     c = S.perturbed_start(character, q0, v0, 4)
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
     assert not np.array_equal(a[0], c[0])
-    assert character.lowest_point(a[0]) == pytest.approx(0.0, abs=1e-6)
+    assert character.poses.lowest_point(a[0]) == pytest.approx(0.0, abs=1e-6)
     dv = a[1] - v0
     assert np.all(dv[character.root_dofs[2:]] == 0) and np.abs(dv[:2]).max() > 0
 
@@ -365,7 +365,7 @@ def test_slow_recovers_from_pushes_while_walking(moment):
         def probe(ch, t=t, pos=pos):
             if not t or ch.time >= t[-1] + 0.02 - 1e-9:
                 t.append(ch.time)
-                pos.append(ch.joint_positions())
+                pos.append(ch.state.joint_positions())
 
         r = S.track(ch, c, ref, duration=push.end + 4.0, push=push, frame_callback=probe)
         c.close()

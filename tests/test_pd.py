@@ -35,9 +35,9 @@ def random_state(ch: Character, seed: int = 0):
     q0 = S.standing_pose(ch)
     v = np.zeros(ch.nv)
     v[ch.actuated] = rng.uniform(-0.3, 0.3, ch.actuated.sum())
-    q = ch.integrate(q0, v, 1.0)
+    q = ch.dynamics.integrate(q0, v, 1.0)
     qd = rng.normal(0, 0.5, ch.nv)
-    q_bar = ch.integrate(q0, rng.normal(0, 0.2, ch.nv) * ch.actuated, 1.0)
+    q_bar = ch.dynamics.integrate(q0, rng.normal(0, 0.2, ch.nv) * ch.actuated, 1.0)
     qd_bar = rng.normal(0, 0.5, ch.nv) * ch.actuated
     return q, qd, q_bar, qd_bar
 
@@ -58,7 +58,7 @@ def test_explicit_pd_is_the_textbook_law(ch):
     c = PDController(Fixed(q_bar, qd_bar))
     c.reset(ch)
     tau = c.act(ch, 0.0).torque
-    kp, kd = ch.default_gains()
+    kp, kd = ch.actuation.default_gains()
     knee = ch.joint_dofs("lKnee")[0]
     kq = ch.joint_qpos("lKnee")[0]
     assert tau[knee] == pytest.approx(kp[knee] * (q_bar[kq] - q[kq]) + kd[knee] * (qd_bar[knee]
@@ -76,7 +76,7 @@ def test_stable_pd_matches_tan_liu_turk_with_dense_mass_matrix(ch):
         c.reset(ch)
         tau = c.act(ch, 0.0).torque
         dt = 1 / 120
-        kp, kd = ch.default_gains()
+        kp, kd = ch.actuation.default_gains()
         M = np.zeros((ch.nv, ch.nv))
         mujoco.mj_fullM(ch.model, ch.data, M)
         q_pred = q.copy()
@@ -98,17 +98,17 @@ def test_native_pd_folds_target_velocity_into_the_setpoint(ch):
     ch.reset(q, qd)
     c = NativePDController(Fixed(q_bar, qd_bar))
     c.reset(ch)
-    assert ch.actuation == "native"
-    ch.set_torque_limits(False)
+    assert ch.actuation.mode == "native"
+    ch.actuation.set_torque_limits(False)
     try:
-        ch.apply(c.act(ch, 0.0))
+        ch.actuation.apply(c.act(ch, 0.0))
         mujoco.mj_fwdActuation(ch.model, ch.data)
-        kp, kd = ch.default_gains()
+        kp, kd = ch.actuation.default_gains()
         expected = kp * joint_error(ch, q_bar) + kd * (qd_bar - qd)
         a = ch.actuator_dof
         np.testing.assert_allclose(ch.data.qfrc_actuator[a], expected[a], rtol=1e-9, atol=1e-8)
     finally:
-        ch.set_torque_limits(True)
+        ch.actuation.set_torque_limits(True)
 
 
 def test_gains_are_validated(ch):

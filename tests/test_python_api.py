@@ -60,10 +60,13 @@ def test_run_reproduces_mjchar_run(capsys):
 
 
 def test_run_routes_options_and_refuses_unknown_ones():
+    from mjchar.bvh.errors import MjcharError
     from mjchar.controllers import RunError, run
 
-    with pytest.raises(RunError, match="'speeed' is neither an option of ipm nor of the walk"):
-        run("ipm", "walk", speeed=1.0)
+    with pytest.raises(RunError, match="'speeed' is neither an option of static_balance nor"):
+        run("static_balance", "stand", speeed=1.0)
+    with pytest.raises(MjcharError, match="speeed"):  # ipm's own tunables are checked by it
+        run("ipm", "walk", speeed=1.0, duration=0.1)
     with pytest.raises(RunError, match="simbicon does not run the stand scenario"):
         run("simbicon", "stand")
     with pytest.raises(RunError, match="walks at 0 to 1.6 m/s"):

@@ -224,7 +224,7 @@ def test_inverse_dynamics_targets_hold_the_standing_pose_better_than_the_pose(ch
         r = simulate(ch, ReplayController(tr), duration=2.0, scenario="hold", qpos=q,
                      control_dt=0.02)
         assert not r.fell
-        e = ch.qpos[character.actuator_qpos] - q[character.actuator_qpos]
+        e = ch.state.qpos[character.actuator_qpos] - q[character.actuator_qpos]
         err[name] = float(np.sqrt(np.mean(e ** 2)))
     assert err["id"] < 0.5 * err["raw"]
 
@@ -270,7 +270,7 @@ def test_short_samcon_replay_stands_tracks_and_reproduces_the_optimised_path(sho
     simulate(ch, ReplayController(tr), duration=tr.duration, scenario="replay",
              qpos=tr.initial_qpos, qvel=tr.initial_qvel, control_dt=tr.control_dt)
     qs = s.rmodel.model.nq
-    np.testing.assert_array_equal(ch.qpos, state[1:1 + qs])
+    np.testing.assert_array_equal(ch.state.qpos, state[1:1 + qs])
 
 
 def test_samcon_is_deterministic_for_a_seed(walk_ref, executor, short_run):

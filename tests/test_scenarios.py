@@ -31,7 +31,7 @@ class Limp:
     actuation = "torque"
 
     def reset(self, character):
-        character.set_actuation("torque")
+        character.actuation.set_mode("torque")
 
     def act(self, character, t):
         return Action(torque=np.zeros(character.nv))
@@ -72,11 +72,11 @@ def test_fall_detector_threshold(ch):
 
 def test_random_push_is_deterministic_per_seed(ch):
     a = S.random_push(ch, make_controller("static_balance", ch), seed=3, duration=2.0)
-    pushes_a = list(ch.pushes)
+    pushes_a = list(ch.pushes.scheduled)
     b = S.random_push(ch, make_controller("static_balance", ch), seed=3, duration=2.0)
-    pushes_b = list(ch.pushes)
+    pushes_b = list(ch.pushes.scheduled)
     S.random_push(ch, make_controller("static_balance", ch), seed=4, duration=2.0)
-    pushes_c = list(ch.pushes)
+    pushes_c = list(ch.pushes.scheduled)
     assert pushes_a == pushes_b and pushes_a != pushes_c
     assert a.distance_m == b.distance_m and a.foot_travel_m == b.foot_travel_m
     assert len(pushes_a) == 2
@@ -115,7 +115,7 @@ def test_push_scenario_validates_its_input(ch):
 def test_push_is_applied_in_the_heading_frame(ch):
     r = S.push(ch, make_controller("static_balance", ch), force=40.0, direction=90.0,
                duration=1.5)
-    (p,) = ch.pushes
+    (p,) = ch.pushes.scheduled
     np.testing.assert_allclose(np.array(p.force) / 40.0, [0, 1, 0], atol=0.05)  # left is +y
     assert r.push_N == 40.0 and r.push_direction_deg == 90.0
 

@@ -22,7 +22,6 @@ from mjchar.controllers.core.scenarios import slope_walk, walk
 from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
 from mjchar.controllers.core.scenarios.terrain import (
     TerrainError,
-    floor_height,
     place_on_floor,
     push_walk,
     stride_phases,
@@ -145,7 +144,7 @@ def test_make_simbicon_and_protocol(ch):
     a = c.act(ch, ch.time)
     assert a.target is None and a.torque.shape == (ch.nv,)
     assert np.all(a.torque[ch.root_dofs] == 0.0)  # never a force on the root
-    assert np.all(np.abs(a.torque) <= ch.torque_limits() + 1e-9)
+    assert np.all(np.abs(a.torque) <= ch.actuation.torque_limits() + 1e-9)
 
 
 def test_walks_at_one_seed_and_fsm_cycles(ch):
@@ -455,18 +454,18 @@ def test_natural_gait_unchanged_at_its_own_speed():
 # -- terrain -----------------------------------------------------------------------------------
 def test_tilt_floor_and_place_on_floor(ch):
     tilt_floor(ch, 5.0, height=0.2)
-    assert floor_height(ch, [0.0, 0.0]) == pytest.approx(0.2)
-    assert floor_height(ch, [1.0, 0.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
-    assert floor_height(ch, [1.0, 3.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    assert ch.contacts.floor_height([0.0, 0.0]) == pytest.approx(0.2)
+    assert ch.contacts.floor_height([1.0, 0.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
+    assert ch.contacts.floor_height([1.0, 3.0]) == pytest.approx(0.2 + np.tan(np.radians(5.0)))
     q = place_on_floor(ch, ch.model.qpos0, clearance=0.0)
     ch.reset(q)
     for _ in range(200):
         ch.step(None)
     # it rests on the tilted plane (not 0.2 m lower on the old one) and MuJoCo sees the plane
-    assert ch.foot_contacts() == (True, True)
-    assert ch.root_height > 0.2 + 0.85
+    assert ch.contacts.feet() == (True, True)
+    assert ch.state.root_height > 0.2 + 0.85
     tilt_floor(ch, 0.0)
-    assert floor_height(ch, [5.0, 1.0]) == pytest.approx(0.0)
+    assert ch.contacts.floor_height([5.0, 1.0]) == pytest.approx(0.0)
     with pytest.raises(TerrainError):
         tilt_floor(ch, 60.0)
 
@@ -510,7 +509,7 @@ def test_speed_command_on_scaled_bodies(zoo_humanoids, height, end, gait):
     speeds (1.95 m: 0.660-1.761 m/s; 1.5 m: 0.579-1.544)."""
     ch = Character(zoo_humanoids[height], timestep=DEFAULT_TIMESTEP)
     spec = registry.get("simbicon")
-    speed = spec.limit("speed")[end] * (ch.leg_length() / spec.speed_leg_length) ** 0.5
+    speed = spec.limit("speed")[end] * (ch.poses.leg_length() / spec.speed_leg_length) ** 0.5
     c = make_simbicon(ch, gait=gait, speed=speed)
     r = walk(ch, c, duration=60.0, seed=0)
     assert not r.fell, r.fall_reason

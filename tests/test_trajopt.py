@@ -92,7 +92,7 @@ def test_short_tracking_improves_on_the_start_and_replays(walk_ref, executor):
 def test_plain_pd_trajectory_is_the_native_pd_tracker(walk_ref, character):
     tr = plain_pd_trajectory(walk_ref, duration=0.2)
     assert tr.control_dt == character.timestep and tr.n_controls == 100
-    kp, kd = character.default_gains()
+    kp, kd = character.actuation.default_gains()
     a = character.actuator_dof
     u0 = walk_ref.qpos(0.0)[character.actuator_qpos] + kd[a] / kp[a] * walk_ref.qvel(0.0)[a]
     np.testing.assert_allclose(tr.targets[0], u0)

@@ -100,6 +100,9 @@ def test_the_wheel_has_one_top_level_package(installed):
     with zipfile.ZipFile(wheel) as z:
         tops = {name.split("/")[0] for name in z.namelist()}
     assert tops == {"mjchar", f"mjchar-{wheel.name.split('-')[1]}.dist-info"}, tops
+    with zipfile.ZipFile(wheel) as z:
+        licenses = [n for n in z.namelist() if n.endswith("/LICENSE")]
+        assert licenses and b"Apache License" in z.read(licenses[0])
 
 
 def test_pyproject_lists_every_package():

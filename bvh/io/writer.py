@@ -10,6 +10,7 @@ import os
 
 import numpy as np
 
+from mjchar.bvh.io.files import write_text
 from mjchar.bvh.io.motion import Motion
 
 __all__ = ["dumps", "save"]
@@ -89,6 +90,6 @@ def dumps(motion: Motion, precision: int = 6) -> str:
 
 
 def save(motion: Motion, path: str | os.PathLike, precision: int = 6) -> None:
-    """Write ``motion`` to ``path`` as BVH (see :func:`dumps`)."""
-    with open(os.fspath(path), "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(dumps(motion, precision))
+    """Write ``motion`` to ``path`` as BVH (see :func:`dumps`), atomically (a failed write leaves
+    what was there)."""
+    write_text(path, dumps(motion, precision))

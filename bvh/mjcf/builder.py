@@ -39,6 +39,7 @@ from scipy.spatial.transform import Rotation
 
 from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.io import load
+from mjchar.bvh.io.files import write_text
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import tables as T
@@ -106,14 +107,14 @@ class ConvertedModel:
             raise ConversionError(f"MuJoCo rejected the converted model: {e}") from None
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write the MJCF text to ``path`` (UTF-8); parent folders are created."""
+        """Write the MJCF text to ``path`` (UTF-8, atomically: a failed write leaves what was
+        there); parent folders are created."""
         path = os.fspath(path)
         folder = os.path.dirname(path)
         try:
             if folder:
                 os.makedirs(folder, exist_ok=True)
-            with open(path, "w", encoding="utf-8", newline="\n") as fh:
-                fh.write(self.xml)
+            write_text(path, self.xml)
         except OSError as e:
             raise ConversionError(f"cannot write {path}: {e.strerror or e}") from None
 

@@ -16,7 +16,8 @@ the pelvis alone, with a small inertia, meets the explicit root damping.)
 
 It makes tracking work and looks like a puppet on a string: every other controller's goal is to
 need none of it. The wrench it applied is recorded (:attr:`HandOfGod.last_force`,
-:attr:`HandOfGod.last_torque`, and per step by the scenarios through ``Character.root_wrench``).
+:attr:`HandOfGod.last_torque`, and per step by the scenarios through
+``character.actuation.root_wrench``).
 """
 
 from __future__ import annotations
@@ -77,8 +78,8 @@ class HandOfGod:
         self.tracker.reset(character)
         lift = self.lift
         if self.support:
-            g = -float(character.model.opt.gravity[2])
-            lift += self.support * character.mass * g / self.kp
+            g = -float(character.dynamics.gravity[2])
+            lift += self.support * character.dynamics.mass * g / self.kp
         if lift:
             self.tracker.set_target(LiftedTarget(self.tracker.target, lift), character)
         self.tracker.set_root_gains(character, self.kp, self.kd, self.kp_rot, self.kd_rot)
@@ -93,7 +94,7 @@ class HandOfGod:
         a = self.tracker.act(character, t)
         w = np.zeros(6) if a.torque is None else a.torque[self._r]
         self.last_force = w[:3].copy()
-        self.last_torque = character.root_rotation @ w[3:]
+        self.last_torque = character.state.root_rotation @ w[3:]
         return a
 
 

@@ -99,13 +99,14 @@ class StaticBalance:
 
     def reset(self, character: Character) -> None:
         """Bind the pose, reset the PD, and take the support centre and COM height from now."""
-        pose = character.qpos.copy() if self.pose is None else self.pose
+        pose = character.state.qpos.copy() if self.pose is None else self.pose
         self._base_pose = pose
         kp, kd = self._gains
+        mass = character.dynamics.mass
         self.kp = np.broadcast_to(np.asarray(
-            COM_KP_PER_KG * character.mass if kp is None else kp, dtype=float), (3,)).copy()
+            COM_KP_PER_KG * mass if kp is None else kp, dtype=float), (3,)).copy()
         self.kd = np.broadcast_to(np.asarray(
-            COM_KD_PER_KG * character.mass if kd is None else kd, dtype=float), (3,)).copy()
+            COM_KD_PER_KG * mass if kd is None else kd, dtype=float), (3,)).copy()
         self.pd.reset(character)
         self.pd.set_target(pose, character)
         self._legs = []
@@ -122,10 +123,11 @@ class StaticBalance:
         self._knee_qpos = np.concatenate([character.joint_qpos(character.role(f"{s}_knee"))
                                           for s in ("left", "right")])
         # where the feet are in the held pose: the squat IK keeps them there
-        self._foot_targets = [(foot, *character.body_pose(pose, foot)) for _, foot in self._legs]
-        left, right = character.foot_sites()
+        self._foot_targets = [(foot, *character.poses.body_pose(pose, foot))
+                              for _, foot in self._legs]
+        left, right = character.contacts.foot_sites()
         self._support = 0.5 * (left[:2] + right[:2]) + self.offset
-        self._com_z = character.com()[2]
+        self._com_z = character.state.com()[2]
         self._pose_cache: dict[int, np.ndarray] = {0: pose}
         self._dz_key = 0
         self.com_target = np.array([*self._support, self._com_z])
@@ -145,20 +147,20 @@ class StaticBalance:
             q[self._leg_qpos] = self._pose_cache[near][self._leg_qpos]
             if near == 0:  # straight knees are singular for vertical motion: seed a flexion
                 q[self._knee_qpos] = np.maximum(q[self._knee_qpos], 0.2)
-            self._pose_cache[key] = character.solve_ik(q, self._foot_targets, self._leg_dofs)
+            self._pose_cache[key] = character.poses.solve_ik(q, self._foot_targets, self._leg_dofs)
         return self._pose_cache[key]
 
     def virtual_force_torques(self, character: Character, f: np.ndarray) -> np.ndarray:
         """``(nv,)`` joint torques realising the COM force ``f`` ``(3,)`` N on the stance legs:
         ``-J_x^T f`` per stance leg (``x`` the COM attached to that foot), on its hip, knee and
         ankle dofs only, ``f`` shared equally between the legs in contact (both if none is)."""
-        contacts = character.foot_contacts()
+        contacts = character.contacts.feet()
         stance = [i for i in (0, 1) if contacts[i]] or [0, 1]
         share = np.asarray(f, dtype=float) / len(stance)
-        c = character.com()
+        c = character.state.com()
         tau = np.zeros(character.nv)
         for i in stance:
-            jacp, _ = character.point_jacobian(self._legs[i][1], c)
+            jacp, _ = character.dynamics.point_jacobian(self._legs[i][1], c)
             tau -= (share @ jacp) * self._leg_mask[i]
         return tau
 
@@ -173,7 +175,8 @@ class StaticBalance:
                 self.pd.set_target(self.pose_for_height(character, dz), character)
                 self._dz_key = key
         self.com_target = np.array([*self._support, self._com_z + dz])
-        f = self.kp * (self.com_target - character.com()) - self.kd * character.com_velocity()
+        state = character.state
+        f = self.kp * (self.com_target - state.com()) - self.kd * state.com_velocity()
         self.last_force = f
         a = self.pd.act(character, t)
         tau = self.virtual_force_torques(character, f)

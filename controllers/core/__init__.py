@@ -1,11 +1,16 @@
 """The core of the dynamic layer, shared by every controller.
 
 - :mod:`~mjchar.controllers.core.character`: :class:`Character`, one converted humanoid behind
-  named access (state, centre of mass, contacts, pushes, stepping), with its pieces:
-  :mod:`~mjchar.controllers.core.model` (loading, metadata), :mod:`~mjchar.controllers.core.pushes`
-  (scheduled external forces), :mod:`~mjchar.controllers.core.poses` (kinematics on a scratch
-  copy: lowest point, body pose, IK), :mod:`~mjchar.controllers.core.geometry` (support polygon)
-  and :mod:`~mjchar.controllers.core.errors`.
+  named access (names and indices, reset, stepping), and its parts, one module each:
+  ``character.state`` (qpos, qvel, world frames, centre of mass, save/restore),
+  ``character.dynamics`` (mass matrix, bias forces, Jacobians, joint-space arithmetic),
+  ``character.contacts`` (the floor and what touches it), ``character.actuation`` (native PD or
+  torques, gains, limits, applying an action, the root weld), ``character.pushes`` (scheduled
+  external forces), ``character.poses`` (kinematics on a scratch copy: standing pose, lowest
+  point, world frames, IK); its model loading and metadata in
+  :mod:`~mjchar.controllers.core.character.model`. Beside it
+  :mod:`~mjchar.controllers.core.geometry` (support polygon) and
+  :mod:`~mjchar.controllers.core.errors`.
 - :mod:`~mjchar.controllers.core.action` and :mod:`~mjchar.controllers.core.base`:
   :class:`Action`, the ``Controller`` protocol, :class:`Gains`, PD targets.
 - :mod:`~mjchar.controllers.core.registry`: the controller registry (:class:`ControllerSpec`,

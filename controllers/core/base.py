@@ -81,7 +81,7 @@ class Gains:
 
         Dofs without a position actuator (motors on ball joints) get the mean actuated gains.
         """
-        kp, kd = character.default_gains()
+        kp, kd = character.actuation.default_gains()
         act = character.actuated
         missing = act & (kp == 0)
         if missing.any():
@@ -232,7 +232,7 @@ def bind_target(target, character: Character):
     array -> :class:`PoseTarget`; a ReferenceMotion -> :class:`ReferenceTarget`; a Target object
     is returned as is (after its ``bind`` if it has one)."""
     if target is None:
-        return PoseTarget(character.qpos.copy()).bind(character)
+        return PoseTarget(character.state.qpos.copy()).bind(character)
     if isinstance(target, np.ndarray):
         return PoseTarget(target).bind(character)
     if hasattr(target, "qpos") and hasattr(target, "qvel") and hasattr(target, "duration"):
@@ -250,4 +250,4 @@ def joint_error(character: Character, q_bar: np.ndarray, q: np.ndarray | None = 
     Hinge rows: angle difference (rad); ball rows: rotation vector of ``q^-1 q_bar`` (child
     frame); root rows: position difference (world) and rotation vector (root frame).
     """
-    return character.difference(character.qpos if q is None else q, q_bar)
+    return character.dynamics.difference(character.state.qpos if q is None else q, q_bar)

@@ -134,16 +134,16 @@ class FallDetector:
 
     def __init__(self, character: Character, fall_height: float | None = None):
         if fall_height is None:
-            standing = character.on_floor(character.model.qpos0)[character.root_qpos[2]]
+            standing = character.poses.standing()[character.root_qpos[2]]
             fall_height = FALL_HEIGHT_FRACTION * float(standing)
         self.fall_height = float(fall_height)
 
     def check(self, character: Character) -> str | None:
         """``None`` while standing, else the reason of the fall."""
-        h = character.root_height
+        h = character.state.root_height
         if h < self.fall_height:
             return f"root height {h:.3f} m below {self.fall_height:.3f} m"
-        bodies = character.non_foot_ground_contact()
+        bodies = character.contacts.non_foot()
         if bodies:
             return f"{', '.join(bodies)} touched the ground"
         return None
@@ -164,31 +164,31 @@ class Recorder:
         self.joint_positions: list[np.ndarray] = []
         self.root_force: list[float] = []
         self.root_torque: list[float] = []
-        self.start_root = character.root_position
+        self.start_root = character.state.root_position
         self.root = self.start_root.copy()
-        self.start_feet = np.array([p[:2] for p in character.foot_sites()])
+        self.start_feet = np.array([p[:2] for p in character.contacts.foot_sites()])
         self.foot_travel = 0.0
-        self.start_com_z = float(character.com()[2])
+        self.start_com_z = float(character.state.com()[2])
         self.com_min_z = self.start_com_z
         self._sample(character)
 
     def _sample(self, character: Character) -> None:
         self.times.append(character.time)
-        self.joint_positions.append(character.joint_positions())
+        self.joint_positions.append(character.state.joint_positions())
         self._next_sample = character.time + self.sample_dt - 1e-9
 
     def record(self, character: Character) -> None:
         """Record the step just taken (root wrench of the last action, positions when due)."""
-        w = character.root_wrench
+        w = character.actuation.root_wrench
         self.root_force.append(float(np.linalg.norm(w[:3])))
         self.root_torque.append(float(np.linalg.norm(w[3:])))
-        self.root = character.root_position
+        self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
-            feet = np.array([p[:2] for p in character.foot_sites()])
+            feet = np.array([p[:2] for p in character.contacts.foot_sites()])
             self.foot_travel = max(self.foot_travel,
                                    float(np.linalg.norm(feet - self.start_feet, axis=1).max()))
-            self.com_min_z = min(self.com_min_z, float(character.com()[2]))
+            self.com_min_z = min(self.com_min_z, float(character.state.com()[2]))
 
     def tracking_errors(self, joint_body_index: int = 0) -> tuple[float | None, float | None]:
         """``(mean joint error, mean root error)`` in m against the reference (``None`` without).

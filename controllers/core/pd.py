@@ -55,7 +55,7 @@ class _PDTracker:
     def reset(self, character: Character) -> None:
         """Bind the target (``None``: hold the pose the character has now) and the gains, and
         switch the character's actuation."""
-        character.set_actuation(self.actuation)
+        character.actuation.set_mode(self.actuation)
         self.target = bind_target(self._target_spec, character)
         g = self._gains_spec if self._gains_spec is not None else Gains.from_character(character)
         self.gains = Gains(np.array(g.kp, float), np.array(g.kd, float)).check(character)
@@ -94,8 +94,8 @@ class PDController(_PDTracker):
         """``(nv,)`` PD torques (N m), zero on the root."""
         self._require_reset()
         q_bar, qd_bar = self.target(t)
-        e = character.difference(character.qpos, q_bar)
-        return self.gains.kp * e + self.gains.kd * (qd_bar - character.qvel)
+        e = character.dynamics.difference(character.state.qpos, q_bar)
+        return self.gains.kp * e + self.gains.kd * (qd_bar - character.state.qvel)
 
     def act(self, character: Character, t: float) -> Action:
         """``Action(torque=...)`` with the explicit PD torques."""
@@ -123,13 +123,14 @@ class StablePDController(_PDTracker):
         dt = character.timestep
         kp, kd = self.gains.kp, self.gains.kd
         q_bar, qd_bar = self.target(t)
-        qd = character.qvel
-        q_pred = character.integrate(character.qpos, qd, dt)
-        e = character.difference(q_pred, q_bar)           # -(q + dt qdot - q_bar)
-        rhs = kp * e + kd * (qd_bar - qd) - character.bias_forces()
+        dyn = character.dynamics
+        qd = character.state.qvel
+        q_pred = dyn.integrate(character.state.qpos, qd, dt)
+        e = dyn.difference(q_pred, q_bar)                 # -(q + dt qdot - q_bar)
+        rhs = kp * e + kd * (qd_bar - qd) - dyn.bias_forces()
         if self.external:
-            rhs += character.passive_forces() + character.constraint_forces()
-        qdd = character.solve_mass(rhs, kd * dt)          # (M + kd dt)^-1 rhs, sparse LDL
+            rhs += dyn.passive_forces() + dyn.constraint_forces()
+        qdd = dyn.solve_mass(rhs, kd * dt)                # (M + kd dt)^-1 rhs, sparse LDL
         return kp * e + kd * (qd_bar - qd - dt * qdd)
 
     def act(self, character: Character, t: float) -> Action:
@@ -150,11 +151,11 @@ class NativePDController(_PDTracker):
     def reset(self, character: Character) -> None:
         """Bind target and gains, switch to native actuation and write the gains into the
         position actuators."""
-        if not np.all(character.position_actuators):
+        if not np.all(character.actuation.position_actuators):
             raise ControllerError("native PD needs <position> actuators on every actuated dof; "
                                   "this model drives ball joints with motors (use 'spd')")
         super().reset(character)
-        character.set_native_gains(self.gains.kp, self.gains.kd)
+        character.actuation.set_native_gains(self.gains.kp, self.gains.kd)
         kp = self.gains.kp[character.actuator_dof]
         kd = self.gains.kd[character.actuator_dof]
         self._lead = np.divide(kd, kp, out=np.zeros_like(kd), where=kp > 0)
@@ -170,8 +171,8 @@ class NativePDController(_PDTracker):
         if not self.gains.kp[r].any() and not self.gains.kd[r].any():
             return Action(target=u)
         tau = np.zeros(character.nv)  # root gains (hand of god): explicit PD on the root rows
-        e = character.difference(character.qpos, q_bar)[r]
-        tau[r] = self.gains.kp[r] * e + self.gains.kd[r] * (qd_bar[r] - character.qvel[r])
+        e = character.dynamics.difference(character.state.qpos, q_bar)[r]
+        tau[r] = self.gains.kp[r] * e + self.gains.kd[r] * (qd_bar[r] - character.state.qvel[r])
         return Action(torque=tau, target=u)
 
 

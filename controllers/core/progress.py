@@ -1,7 +1,7 @@
 """Progress of long work on a terminal: one mechanism for every long command.
 
 A :class:`Progress` is handed to the run (``Run.progress``, :mod:`~mjchar.controllers.core.
-scenarios.registry`); :func:`~mjchar.controllers.core.scenarios.simulate.simulate`, which every
+scenarios.registry`); :func:`~mjchar.controllers.core.scenarios.shared.simulate`, which every
 scenario and replay runs through, reports the simulated time to it, so ``mjchar run``, ``mjchar
 gait`` and anything else built by the run builder show the same bar::
 

@@ -26,7 +26,12 @@ __all__ = ["MotionRecorder", "chain_callbacks"]
 
 
 class MotionRecorder:
-    """Collects ``(time, qpos)`` of a run, one sample per call (a repeated time is skipped)."""
+    """Collects ``(time, qpos)`` of a run, one sample per call (a repeated time is skipped).
+
+    It keeps the character's ``model`` for the export: the kinematic layer
+    (:func:`mjchar.bvh.reference.export.qpos_to_motion`) maps qpos back to the skeleton with the
+    model's joint map.
+    """
 
     def __init__(self) -> None:
         self.model = None
@@ -42,7 +47,7 @@ class MotionRecorder:
         if self.times and t <= self.times[-1] + 1e-12:
             return
         self.times.append(t)
-        self.qpos.append(np.array(character.data.qpos))
+        self.qpos.append(np.array(character.state.qpos))
 
     def __len__(self) -> int:
         return len(self.times)

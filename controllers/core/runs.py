@@ -39,7 +39,7 @@ from .character import Character
 from .limits import control_dt_problem, timestep_problem
 from .scenarios import registry as scenario_registry
 from .scenarios.registry import Run
-from .scenarios.simulate import standing_pose
+from .scenarios.shared import standing_pose
 
 
 class RunError(MjcharError):
@@ -186,7 +186,7 @@ def check_speed(spec, speed: float, character: Character | None = None) -> None:
     reg = spec.limit("speed")
     if reg is None:
         return
-    leg = character.leg_length() if character is not None and spec.speed_leg_length else None
+    leg = character.poses.leg_length() if character is not None and spec.speed_leg_length else None
     lim = spec.limit("speed", leg)
     if lim[0] <= speed <= lim[1]:
         return
@@ -278,10 +278,10 @@ def run(controller: str, scenario: str | None = None, *, model=None, motion=None
     sspec = scenario_registry.get(scenario or cspec.default_scenario)
     factory, scen = {}, {}
     for key, value in options.items():
-        if key in cspec.options:
-            factory[key] = value
-        elif sspec.option(key) is not None and key != "seed":
+        if sspec.option(key) is not None and key != "seed":
             scen[key] = value
+        elif key in cspec.options or "params" in cspec.options:  # (its factory checks params)
+            factory[key] = value
         else:
             valid = sorted(set(cspec.options) | {o.name for o in sspec.options} - {"seed"})
             raise RunError(f"{key!r} is neither an option of {cspec.name} nor of the "

@@ -1,7 +1,15 @@
 """Sampling control: batched rollouts on ``mujoco.rollout`` and their executors (local threads,
 Ray), saved PD-target trajectories and their open-loop replay, SAMCON and CMA-ES trajectory
 optimisation, and the closed-loop sampling MPC tracker. Registered as ``replay``,
-``samcon_replay``, ``cmaes_replay`` and ``mpc``."""
+``samcon_replay``, ``cmaes_replay`` and ``mpc``.
+
+The simulated character is read and driven through its parts like everywhere else (its state to
+start rollouts from: ``character.state.get_physics``). What is computed for a *model* rather than
+for the simulated character takes the Character's ``MjModel`` itself and calls MuJoCo on data of
+its own: the batched rollouts (:mod:`.rollout`: ``mujoco.rollout`` on a model copy with sensors,
+one ``MjData`` per thread), inverse dynamics on the reference and its features
+(:mod:`.tracking`), trajectories and their stored references, tied to a model by its fingerprint
+(:mod:`.trajectory`)."""
 
 # Registration order: replay, samcon_replay, cmaes_replay, mpc:
 # isort: off

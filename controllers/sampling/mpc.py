@@ -82,7 +82,7 @@ from ..core.param_fields import (
 )
 from ..core.registry import ControllerSpec, register
 from .executors import LocalExecutor
-from .rollout import RolloutRequest, get_state
+from .rollout import RolloutRequest
 from .tracking import (
     ROLE_WIDTHS,
     CostWeights,
@@ -366,11 +366,11 @@ class MpcController:
         grid, a fresh plan and random stream."""
         o, ch = self.options, character
         o.check(ch.timestep)
-        if not np.all(ch.position_actuators):
+        if not np.all(ch.actuation.position_actuators):
             raise ControllerError("mpc needs <position> actuators on every actuated dof")
-        ch.set_actuation("native")
-        kp, kd = ch.default_gains()
-        ch.set_native_gains(kp, kd)
+        ch.actuation.set_mode("native")
+        kp, kd = ch.actuation.default_gains()
+        ch.actuation.set_native_gains(kp, kd)
         source = _model_file(ch)
         plan_dt = plan_timestep(o, ch.timestep)
         key = (source, plan_dt)
@@ -462,7 +462,7 @@ class MpcController:
         Xs = np.concatenate([X[None], X[None] + self._boost() * sigma * eps])  # (N, K, nu)
         off = self.spline.offsets(Xs)  # (N, T, nu), radians
         base = self.grid.base(n0, n0 + self.T)
-        state = get_state(ch.model, ch.data)
+        state = ch.state.get_physics()
         req = RolloutRequest(self._rmodel, state, base[None] + off, self.k_plan)
         res = self._executor.evaluate(req)
         c = self._costs(res, off, applied, n0)
@@ -471,7 +471,7 @@ class MpcController:
         self._offsets = self.spline.offsets(X)
         self._plan = base + self._offsets
         self._n0, self._next = n0, n0 + self.R
-        ch.data.qacc_warmstart[:] = 0.0  # as every rollout started
+        ch.state.clear_warm_start()  # as every rollout started
         st = self.stats
         st["replans"] += 1
         st["rollouts"] += N

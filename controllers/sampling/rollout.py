@@ -32,6 +32,11 @@ the last control (its state is discarded): its sensors describe the final state,
 not run, MuJoCo stopped the sample on a warning during the last real step. That extra step costs
 ``1 / (T k)`` of the work (2 % for one 0.1 s slice at 2 ms).
 
+It works on MuJoCo directly, not through a Character: ``mujoco.rollout`` needs a plain
+``MjModel`` (here a copy of the model with the cost sensors added) and runs its own ``MjData``
+per thread; states move between the two as full-physics vectors (``character.state.get_physics``,
+:func:`get_state`, :func:`set_state`).
+
 Divergence: ``mujoco.rollout`` stops a sample on its first MuJoCo warning (NaN/Inf/huge values,
 full contact buffers, ...) and repeats the last state. Such a sample gets ``ok = False`` and
 ``failed_step`` = the physics step during which the warning was raised; its states and cost

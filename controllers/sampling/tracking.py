@@ -110,9 +110,7 @@ def tracking_rollout_model(source, character: Character) -> RolloutModel:
         spec = mujoco.MjSpec.from_file(str(source))
     except (ValueError, TypeError) as e:
         raise RolloutError(f"cannot parse the model {source}: {e}") from e
-    plain = [mujoco.mj_id2name(character.model, mujoco.mjtObj.mjOBJ_SITE, i)
-             for i in range(character.model.nsite)]
-    plain = [n for n in plain if n]
+    plain = [n for n in character.site_names if n]
     added = []
     for name in character.joint_names:
         body = spec.body(character.info.joints[name].body)
@@ -269,6 +267,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
 
     if unlabelled not in ("lowest", "both"):
         raise TrackingError(f"unlabelled must be 'lowest' or 'both', not {unlabelled!r}")
+    # inverse dynamics of the reference, not of the simulated character: on a copy of the
+    # model (constraints off) with data of its own, like the batched rollouts
     m = character.model
     times = np.asarray(times, dtype=float).reshape(-1)
     h = float(fd_dt if fd_dt is not None else getattr(reference, "frame_time", 0.01))
@@ -281,7 +281,7 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
     d = mujoco.MjData(mi)
     feet = [character.site_id("left_foot"), character.site_id("right_foot")]
     root = character.root_dofs
-    kp, kd = character.default_gains()
+    kp, kd = character.actuation.default_gains()
     act = character.actuator_dof
     jacp = np.zeros((3, m.nv))
     jacr = np.zeros((3, m.nv))
@@ -400,10 +400,7 @@ class TrackingCost:
                  fall_height: float | None = None, site_names=None):
         self.weights = weights or CostWeights()
         ch = character
-        if site_names is None:
-            site_names = [mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_SITE, i) or ""
-                          for i in range(ch.model.nsite)]
-        site_names = list(site_names)
+        site_names = list(ch.site_names if site_names is None else site_names)
         self._ee = np.array([i for i, n in enumerate(site_names)
                              if not n.startswith(JOINT_SITE_PREFIX)], dtype=int)
         self._joints = np.array([i for i, n in enumerate(site_names)
@@ -430,7 +427,7 @@ class TrackingCost:
         if fall_height is None:
             from ..core.metrics import FALL_HEIGHT_FRACTION
 
-            standing = ch.on_floor(ch.model.qpos0)[rq[2]]
+            standing = ch.poses.standing()[rq[2]]
             fall_height = FALL_HEIGHT_FRACTION * float(standing)
         self.fall_height = float(fall_height)
 

@@ -52,6 +52,7 @@ import numpy as np
 
 from mjchar.bvh.bundled.assets import find_trajectory
 from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io.files import write_bytes
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
@@ -290,7 +291,7 @@ class Trajectory:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         try:
-            path.write_bytes(buf.getvalue())
+            write_bytes(path, buf.getvalue())  # atomically: a failed write leaves what was there
         except OSError as e:
             raise TrajectoryError(f"{path}: cannot write the trajectory: {e}") from None
         return path
@@ -452,14 +453,14 @@ class ReplayController:
         """Check that the trajectory fits ``character`` (model, time step) and switch it to
         native PD with the model's own gains."""
         tr = self.trajectory
-        if not np.all(character.position_actuators):
+        if not np.all(character.actuation.position_actuators):
             raise ControllerError("replay needs <position> actuators on every actuated dof")
         if abs(character.timestep - tr.timestep) > 1e-12:
             raise TrajectoryError(f"the trajectory was optimised at a {tr.timestep} s time step, "
                                   f"the character runs at {character.timestep} s")
-        character.set_actuation("native")
-        kp, kd = character.default_gains()
-        character.set_native_gains(kp, kd)
+        character.actuation.set_mode("native")
+        kp, kd = character.actuation.default_gains()
+        character.actuation.set_native_gains(kp, kd)
         tr.validate(character.model)
         self._bound = True
 
@@ -469,7 +470,7 @@ class ReplayController:
         tr = self.trajectory
         i = int(round(t / tr.control_dt))
         if i in self._resets:
-            character.data.qacc_warmstart[:] = 0.0  # as every rollout batch started
+            character.state.clear_warm_start()  # as every rollout batch started
         return Action(target=tr.targets[min(max(i, 0), tr.n_controls - 1)])
 
 
@@ -479,7 +480,7 @@ class ReplayController:
         """Play the trajectory open-loop on ``character`` from its initial state and report the
         usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
         from ..core.scenarios.locomotion import clip_duration
-        from ..core.scenarios.simulate import simulate, with_push
+        from ..core.scenarios.shared import simulate, with_push
 
         tr = self.trajectory
         tr.validate(character.model)
@@ -493,8 +494,8 @@ class ReplayController:
         stats = {"min_root": math.inf, "clear": 0.0}
 
         def watch(ch: Character) -> None:
-            stats["min_root"] = min(stats["min_root"], ch.root_height)
-            stats["clear"] = max(stats["clear"], ch.lowest_point(ch.qpos))
+            stats["min_root"] = min(stats["min_root"], ch.state.root_height)
+            stats["clear"] = max(stats["clear"], ch.poses.lowest_point(ch.state.qpos))
             if frame_callback is not None:
                 frame_callback(ch)
 
@@ -508,11 +509,12 @@ class ReplayController:
         if push is not None:
             result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
         extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
-                 "final_root_height_m": character.root_height,
+                 "final_root_height_m": character.state.root_height,
                  "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
         if reference is not None:
             ref_root = reference.body_positions(character.time)[character.root_body]
-            extra["final_root_error_m"] = float(np.linalg.norm(character.root_position - ref_root))
+            extra["final_root_error_m"] = float(np.linalg.norm(character.state.root_position
+                                                               - ref_root))
         if tr.source_motion:
             extra["source_motion"] = tr.source_motion
         result.extra.update(extra)
@@ -539,7 +541,7 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
         reference: a ReferenceMotion to measure tracking against (default: the stored
             reference rows; none for a task trajectory).
         push: one push during the replay (a
-            :class:`~mjchar.controllers.core.scenarios.simulate.PushEvent`).
+            :class:`~mjchar.controllers.core.scenarios.shared.PushEvent`).
 
     Returns:
         a :class:`~mjchar.controllers.core.metrics.Result` (scenario ``"replay"``) whose ``extra``

@@ -245,10 +245,10 @@ class JumpObjective:
 
 def _com(character: Character, qpos: np.ndarray) -> np.ndarray:
     """``(3,)`` centre of mass (m) of the character at pose ``qpos`` (the state is restored)."""
-    saved = character.get_state()
+    saved = character.state.get()
     character.reset(qpos)
-    c = character.com()
-    character.set_state(saved)
+    c = character.state.com()
+    character.state.set(saved)
     return c
 
 
@@ -604,7 +604,7 @@ def plain_pd_trajectory(reference, *, model=None, duration: float | None = None,
     duration = (reference.duration - start) if duration is None else duration
     T = int(round(duration / dt))
     t = start + np.arange(T) * dt
-    kp, kd = ch.default_gains()
+    kp, kd = ch.actuation.default_gains()
     lead = np.divide(kd, kp, out=np.zeros_like(kd), where=kp > 0)[ch.actuator_dof]
     u = reference.qpos(t)[:, ch.actuator_qpos] + lead * reference.qvel(t)[:, ch.actuator_dof]
     tt = start + np.arange(T + 1) * dt

@@ -117,38 +117,6 @@ def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(axes, tau, rcond=None)[0]
 
 
-def foot_normal_forces(character: Character, feet: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """``(2,)`` total floor normal force (N) on the bodies ``feet[0]`` and ``feet[1]``
-    (left, right).
-
-    The contacts are those of the current state (after ``mj_step1``); their forces are solved for
-    the current state and the last controls (the actuation, acceleration and constraint stages
-    that the next ``mj_step2`` recomputes anyway). Stand-in until the Character offers contact
-    forces itself.
-    """
-    m, d = character.model, character.data
-    out = np.zeros(2)
-    n = d.ncon
-    if n == 0:
-        return out
-    mujoco.mj_fwdActuation(m, d)
-    mujoco.mj_fwdAcceleration(m, d)
-    mujoco.mj_fwdConstraint(m, d)
-    f = np.zeros(6)
-    floor = character.floor_geom
-    for i in range(n):
-        c = d.contact[i]
-        g1, g2 = int(c.geom[0]), int(c.geom[1])
-        if g1 != floor and g2 != floor or c.efc_address < 0:
-            continue
-        b = int(m.geom_bodyid[g2 if g1 == floor else g1])
-        for s in (0, 1):
-            if b in feet[s]:
-                mujoco.mj_contactForce(m, d, i, f)
-                out[s] += abs(f[0])
-    return out
-
-
 class _Hinge:
     """One hinge dof of a joint: dof index, qpos address, joint id and actuator index."""
 
@@ -231,49 +199,47 @@ class Simbicon:
     # -- set-up ---------------------------------------------------------------------------------
     def reset(self, character: Character) -> None:
         """Switch to torque actuation, map the model (hinges, signs, gains) and start state 0."""
-        character.set_actuation("torque")
+        character.actuation.set_mode("torque")
         self._map(character)
-        m = character.model
-        R = character.data.xmat[self._pelvis].reshape(3, 3)
+        R = character.state.body_rotations[self._pelvis]
         self.desired_heading = yaw_of(R) if self.heading is None else float(self.heading)
         self.state = 0
         self.state_start = character.time
         self.transitions = [(character.time, 0)]
         self.speed_offset = 0.0
         self.step_speed: float | None = None
-        self._step_start = (character.time, character.com())
+        self._step_start = (character.time, character.state.com())
         self._command_time = character.time
-        self._limits = character.torque_limits()[self._act_dof]
-        del m
+        self._limits = character.actuation.torque_limits()[self._act_dof]
         self._ready = True
 
     def _hinges(self, character: Character, joint: str) -> dict[str, _Hinge]:
         """The joint's hinges keyed by the world axis they are closest to at rest (``x y z``)."""
-        m = character.model
         out: dict[str, _Hinge] = {}
         for dof in character.joint_dofs(joint):
-            j = int(m.dof_jntid[dof])
-            if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
+            if not character.hinge_dofs[dof]:
                 raise ControllerError(
                     f"SIMBICON needs hinge joints (joint_model='hinge'); {joint} is not"
                 )
-            a = self._rest.xaxis[j]
+            j = int(character.dof_joint[dof])
+            a = self._rest.joint_axes[j]
             key = "xyz"[int(np.argmax(np.abs(a)))]
-            out[key] = _Hinge(int(dof), int(m.jnt_qposadr[j]), j, int(self._dof2act[dof]))
+            out[key] = _Hinge(int(dof), int(character.dof_qpos[dof]), j,
+                              int(self._dof2act[dof]))
         return out
 
     def _body_gait(self, ch: Character) -> Gait:
         """The gait for this body (see the class docstring); with a speed command, the gait at
         the command's start (the gait's own speed)."""
-        self.leg_length = ch.leg_length()
-        self._mass = ch.mass
+        self.leg_length = ch.poses.leg_length()
+        self._mass = ch.dynamics.mass
         g = self.base_gait
         missing = {f"gain_{k}": v for k, v in DEFAULT_GAINS.items() if k not in g.gains}
         if missing:
             g = g.with_overrides(**missing)
         self._full_gait = g
         if self.speed is None:
-            return g.scaled(self.leg_length, ch.mass)
+            return g.scaled(self.leg_length, ch.dynamics.mass)
         self._froude_unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
         self.command = g.froude * self._froude_unit
         return self._command_gait(self.command)
@@ -296,7 +262,6 @@ class Simbicon:
             self._targets = [self._state_targets(s) for s in range(4)]
 
     def _map(self, ch: Character) -> None:
-        m = ch.model
         if not np.all(ch.actuator_qpos >= 0):
             raise ControllerError("SIMBICON needs one hinge actuator per dof (joint_model='hinge')")
         self._act_dof = ch.actuator_dof.copy()
@@ -304,18 +269,16 @@ class Simbicon:
         self._dof2act = np.full(ch.nv, -1)
         self._dof2act[self._act_dof] = np.arange(ch.nu)
         # rest-pose kinematics: hinge axes and body positions with every joint at zero
-        rest = mujoco.MjData(m)
-        rest.qpos[:] = m.qpos0
-        mujoco.mj_kinematics(m, rest)
+        rest = ch.poses.kinematics(ch.poses.rest())
         self._rest = rest
         self.gait = self._body_gait(ch)
         pelvis = ch.role("pelvis")
         self._pelvis = ch.body_id(pelvis)
-        Rp = rest.xmat[self._pelvis].reshape(3, 3)
+        Rp = rest.body_rotations[self._pelvis]
         fwd, left, up = Rp[:, 0], Rp[:, 1], Rp[:, 2]
 
         def pos(j: str) -> np.ndarray:
-            return rest.xpos[ch.body_id(j)]
+            return rest.body_positions[ch.body_id(j)]
 
         def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray) -> float:
             """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``."""
@@ -325,7 +288,7 @@ class Simbicon:
             return 1.0 if s > 0 else -1.0
 
         g = self.gait
-        kp, kd = ch.default_gains()
+        kp, kd = ch.actuation.default_gains()
         kp, kd = kp[self._act_dof].copy(), kd[self._act_dof].copy()
         self._legs = []
         for side in _SIDES:
@@ -339,7 +302,8 @@ class Simbicon:
             out = left if side == "left" else -left
             thigh = pos(knee) - pos(hip)
             shank = pos(ankle) - pos(knee)
-            foot = (pos(toe) if toe else rest.site_xpos[ch.site_id(f"{side}_foot")]) - pos(ankle)
+            sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
+            foot = sole - pos(ankle)
             leg = {
                 "side": side,
                 "hip": H,
@@ -347,16 +311,15 @@ class Simbicon:
                 "ankle": A,
                 "hip_body": ch.body_id(hip),
                 "ankle_body": ch.body_id(ankle),
-                "foot_bodies": np.array([ch.body_id(ankle)] + ([ch.body_id(toe)] if toe else [])),
                 "hip_joints": np.array([h.jnt for h in H.values()]),
                 "hip_dofs": np.array([h.dof for h in H.values()]),
                 "hip_acts": np.array([h.act for h in H.values()]),
                 "ankle_joints": np.array([h.jnt for h in A.values()]),
                 "ankle_acts": np.array([h.act for h in A.values()]),
                 # hinge signs measured on the model (anatomical + = this many times hinge +)
-                "knee_flex": -sign(rest.xaxis[K["y"].jnt], shank, fwd),
-                "ankle_dorsi": sign(rest.xaxis[A["y"].jnt], foot, up),
-                "hip_flex": sign(rest.xaxis[H["y"].jnt], thigh + shank, fwd),
+                "knee_flex": -sign(rest.joint_axes[K["y"].jnt], shank, fwd),
+                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up),
+                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd),
                 # heading-frame rotations of the thigh: flexion about left, abduction about fwd
                 "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd),
                 "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out),
@@ -365,23 +328,22 @@ class Simbicon:
                 # + rotation about the heading frame's lateral axis lifts the toes?
                 "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
                 # the foot's forward and left axes in its own frame (from the rest pose)
-                "foot_axes": rest.xmat[ch.body_id(ankle)].reshape(3, 3).T
+                "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
                 @ np.stack([fwd, left], axis=1),
-                "twist_sign": sign(rest.xaxis[H["z"].jnt], fwd, left) if "z" in H else 1.0,
+                "twist_sign": sign(rest.joint_axes[H["z"].jnt], fwd, left) if "z" in H else 1.0,
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
                 leg_hinges += list(self._hinges(ch, toe).values())
             leg["leg_acts"] = np.array([h.act for h in leg_hinges])
             leg["leg_dofs"] = np.array([h.dof for h in leg_hinges])
-            leg["leg_mass"] = float(m.body_subtreemass[leg["hip_body"]])
+            leg["leg_mass"] = ch.dynamics.subtree_mass(leg["hip_body"])
             # the stance leg's chain for virtual forces (foot fixed): ankle hinges and knee
             support = [*A.values(), K["y"]]
             leg["support_joints"] = np.array([h.jnt for h in support])
             leg["support_acts"] = np.array([h.act for h in support])
             self._legs.append(leg)
-        self._jac = np.zeros((3, m.nv))
-        self._feet = (self._legs[0]["foot_bodies"], self._legs[1]["foot_bodies"])
+        self._jac = np.zeros((3, ch.nv))
 
         # the rest of the body: spine, head, arms, toes
         self._arm_swing: dict[str, tuple[int, float]] = {}
@@ -400,7 +362,7 @@ class Simbicon:
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                self._spine_pitch.append((hs["y"].act, sign(rest.xaxis[hs["y"].jnt], up, fwd)))
+                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd)))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():
@@ -425,9 +387,9 @@ class Simbicon:
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
                     base[hs["x"].act] = (g.shoulder_down - drop) * sign(
-                        rest.xaxis[hs["x"].jnt], arm, -up)
+                        rest.joint_axes[hs["x"].jnt], arm, -up)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = sign(rest.xaxis[hs["y"].jnt], -up, fwd)
+                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
                     # that points forward or back is brought back to it first
@@ -440,9 +402,9 @@ class Simbicon:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    s_e = sign(rest.xaxis[h.jnt], fore, fwd)
+                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
-                    ax = rest.xaxis[h.jnt]
+                    ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
                     base[h.act] = (g.elbow_flexion - _rest_angle(math.sin(bent))) * s_e
         for grp, (gkp, gkd) in g.gains.items():
@@ -464,20 +426,16 @@ class Simbicon:
             axis: g.gains[grp] for axis, grp in _STANCE_ANKLE_GROUPS.items() if grp in g.gains
         }
         self._swing_level_gains = g.gains.get("swing_ankle_level")
-        # joints (other than the hips) that attach to the pelvis: their torques react on it
-        others = []
+        # hinges (other than the hips') of bodies attached to the pelvis: their torques react on
+        # it; per body, (MuJoCo joints, actuators)
         hip_bodies = {leg["hip_body"] for leg in self._legs}
-        for b in range(m.nbody):
-            if m.body_parentid[b] == self._pelvis and b not in hip_bodies:
-                js = [
-                    j
-                    for j in range(m.body_jntadr[b], m.body_jntadr[b] + m.body_jntnum[b])
-                    if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE
-                ]
-                if js:
-                    acts = np.array([self._dof2act[m.jnt_dofadr[j]] for j in js])
-                    others.append((np.array(js), acts))
-        self._pelvis_children = others
+        by_body: dict[int, list[int]] = {}
+        for dof in np.flatnonzero(ch.hinge_dofs):
+            b = int(ch.dof_body[dof])
+            if ch.body_parent[b] == self._pelvis and b not in hip_bodies:
+                by_body.setdefault(b, []).append(int(dof))
+        self._pelvis_children = [(ch.dof_joint[dofs], self._dof2act[dofs])
+                                 for dofs in map(np.array, by_body.values())]
         self._targets = [self._state_targets(s) for s in range(4)]
 
     def _stance_leg(self, state: int) -> int:
@@ -523,9 +481,8 @@ class Simbicon:
             done = phase >= 1.0
         if not done and p.ends_on_contact and phase > self.gait.contact_phase:
             sw = 1 - self._stance_leg(self.state)
-            if character.foot_contacts()[sw]:
-                force = foot_normal_forces(character, self._feet)[sw]
-                done = force > self.gait.contact_force
+            if character.contacts.feet()[sw]:
+                done = character.contacts.foot_forces()[sw] > self.gait.contact_force
         if done:
             self.state = (self.state + 1) % 4
             self.state_start = t
@@ -538,7 +495,7 @@ class Simbicon:
     def _step_update(self, character: Character, t: float) -> None:
         """At lift-off: the last step's mean forward speed and the speed regulation."""
         g = self.gait
-        c = character.com()
+        c = character.state.com()
         if self._step_start is not None:
             t0, c0 = self._step_start
             if t > t0:
@@ -560,12 +517,12 @@ class Simbicon:
         if not self._ready:
             raise ControllerError("simbicon: act() called before reset()")
         self._advance(character, t)
-        d = character.data
+        s = character.state
         g = self.gait
         p = g.states[self.state % 2]
         lim = self._limits
-        q = d.qpos[self._act_qpos]
-        qd = d.qvel[self._act_dof]
+        q = s.qpos[self._act_qpos]
+        qd = s.qvel[self._act_dof]
         # every joint: local PD towards the state's pose
         tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
 
@@ -580,13 +537,13 @@ class Simbicon:
             # swing state: the swing foot's roll levels its sole in the world (its left axis
             # horizontal), so the heel lands on its whole width rather than on one corner
             kpl, kdl = self._swing_level_gains
-            f, lat = (d.xmat[sw["ankle_body"]].reshape(3, 3) @ sw["foot_axes"]).T
+            f, lat = (s.body_rotations[sw["ankle_body"]] @ sw["foot_axes"]).T
             f = f / np.linalg.norm(f)
-            w = d.cvel[sw["ankle_body"], :3] @ f
+            w = s.body_angular_velocities[sw["ankle_body"]] @ f
             tau_l = (-kpl * lat[2] / np.linalg.norm(lat) - kdl * w) * f
             h = sw["ankle"]["x"]
-            tau[h.act] = d.xaxis[h.jnt] @ tau_l
-        Rp = d.xmat[self._pelvis].reshape(3, 3)
+            tau[h.act] = s.joint_axes[h.jnt] @ tau_l
+        Rp = s.body_rotations[self._pelvis]
         heading = yaw_of(Rp)
         H = _rot_z(heading)
 
@@ -598,12 +555,12 @@ class Simbicon:
 
         # swing hip, world (heading) frame: the thigh's direction u -> u_d
         u_d = H @ (_rot_x(sw["abd_sign"] * cor) @ (_rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
-        u = d.xmat[sw["hip_body"]].reshape(3, 3) @ sw["thigh_dir"]
-        w = d.cvel[sw["hip_body"], :3]
+        u = s.body_rotations[sw["hip_body"]] @ sw["thigh_dir"]
+        w = s.body_angular_velocities[sw["hip_body"]]
         kps, kds = self._swing_gains
         tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
         acts = sw["hip_acts"]
-        tau[acts] = d.xaxis[sw["hip_joints"]] @ tau_w
+        tau[acts] = s.joint_axes[sw["hip_joints"]] @ tau_w
         if "z" in sw["hip"]:
             # its twist stays local, towards the twist that points the foot at the desired
             # heading (thigh yaw = pelvis yaw + s q_twist)
@@ -613,22 +570,22 @@ class Simbicon:
             tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
         if g.swing_gravity:
             # the swing leg's weight by Jacobian transpose (Coros et al. 2010)
-            m = character.model
-            mujoco.mj_jacSubtreeCom(m, d, self._jac, sw["hip_body"])
+            character.dynamics.com_jacobian(sw["hip_body"], out=self._jac)
             tau[sw["leg_acts"]] += (g.swing_gravity * GRAVITY * sw["leg_mass"]
                                     * self._jac[2, sw["leg_dofs"]])
         tau[acts] = np.minimum(np.maximum(tau[acts], -lim[acts]), lim[acts])
-        tau_sw = _world_torque(d.xaxis[sw["hip_joints"]], tau[acts])
+        tau_sw = _world_torque(s.joint_axes[sw["hip_joints"]], tau[acts])
 
         # torso (pelvis), world frame: desired heading and forward lean
         Rpd = _rot_z(self.desired_heading) @ _rot_y(g.torso_pitch)
-        tau_torso = self._torso_kp * _log(Rpd @ Rp.T) - self._torso_kd * d.cvel[self._pelvis, :3]
+        tau_torso = (self._torso_kp * _log(Rpd @ Rp.T)
+                     - self._torso_kd * s.body_angular_velocities[self._pelvis])
 
         # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
         react = np.zeros(3)
         for js, a in self._pelvis_children:
             tau[a] = np.minimum(np.maximum(tau[a], -lim[a]), lim[a])
-            react += _world_torque(d.xaxis[js], tau[a])
+            react += _world_torque(s.joint_axes[js], tau[a])
         tau_st = -tau_torso - tau_sw - react
         acts = st["hip_acts"]
         if "z" in st["hip"]:
@@ -637,33 +594,33 @@ class Simbicon:
             # towards the twist that points the pelvis at the desired heading.
             tau_st[2] = 0.0
             hz = st["hip"]["z"]
-            tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
-            thigh_yaw = yaw_of(d.xmat[st["hip_body"]].reshape(3, 3))
+            tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
+            thigh_yaw = yaw_of(s.body_rotations[st["hip_body"]])
             err = math.remainder(thigh_yaw - self.desired_heading, 2 * math.pi)
             want = st["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
             tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
         else:
-            tau[acts] = d.xaxis[st["hip_joints"]] @ tau_st
+            tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
 
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
             tau[st["support_acts"]] += self._virtual_force(character, st, H)
         if g.swing_ankle_world:
             # swing foot pitched by swing_ankle (toes up) in the desired-heading frame
             Rfd = _rot_z(self.desired_heading) @ _rot_y(sw["foot_pitch_sign"] * p.swing_ankle)
-            Rf = d.xmat[sw["ankle_body"]].reshape(3, 3)
+            Rf = s.body_rotations[sw["ankle_body"]]
             kpa, kda = self._ankle_world_gains
-            tau_f = kpa * _log(Rfd @ Rf.T) - kda * d.cvel[sw["ankle_body"], :3]
-            tau[sw["ankle_acts"]] = d.xaxis[sw["ankle_joints"]] @ tau_f
+            tau_f = kpa * _log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
+            tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
         return np.minimum(np.maximum(tau, -lim), lim)
 
     def _virtual_force(self, character: Character, st: dict, H: np.ndarray) -> np.ndarray:
         """Torques of the stance ankle and knee that put a virtual force on the centre of mass
         with the stance foot fixed (``tau_j = -a_j . ((c - x_j) x F)``): a share of the weight
         (``stance_support``) and Coros 2010's velocity tuning (``velocity_force``)."""
-        g, d = self.gait, character.data
+        g, s = self.gait, character.state
         weight = self._mass * GRAVITY
         unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
-        v = character.com_velocity()
+        v = s.com_velocity()
         lat = -st["out"][1] * H[:, 1]
         F = np.array([0.0, 0.0, g.stance_support * weight])
         if g.velocity_force and g.speed_target is not None:
@@ -671,16 +628,16 @@ class Simbicon:
         if g.velocity_force_coronal:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
         js = st["support_joints"]
-        r = character.com() - d.xanchor[js]
-        return -np.einsum("ij,ij->i", d.xaxis[js], np.cross(r, F))
+        r = s.com() - s.joint_anchors[js]
+        return -np.einsum("ij,ij->i", s.joint_axes[js], np.cross(r, F))
 
     def _feedback_terms(
         self, character: Character, st: dict, H: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        d = character.data
+        s = character.state
         fwd, lat = H[:, 0], -st["out"][1] * H[:, 1]  # lateral: towards the swing leg's side
-        off = character.com() - d.xpos[st["ankle_body"]]
-        v = character.com_velocity()
+        off = s.com() - s.body_positions[st["ankle_body"]]
+        v = s.com_velocity()
         return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
     def act(self, character: Character, t: float) -> Action:
@@ -707,8 +664,7 @@ class Simbicon:
         if not self._ready:
             self._map(character)
             self._ready = True
-        m = character.model
-        q = m.qpos0.copy()
+        q = character.poses.rest()
         targets = self._state_targets(3)  # both legs nearly straight, stance-knee flexion
         q[self._act_qpos] = targets
         for leg in self._legs:
@@ -726,11 +682,11 @@ class Simbicon:
         qv = np.zeros(character.nv)
         if rng is not None:
             q[self._act_qpos] += rng.normal(0.0, joint_noise, size=len(self._act_qpos))
-            lo, hi = m.jnt_range[m.dof_jntid[self._act_dof]].T
+            lo, hi = character.poses.dof_limits(self._act_dof).T
             q[self._act_qpos] = np.clip(q[self._act_qpos], lo, hi)
             qv[character.root_dofs[:2]] = rng.normal(0.0, velocity_noise, size=2)
         qv[character.root_dofs[0]] += self.gait.start_speed
-        q = character.on_floor(q, clearance=0.0)
+        q = character.poses.on_floor(q, clearance=0.0)
         return q, qv
 
 

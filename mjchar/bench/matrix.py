@@ -154,9 +154,9 @@ class _Probe:
             return
         self._next = ch.time + self.dt
         self.t.append(float(ch.time))
-        self.com.append([float(x) for x in ch.com()])
+        self.com.append([float(x) for x in ch.state.com()])
         if self.reference is not None:
-            self.joints.append(ch.joint_positions())
+            self.joints.append(ch.state.joint_positions())
 
     def series(self) -> dict:
         err = None
@@ -183,11 +183,11 @@ class _LazyVideo:
             self.recorder = VideoRecorder(ch, self.path, fps=self.fps)
         self.recorder.capture(ch)
 
-    def close(self) -> int:
+    def close(self, keep: bool = True) -> int:
         if self.recorder is None:
             return 0
-        self.recorder.close()
-        return self.recorder.frames
+        self.recorder.close(keep)
+        return self.recorder.frames if keep else 0
 
 
 class BenchContext:
@@ -269,9 +269,12 @@ def _run_one(ctx: BenchContext, cell_video: list, variant: str, seed, reference,
     frames = None
     try:
         r = fn(callback)
-    finally:
+    except BaseException:
         if video is not None:
-            frames = video.close()
+            video.close(keep=False)  # a failed run leaves no half video
+        raise
+    if video is not None:
+        frames = video.close()
     run = _result_run(variant, seed, r, probe, frames)
     if video is not None and frames:
         run["video"] = video.path.name

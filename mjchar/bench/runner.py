@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjchar.bvh.io.files import write_text
 from mjchar.perf.timing import load_average
 
 from .config import (
@@ -188,10 +189,9 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
 
         gait = gait_markdown(doc["gait"])
         rigs = skeletons_markdown(doc["skeletons"])
-        (out / "table.md").write_text(markdown_table(doc["table"]) + "\n\n"
-                                      + "\n".join(f"- {n}" for n in notes) + "\n"
-                                      + (f"\n{gait}\n" if gait else "")
-                                      + (f"\n{rigs}\n" if rigs else ""))
+        write_text(out / "table.md", markdown_table(doc["table"]) + "\n\n"
+                   + "\n".join(f"- {n}" for n in notes) + "\n"
+                   + (f"\n{gait}\n" if gait else "") + (f"\n{rigs}\n" if rigs else ""))
         timings["outputs_s"] = time.perf_counter() - t0
     timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
                         for c in doc["cells"]}
@@ -204,10 +204,8 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
 
 
 def write_json(doc: dict, path: str | os.PathLike) -> Path:
-    """Write the document as JSON (non-finite numbers as ``null``)."""
-    p = Path(path)
-    p.write_text(json.dumps(json_ready(doc), indent=1, allow_nan=False) + "\n")
-    return p
+    """Write the document as JSON (non-finite numbers as ``null``), atomically."""
+    return write_text(path, json.dumps(json_ready(doc), indent=1, allow_nan=False) + "\n")
 
 
 def physics_view(doc: dict) -> dict:

@@ -50,13 +50,16 @@ def run(args: argparse.Namespace) -> int:
     import json
     import os
 
+    from mjchar.bvh.io.files import check_output
     from mjchar.bvh.mjcf import convert
 
+    output = args.output or os.path.splitext(args.input)[0] + ".xml"
+    check_output(output, inputs=[args.input, args.gains, args.roles],
+                 flag="-o" if args.output else "the output (INPUT with .xml)")
     converted = convert(
         args.input, total_mass=args.mass, joint_model=args.joint_model, unit=args.unit,
         up_axis=args.up, drop=_split(args.drop), fuse=_split(args.fuse), gains=args.gains,
         roles=args.roles)
-    output = args.output or os.path.splitext(args.input)[0] + ".xml"
     model = converted.compile()
     converted.save(output)
     s = converted.summary

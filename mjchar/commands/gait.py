@@ -89,6 +89,12 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.controllers import registry
 
     result = None
+    from mjchar.bvh.io.files import check_output
+
+    inputs = [args.source, args.model, *args.reference]
+    for flag, value in (("--plot", args.plot), ("--filmstrip", args.filmstrip)):
+        if value:
+            check_output(value, inputs=inputs, flag=flag, suffixes=(".png",))
     if args.source.lower().endswith(".bvh"):
         for flag, value in (("--model", args.model), ("--duration", args.duration),
                             ("--speed", args.speed), ("--gait", args.gait),
@@ -103,9 +109,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         raise MjcharError(f"SOURCE must be a walker ({', '.join(registry.names('walker'))}) or "
                           f"a .bvh clip, got {args.source!r}")
-    for flag, value in (("--plot", args.plot), ("--filmstrip", args.filmstrip)):
-        if value and not value.lower().endswith(".png"):
-            raise MjcharError(f"{flag} writes PNG: give a .png path, got {value!r}")
     walks = [walk]
     for path in args.reference:
         if not os.path.isfile(path):

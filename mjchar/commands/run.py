@@ -12,7 +12,7 @@ import math
 import textwrap
 
 from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
-from .run_options import check_applicable, check_body, check_export_path, check_ranges
+from .run_options import check_applicable, check_body, check_outputs, check_ranges
 
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
                    "right": 270.0}
@@ -168,9 +168,7 @@ def describe(args: argparse.Namespace):
                           f"({', '.join(registry.names('replay'))}) take a file")
     check_applicable(args, cspec, sspec)
     check_ranges(args, cspec, sspec)
-    check_export_path(args.export_bvh)
-    if args.render and not args.render.lower().endswith(".mp4"):
-        raise MjcharError(f"--render writes MP4: give a .mp4 path, got {args.render!r}")
+    check_outputs(args)
     scenario_options = {o.name: getattr(args, o.name) for o in sspec.options
                         if o.name != "seed" and getattr(args, o.name, None) is not None}
     return RunSpec(cspec.name, sspec.name, model=args.model, motion=args.motion,
@@ -196,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
     # a bar on a terminal (the clip's preparation, then simulated time), a protocol's lines
     built = spec.build(progress=None if args.json else Progress())
     ch = built.character
-    check_body(args, ch.mass, ch.info.extra.get("height"))
+    check_body(args, ch.dynamics.mass, ch.info.extra.get("height"))
     video = None
     if args.render:
         from ..render import VideoRecorder
@@ -206,9 +204,12 @@ def run(args: argparse.Namespace) -> int:
     built.frame_callback = chain_callbacks(video.capture if video else None, recorder)
     try:
         result = execute(built)
-    finally:
+    except BaseException:
         if video is not None:
-            video.close()
+            video.close(keep=False)  # an existing video at the path stays as it was
+        raise
+    if video is not None:
+        video.close()
     exported = _export(args, recorder)
     if args.json:
         out = result.to_dict()

@@ -216,12 +216,19 @@ def check_body(args: argparse.Namespace, mass: float, height: float | None) -> N
                                           f"height ({MAX_SQUAT_FRACTION * height:.2f} m)")
 
 
-def check_export_path(path: str | None) -> None:
-    """``--export-bvh``: a ``.bvh`` path in a folder that exists (checked before the run)."""
-    if path is None:
-        return
-    p = Path(path)
-    if p.suffix.lower() != ".bvh":
-        raise MjcharError(f"--export-bvh writes BVH: give a .bvh path, got {path!r}")
-    if not p.resolve().parent.is_dir():
-        raise MjcharError(f"--export-bvh {path}: folder {p.resolve().parent} does not exist")
+def check_outputs(args: argparse.Namespace) -> None:
+    """``--render`` and ``--export-bvh``: writable paths of the right kind that are none of the
+    run's inputs (the clip, the model, the trajectory), checked before the run."""
+    from mjchar.bvh.io.files import check_output
+    from mjchar.controllers.core.runs import motion_source
+
+    inputs = [args.model, getattr(args, "trajectory", None)]
+    if args.motion is not None:
+        inputs.append(motion_source(args.motion))
+    if args.render is not None:
+        check_output(args.render, inputs=inputs, flag="--render", suffixes=(".mp4",))
+    if args.export_bvh is not None:
+        check_output(args.export_bvh, inputs=inputs, flag="--export-bvh", suffixes=(".bvh",))
+        if args.render is not None and Path(args.render).resolve() == Path(
+                args.export_bvh).resolve():
+            raise MjcharError("--render and --export-bvh name the same file")

@@ -57,17 +57,13 @@ def load_reference(path: str, model, floor: str = "contact"):
     return ch, ref
 
 
-def check_output(path: str) -> None:
-    """Fail early (before a long optimisation) when ``path`` cannot be written."""
-    import os
+def check_output(args: argparse.Namespace) -> None:
+    """Fail early (before a long optimisation) when ``-o`` cannot be written or would write
+    over one of the inputs (the clip, the model)."""
+    from mjchar.bvh.io.files import check_output as check
 
-    from mjchar.bvh.errors import MjcharError
-
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise MjcharError(f"{path}: the output folder {folder} does not exist")
-    if os.path.isdir(path):
-        raise MjcharError(f"{path} is a folder; give a file name for the trajectory")
+    check(args.output, inputs=[getattr(args, "motion", None), getattr(args, "model", None)],
+          flag="-o")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -124,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.controllers.sampling.tracking import CostWeights
     from mjchar.controllers.sampling.trajectory import replay
 
-    check_output(args.output)
+    check_output(args)
     _, ref = load_reference(args.motion, args.model, args.floor)
     o = SamconOptions(**dict(RECONSTRUCTION_OPTIONS, samples=args.samples,
                              saved=min(args.saved, args.samples), seed=args.seed,

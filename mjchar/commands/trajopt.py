@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         raise MjcharError("--task jump takes no motion file")
     if task == "track" and not args.motion:
         raise MjcharError("--task track needs a MOTION.bvh")
-    check_output(args.output)
+    check_output(args)
     ref = None
     if task == "track":
         _, ref = load_reference(args.motion, args.model, args.floor)

@@ -56,8 +56,8 @@ def run(ch: Character, ctrl, duration: float):
 
     def record(c: Character) -> None:
         times.append(c.time)
-        com.append(c.com()[:2].copy())
-        R = c.data.xmat[c.root_body].reshape(3, 3)
+        com.append(c.state.com()[:2].copy())
+        R = c.state.root_rotation
         yaw.append(math.atan2(R[1, 0], R[0, 0]))
 
     r = simulate(ch, ctrl, duration=duration, scenario="walk", qpos=standing_pose(ch),

@@ -77,7 +77,7 @@ class ErrorTrace:
     def __call__(self, ch: Character) -> None:
         if not self.t or ch.time >= self.t[-1] + self.dt - 1e-9:
             self.t.append(ch.time)
-            self.pos.append(ch.joint_positions())
+            self.pos.append(ch.state.joint_positions())
 
     def errors(self) -> tuple[np.ndarray, np.ndarray]:
         t = np.array(self.t)
@@ -206,7 +206,8 @@ def determinism(options: dict) -> dict:
         ch = Character()
         c = make_mpc(ch, ref, progress=False, **{**options, **o})
         q = []
-        S.track(ch, c, ref, duration=1.0, frame_callback=lambda ch, q=q: q.append(ch.qpos.copy()))
+        S.track(ch, c, ref, duration=1.0,
+                frame_callback=lambda ch, q=q: q.append(ch.state.qpos.copy()))
         c.close()
         rows[key] = np.array(q)
     out = {"same_seed": bool(np.array_equal(rows["a"], rows["b"])),

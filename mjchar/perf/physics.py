@@ -164,7 +164,7 @@ def step_cost(character: Character, make_controller: Callable[[], object], *,
             t_raw += timed(raw_block)[1]
             t_ctl += timed(controlled_block)[1]
             done += block
-            if not np.all(np.isfinite(character.qpos)) or fall.check(character) is not None:
+            if not np.all(np.isfinite(character.state.qpos)) or fall.check(character) is not None:
                 resets += 1
                 character.reset(qpos, qvel)
                 c.reset(character)

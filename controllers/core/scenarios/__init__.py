@@ -3,7 +3,7 @@
 Every scenario is one module plus one registration (:mod:`.registry`); the CLI, the bench, the
 run builder (:mod:`~mjchar.controllers.core.runs`) and :func:`run_scenario` read the registry.
 
-- :mod:`.simulate`: the loop every scenario runs (:func:`simulate`), start states, pushes.
+- :mod:`.shared`: the loop every scenario runs (:func:`simulate`), start states, pushes.
 - :mod:`.standing`: ``stand``, ``push``, ``random-push``.
 - :mod:`.locomotion`: ``track``, ``walk``, ``slopes``.
 - :mod:`.push_search`: ``push-search``, the push-recovery protocol.
@@ -20,7 +20,7 @@ from . import standing, push_search, locomotion  # noqa: F401  (fills the scenar
 from .hold import HOLD_ERROR, HOLD_VELOCITY, HoldResult, hold_pose
 from .locomotion import WALK_DURATION, slope_walk, track, walk
 from .registry import Run, ScenarioError, ScenarioSpec, names, register, run_scenario
-from .simulate import (
+from .shared import (
     DIRECTIONS,
     PushEvent,
     heading_frame_direction,

@@ -16,7 +16,7 @@ from ..character import Character
 from ..errors import SimulationDiverged
 from ..registry import make_controller
 from .registry import ScenarioError
-from .simulate import standing_pose
+from .shared import standing_pose
 
 
 @dataclass
@@ -64,12 +64,12 @@ def hold_pose(character: Character, controller: str, *, kp: float, timestep: flo
     pose[character.root_qpos[2]] += 0.1
     v = np.zeros(character.nv)
     v[character.actuated] = rng.uniform(-perturbation, perturbation, int(character.actuated.sum()))
-    start = character.integrate(pose, v, 1.0)
+    start = character.dynamics.integrate(pose, v, 1.0)
     character.reset(start)
-    character.weld_root(True)  # the root of `start` is the root of `pose`
+    character.actuation.weld_root(True)  # the root of `start` is the root of `pose`
     ctrl = make_controller(controller, character, pose, gains=Gains.uniform(character, kp, kd))
     ctrl.reset(character)
-    character.set_torque_limits(torque_limits)
+    character.actuation.set_torque_limits(torque_limits)
     n = int(round(duration / timestep))
     tail = max(1, int(round(1.0 / timestep)))
     act = character.actuated
@@ -78,15 +78,15 @@ def hold_pose(character: Character, controller: str, *, kp: float, timestep: flo
         for k in range(n):
             character.step(ctrl.act(character, character.time))
             if k >= n - tail:
-                e = character.difference(character.qpos, pose)[act]
+                e = character.dynamics.difference(character.state.qpos, pose)[act]
                 err2 += float(e @ e) / len(e)
-                q = character.qvel[act]
+                q = character.state.qvel[act]
                 vel2 += float(q @ q) / len(q)
     except SimulationDiverged:
         return HoldResult(False, True, math.inf, math.inf, character.time)
     finally:
-        character.set_torque_limits(True)
-        character.weld_root(False)
+        character.actuation.set_torque_limits(True)
+        character.actuation.weld_root(False)
     rms_e, rms_v = math.sqrt(err2 / tail), math.sqrt(vel2 / tail)
     return HoldResult(rms_e < HOLD_ERROR and rms_v < HOLD_VELOCITY, False, rms_e, rms_v,
                       character.time)

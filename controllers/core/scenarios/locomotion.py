@@ -26,7 +26,7 @@ from ..limits import MAX_DURATION_S
 from ..metrics import Result
 from .options import DISTANCE, DURATION, PUSH_WHILE_MOVING, SEED, SLOPE, STEADY_WINDOW
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
-from .simulate import PushEvent, check_push, pushed, simulate, standing_pose, with_push
+from .shared import PushEvent, check_push, pushed, simulate, standing_pose, with_push
 from .terrain import GaitDriver, TerrainError, finish_walk, place_on_floor, tilt_floor, walk_start
 
 #: run length in s of a walk with no clip when no duration is given
@@ -61,7 +61,7 @@ def track(character: Character, controller, reference, *, duration: float | None
           scenario: str = "track", push: PushEvent | None = None,
           start: tuple[np.ndarray, np.ndarray] | None = None, **kw) -> Result:
     """Start on the reference's first frame (pose and velocity; or ``start``, e.g. a
-    :func:`~mjchar.controllers.core.scenarios.simulate.perturbed_start`) and run for
+    :func:`~mjchar.controllers.core.scenarios.shared.perturbed_start`) and run for
     ``duration`` s (default: the clip's duration); reports tracking and root errors against the
     reference. ``push``: one push while tracking (:class:`PushEvent`)."""
     if reference is None:
@@ -92,7 +92,7 @@ def walk(character: Character, controller, reference=None, *, duration: float | 
     ``extra["slope_distance_m"]`` (along the slope) and, with ``target_distance`` (m),
     ``extra["time_to_distance_s"]``: when the root had first covered that much along the slope
     (``None`` if never). ``push``: one push while walking (:class:`PushEvent`). Other keyword
-    arguments go to :func:`~mjchar.controllers.core.scenarios.simulate.simulate`.
+    arguments go to :func:`~mjchar.controllers.core.scenarios.shared.simulate`.
     """
     if reference is not None:
         return track(character, controller, reference, duration=duration, scenario="walk",

@@ -55,7 +55,7 @@ from ..character import Character
 from ..metrics import Result
 from .options import MAX_FORCE, PHASES, PUSH_DURATION, SEEDS, TOLERANCE
 from .registry import ScenarioError, ScenarioSpec, register
-from .simulate import DIRECTIONS, perturbed_start, standing_pose, survived
+from .shared import DIRECTIONS, perturbed_start, standing_pose, survived
 from .standing import push
 from .terrain import push_walk, stride_phases
 

@@ -9,7 +9,7 @@ registry, so a new scenario touches no list anywhere else::
 
     from mjchar.controllers.core.scenarios.registry import ScenarioSpec, register
     from mjchar.controllers.core.scenarios.options import DURATION
-    from mjchar.controllers.core.scenarios.simulate import simulate, standing_pose
+    from mjchar.controllers.core.scenarios.shared import simulate, standing_pose
 
     def sway(run, *, duration=5.0):
         return simulate(run.character, run.controller, duration=duration, scenario="sway",
@@ -252,7 +252,7 @@ class Run:
     progress: Callable[[str], None] | None = None
 
     def simulate_options(self) -> dict:
-        """The keywords of :func:`~mjchar.controllers.core.scenarios.simulate.simulate` this
+        """The keywords of :func:`~mjchar.controllers.core.scenarios.shared.simulate` this
         run sets (frame callback, control step, progress bar)."""
         bar = self.progress if hasattr(self.progress, "start") else None
         return {"frame_callback": self.frame_callback, "control_dt": self.control_dt,

@@ -17,7 +17,7 @@ from ..character import Character
 from ..metrics import Result
 from .options import ALLOW_STEPS, DIRECTION, DURATION, FORCE, PUSH_DURATION, PUSH_TIME, SEED
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
-from .simulate import heading_frame_direction, simulate, standing_pose, survived
+from .shared import heading_frame_direction, simulate, standing_pose, survived
 
 #: run lengths in s when no duration is given
 STAND_DURATION, PUSH_RUN_DURATION, RANDOM_PUSH_DURATION = 10.0, 4.0, 30.0
@@ -50,7 +50,7 @@ def push(character: Character, controller, *, force: float, direction: float = 0
 
     def events(ch: Character) -> None:
         f = force * heading_frame_direction(ch, direction)
-        ch.push(body, f, push_duration, start=push_time)
+        ch.pushes.add(body, f, push_duration, start=push_time)
 
     qpos, qvel = (standing_pose(character), None) if start is None else start
     r = simulate(character, controller, duration=duration, scenario="push", qpos=qpos,
@@ -73,7 +73,7 @@ def random_push(character: Character, controller, *, seed: int = 0, force: float
 
     def events(ch: Character) -> None:
         for k, a in enumerate(angles):
-            ch.push(body, force * np.array([math.cos(a), math.sin(a), 0.0]), period,
+            ch.pushes.add(body, force * np.array([math.cos(a), math.sin(a), 0.0]), period,
                     start=k * period)
 
     r = simulate(character, controller, duration=duration, scenario="random-push",

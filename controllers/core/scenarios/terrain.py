@@ -1,7 +1,8 @@
 """Terrain and gait scenarios for walking controllers (SIMBICON and any controller with an FSM).
 
 - **Slopes**: :func:`tilt_floor` turns the ``floor`` plane of a Character's model at run time
-  (``geom_quat``/``geom_pos``; no XML edit), :func:`floor_height` gives its height anywhere.
+  (``character.contacts.set_floor``; no XML edit), ``character.contacts.floor_height`` gives its
+  height anywhere, :func:`place_on_floor` puts a pose on it.
 - **Walk starts**: :func:`walk_start` is a walker's own start state (with a small seeded
   perturbation) on a level or tilted floor; :class:`GaitDriver` records the walk (steady speed,
   terrain-relative falls). The ``walk`` and ``slopes`` scenarios
@@ -14,7 +15,7 @@
   stride. Rates over phases, seeds and forces:
   :mod:`~mjchar.controllers.core.scenarios.push_search`.
 
-Every run goes through :func:`~mjchar.controllers.core.scenarios.simulate.simulate` (falls,
+Every run goes through :func:`~mjchar.controllers.core.scenarios.shared.simulate` (falls,
 divergence, root force bookkeeping). On a slope the shared fall test (root height in world z, bodies
 touching the floor) is complemented by a terrain-relative one (root height above the floor under
 it), done by :class:`GaitDriver`, the thin wrapper that schedules phase pushes and records the walk.
@@ -35,7 +36,7 @@ from mjchar.bvh.errors import MjcharError
 
 from ..character import Character
 from ..metrics import FALL_HEIGHT_FRACTION, Result
-from .simulate import heading_frame_direction, perturbed_start, simulate, standing_pose
+from .shared import heading_frame_direction, perturbed_start, simulate, standing_pose
 
 
 class TerrainError(MjcharError):
@@ -58,65 +59,24 @@ def tilt_floor(
         raise TerrainError(f"slope must be between -45 and 45 degrees, got {degrees}")
     if not (math.isfinite(heading) and math.isfinite(height)):
         raise TerrainError("slope heading and height must be finite numbers")
-    m = character.model
-    g = character.floor_geom
     a = math.radians(degrees)
     h = math.radians(heading)
     # rotation about the horizontal axis perpendicular to the heading: a rotation by -a about
     # the left axis (-sin h, cos h, 0) raises the plane along (cos h, sin h, 0)
     axis = np.array([-math.sin(h), math.cos(h), 0.0])
     quat = np.concatenate([[math.cos(-a / 2)], math.sin(-a / 2) * axis])
-    m.geom_quat[g] = quat
-    m.geom_pos[g] = [0.0, 0.0, height]
-    # the compiler marks a geom at its body's frame ("sameframe") and kinematics then skips its
-    # own transform: clear the flag so the new pose is used
-    m.geom_sameframe[g] = 0
-    character.reset(character.qpos.copy(), character.qvel.copy())
-
-
-def floor_normal(character: Character) -> np.ndarray:
-    """``(3,)`` unit upward normal of the floor plane."""
-    q = character.model.geom_quat[character.floor_geom]
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
-
-
-def floor_height(character: Character, xy) -> float:
-    """Height (m) of the floor plane at world horizontal position ``xy`` ``(2,)``."""
-    n = floor_normal(character)
-    p0 = character.model.geom_pos[character.floor_geom]
-    x = np.asarray(xy, dtype=float)[:2]
-    return float(p0[2] - (n[0] * (x[0] - p0[0]) + n[1] * (x[1] - p0[1])) / n[2])
+    character.contacts.set_floor(quat, height)
+    character.reset(character.state.qpos.copy(), character.state.qvel.copy())
 
 
 def place_on_floor(character: Character, qpos: np.ndarray, clearance: float = 0.0) -> np.ndarray:
     """``(nq,)`` copy of ``qpos`` with the root moved vertically so the character's lowest geom
     point (measured along the floor's normal, capsules and boxes exactly) is ``clearance`` m
     above a level or tilted floor."""
-    import mujoco
-
-    m = character.model
-    scratch = mujoco.MjData(m)
+    contacts = character.contacts
+    n = contacts.floor_normal()
     q = np.array(qpos, dtype=float)
-    scratch.qpos[:] = q
-    mujoco.mj_kinematics(m, scratch)
-    n = floor_normal(character)
-    p0 = m.geom_pos[character.floor_geom]
-    lowest = math.inf
-    for gid in np.flatnonzero(np.isin(m.geom_bodyid, character.character_bodies)):
-        c = scratch.geom_xpos[gid]
-        R = scratch.geom_xmat[gid].reshape(3, 3)
-        s = m.geom_size[gid]
-        t = m.geom_type[gid]
-        if t == mujoco.mjtGeom.mjGEOM_BOX:
-            dist = (c - p0) @ n - np.abs(R.T @ n) @ s
-        elif t == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            dist = (c - p0) @ n - abs(R[:, 2] @ n) * s[1] - s[0]
-        elif t == mujoco.mjtGeom.mjGEOM_SPHERE:
-            dist = (c - p0) @ n - s[0]
-        else:
-            dist = (c - p0) @ n - m.geom_rbound[gid]
-        lowest = min(lowest, float(dist))
+    lowest = character.poses.clearance(q, n, contacts.floor_origin())
     q[character.root_qpos[2]] += (clearance - lowest) / n[2]
     return q
 
@@ -195,7 +155,7 @@ class GaitDriver:
 
     def reset(self, character: Character) -> None:
         self.controller.reset(character)
-        standing = character.on_floor(character.model.qpos0)[character.root_qpos[2]]
+        standing = character.poses.standing()[character.root_qpos[2]]
         self.fall_height = self.fall_fraction * float(standing)
         self.push_time = None
         self.fell, self.fall_time = False, None
@@ -207,10 +167,10 @@ class GaitDriver:
         if self.push is not None and self.push_time is None:
             self._maybe_schedule(character, t)
         if t >= self._next_sample - 1e-9:
-            p = character.root_position
+            p = character.state.root_position
             self.path.append((t, float(p[0]), float(p[1]), float(p[2])))
             self._next_sample += self.sample_dt
-            if not self.fell and p[2] - floor_height(character, p[:2]) < self.fall_height:
+            if not self.fell and p[2] - character.contacts.floor_height(p[:2]) < self.fall_height:
                 self.fell, self.fall_time = True, t
         return action
 
@@ -230,7 +190,7 @@ class GaitDriver:
         self.push_time = t0 + self.push.phase * stride
         self.push_world = f
         if self.push.force > 0:
-            character.push(body, f, self.push.duration, start=self.push_time)
+            character.pushes.add(body, f, self.push.duration, start=self.push_time)
 
     def speed(self, t0: float, t1: float) -> float:
         """Mean horizontal root speed (m/s) between ``t0`` and ``t1`` (s) from the path."""

@@ -1,5 +1,6 @@
 """Loading the model a :class:`~mjchar.controllers.core.character.Character` drives, reading the
-converter's metadata (joint map and roles) from it, and mapping its actuators to dofs."""
+converter's metadata (joint map and roles) from it, mapping its actuators to dofs, and checking
+the vectors given to the Character and its parts."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import warnings
 import mujoco
 import numpy as np
 
-from .errors import CharacterError
+from ..errors import CharacterError
 
 #: MuJoCo releases with the sparse Cholesky bug of the Newton solver (upstream #3767: a wrong
 #: Hessian factor when the constraint Jacobian is sparse, which every model with 60 or more dofs
@@ -107,3 +108,12 @@ def actuator_map(m: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
     if len(set(dof.tolist())) != nu:
         raise CharacterError("two actuators drive the same dof")
     return dof, qpos
+
+
+def as_vector(x, n: int, what: str) -> np.ndarray:
+    """``x`` as a float array of shape ``(n,)`` (no copy when it already is one); else
+    :class:`CharacterError` naming ``what``."""
+    x = np.asarray(x, dtype=float)
+    if x.shape != (n,):
+        raise CharacterError(f"{what} must have shape ({n},), got {x.shape}")
+    return x

@@ -35,13 +35,13 @@ DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 # -- building blocks -----------------------------------------------------------------------------
 def standing_pose(character: Character) -> np.ndarray:
     """``(nq,)`` the model's rest pose (``qpos0``) with the feet on the floor."""
-    return character.on_floor(character.model.qpos0)
+    return character.poses.standing()
 
 
 def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:
     """``(3,)`` unit horizontal world vector at ``degrees`` from the character's facing
     direction (its root x axis projected on the floor), counter-clockwise seen from above."""
-    R = character.root_rotation
+    R = character.state.root_rotation
     yaw = math.atan2(R[1, 0], R[0, 0])
     a = yaw + math.radians(degrees)
     return np.array([math.cos(a), math.sin(a), 0.0])
@@ -165,7 +165,7 @@ def with_push(push: PushEvent | None, kw: dict) -> dict:
     def schedule(ch: Character) -> None:
         if not done[0] and ch.time >= push.time - 1e-9:
             f = push.force * heading_frame_direction(ch, push.direction)
-            ch.push(push.body or ch.role("pelvis"), f, push.end - ch.time, start=ch.time)
+            ch.pushes.add(push.body or ch.role("pelvis"), f, push.end - ch.time, start=ch.time)
             done[0] = True
 
     return {**kw, "events": chain_callbacks(kw.get("events"), schedule),
@@ -199,9 +199,9 @@ def perturbed_start(character: Character, qpos: np.ndarray, qvel: np.ndarray | N
         dv[act] = rng.uniform(-joint_noise, joint_noise, int(act.sum()))
     else:
         raise ScenarioError(f"distribution must be 'normal' or 'uniform', got {distribution!r}")
-    q = character.integrate(np.asarray(qpos, float), dv, 1.0)
+    q = character.dynamics.integrate(np.asarray(qpos, float), dv, 1.0)
     if on_floor:
-        q = character.on_floor(q)
+        q = character.poses.on_floor(q)
     v = np.zeros(character.nv) if qvel is None else np.array(qvel, dtype=float)
     if root_velocity_noise > 0:
         v[character.root_dofs[:2]] += rng.normal(0.0, root_velocity_noise, 2)

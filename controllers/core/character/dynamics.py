@@ -1,0 +1,122 @@
+"""``character.dynamics``: the equations of motion at the current state, and joint-space
+arithmetic.
+
+``M(q) qddot + C(q, qdot) = tau + tau_passive + tau_constraint``: the mass matrix ``M`` (and
+solves with it, on MuJoCo's sparse factorisation), the bias forces ``C`` (Coriolis, centrifugal,
+gravity), passive and constraint forces; Jacobians of points and of centres of mass
+(``mj_jac``, ``mj_jacSubtreeCom``); masses and gravity; and positions moved or compared in joint
+space (``mj_integratePos``, ``mj_differentiatePos``: quaternion-aware for free and ball joints).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+
+class Dynamics:
+    """The dynamics of one character (built by the Character; see the module docstring).
+
+    Attributes:
+        mass: total mass of the character (kg).
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_body: int,
+                 body_id: Callable[[str], int]):
+        self._model, self._data = model, data
+        self._root = int(root_body)
+        self._body_id = body_id
+        self._nv = int(model.nv)
+        self.mass = float(model.body_subtreemass[self._root])
+        self._jac = np.zeros((3, self._nv))
+        self._M = np.zeros((self._nv, self._nv))
+        self._scratch = mujoco.MjData(model)
+        self._M_diag = model.M_rowadr + model.M_rownnz - 1  # diagonal of the CSR mass matrix
+
+    def _body(self, body: str | int) -> int:
+        return int(body) if isinstance(body, (int, np.integer)) else self._body_id(body)
+
+    # -- masses and gravity -------------------------------------------------------------------
+    @property
+    def gravity(self) -> np.ndarray:
+        """``(3,)`` gravitational acceleration of the world (m/s^2; a copy)."""
+        return self._model.opt.gravity.copy()
+
+    def subtree_mass(self, body: str | int) -> float:
+        """Mass (kg) of ``body`` (name or id) and every body below it (a leg from its hip)."""
+        return float(self._model.body_subtreemass[self._body(body)])
+
+    # -- equations of motion ------------------------------------------------------------------
+    def mass_matrix(self) -> np.ndarray:
+        """``(nv, nv)`` joint-space inertia matrix M(q) (``mj_fullM``; includes armature)."""
+        mujoco.mj_fullM(self._model, self._data, self._M)
+        return self._M.copy()
+
+    def solve_mass(self, rhs: np.ndarray, diagonal: np.ndarray | None = None) -> np.ndarray:
+        """``(nv,)`` solution ``x`` of ``(M(q) + diag(diagonal)) x = rhs`` for ``rhs`` ``(nv,)``.
+
+        Uses MuJoCo's sparse ``L^T D L`` factorisation of the tree-structured mass matrix on a
+        scratch copy (``mj_factorM``/``mj_solveM``), a few microseconds for a humanoid.
+        """
+        sd = self._scratch
+        sd.M[:] = self._data.M
+        if diagonal is not None:
+            sd.M[self._M_diag] += diagonal
+        mujoco.mj_factorM(self._model, sd)
+        x = np.empty((1, self._nv))
+        mujoco.mj_solveM(self._model, sd, x, np.ascontiguousarray(rhs, dtype=float).reshape(1, -1))
+        return x[0]
+
+    def bias_forces(self) -> np.ndarray:
+        """``(nv,)`` Coriolis, centrifugal and gravity forces C(q, qdot) (``qfrc_bias``)."""
+        return self._data.qfrc_bias.copy()
+
+    def passive_forces(self) -> np.ndarray:
+        """``(nv,)`` passive forces (joint damping, springs) at the current state."""
+        return self._data.qfrc_passive.copy()
+
+    def constraint_forces(self) -> np.ndarray:
+        """``(nv,)`` contact/limit/equality forces of the last completed step (one step old)."""
+        return self._data.qfrc_constraint.copy()
+
+    # -- Jacobians ----------------------------------------------------------------------------
+    def com_jacobian(self, body: str | int | None = None, out: np.ndarray | None = None
+                     ) -> np.ndarray:
+        """``(3, nv)`` Jacobian of the centre of mass of ``body``'s subtree (name or id; default:
+        the whole character), ``mj_jacSubtreeCom``. Written into ``out`` ``(3, nv)`` when given
+        (no allocation per call), else into a new array."""
+        if out is None:
+            out = np.zeros((3, self._nv))
+        b = self._root if body is None else self._body(body)
+        mujoco.mj_jacSubtreeCom(self._model, self._data, out, b)
+        return out
+
+    def point_jacobian(self, body: str | int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Jacobians ``(jacp, jacr)``, each ``(3, nv)``, of a world ``point`` (m) fixed to
+        ``body`` (name or id)."""
+        jacp = np.zeros((3, self._nv))
+        jacr = np.zeros((3, self._nv))
+        mujoco.mj_jac(self._model, self._data, jacp, jacr, np.asarray(point, dtype=float),
+                      self._body(body))
+        return jacp, jacr
+
+    # -- joint space --------------------------------------------------------------------------
+    def integrate(self, qpos: np.ndarray, qvel: np.ndarray, dt: float) -> np.ndarray:
+        """``(nq,)`` ``qpos`` moved by velocity ``qvel`` ``(nv,)`` for ``dt`` s
+        (quaternion-aware, ``mj_integratePos``)."""
+        q = np.array(qpos, dtype=float)
+        mujoco.mj_integratePos(self._model, q, np.asarray(qvel, dtype=float), float(dt))
+        return q
+
+    def difference(self, qpos1: np.ndarray, qpos2: np.ndarray) -> np.ndarray:
+        """``(nv,)`` joint-space difference ``qpos2 - qpos1`` (``mj_differentiatePos`` with dt=1).
+
+        Hinges: angle difference; ball and free-joint rotations: the rotation vector of
+        ``q1^-1 q2`` in the child frame; free-joint translation: world difference.
+        """
+        v = np.empty(self._nv)
+        mujoco.mj_differentiatePos(self._model, v, 1.0, np.asarray(qpos1, dtype=float),
+                                   np.asarray(qpos2, dtype=float))
+        return v

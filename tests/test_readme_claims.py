@@ -1,0 +1,104 @@
+"""Every number README.md states is backed by a test of the claims tier (``tests/test_claims.py``).
+
+:data:`CLAIMS` maps each figure-bearing phrase of the README to the claims test that asserts it;
+this (fast) test fails when the README gains a number no phrase covers, when a listed phrase is
+no longer in the README, or when its test is gone. Numbers that are not claims about the
+software (versions, years of the cited papers, counts in commands) are listed in
+:data:`NOT_CLAIMS` with the reason.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import test_claims as C
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+#: README phrase -> the claims test that asserts every number in it
+CLAIMS = {
+    "On the bundled humanoid (1.63 m, 70 kg)": C.test_the_bundled_humanoid_is_1_63_m_and_70_kg,
+    "tracks walk60 within 2 cm": C.test_hand_of_god_tracks_walk60_within_2_cm,
+    "stands 30 s under 10 N random pushes":
+        C.test_static_balance_stands_30_s_under_10_N_random_pushes,
+    "survives 100 N pushes in every direction":
+        C.test_static_balance_survives_100_N_pushes_in_every_direction,
+    "walks 60 s in either gait": C.test_simbicon_walks_60_s_in_either_gait,
+    "survives 200 N pushes in every direction while walking":
+        C.test_simbicon_walk_gait_survives_200_N_pushes_while_walking,
+    "walks 60 s at a commanded 1.0 m/s within 0.15 m/s": C.test_ipm_walks_60_s_at_1_m_s_within_0_15,
+    "recovers 150 N pushes by stepping": C.test_ipm_recovers_150_N_pushes_by_stepping,
+    "replay walk60 within 5 cm and 3.5 cm": C.test_saved_trajectories_replay_walk60,
+    "tracks walk60 within 2.5 cm": C.test_mpc_tracks_walk60_within_2_5_cm,
+    "| SIMBICON natural | 121 | 0.59 | 0.115 | 7.3 | 19.4 | 0.86 |":
+        C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "| IPM stepping | 120 | 0.57 | 0.139 | 1.8 | 32.7 | 0.80 |":
+        C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "| walk60 (mocap) | 100 | 0.72 | 0.06 | 4.0 | 25.3 | 2.8 |": C.test_walk60s_gait_figures,
+    # the protocol of the push figures (tests/test_claims.py's _protocol, used by every push test)
+    "Pushes are 0.2 s long, at 4 phases of the stride":
+        C.test_ipm_recovers_150_N_pushes_by_stepping,
+    "(walkers, on the chest) or 4 moments": C.test_ipm_recovers_150_N_pushes_by_stepping,
+    "(standing controllers, on the pelvis) x 2 seeds": C.test_ipm_recovers_150_N_pushes_by_stepping,
+    "| at 1.2 m/s | cadence /min |": C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "How the walkers walk next to motion capture, at 1.2 m/s from the standing pose":
+        C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "own time step (SIMBICON's 1 ms) is applied when it is made":
+        C.test_the_walkers_gait_figures_at_1_2_m_s,
+}
+
+#: numbers in the README that are not claims about the software, and why
+NOT_CLAIMS = {
+    r"Python >= 3\.11": "a requirement",
+    r"et al\. \d{4}": "the year of a cited paper",
+    r"torch==2\.13\.0": "a package version",
+    r"Apache License 2\.0": "the licence's name",
+    r"## A tour in 60 seconds": "a heading",
+    r"DeepMimic-style imitation of a clip, 30 Hz": "the env's documented control rate, a default",
+    r"frames 0\.1 s apart": "a picture's caption",
+    r"--duration \d+|--speed 1\.2|--speed 1\.0|--push 100|--heading 90|speed=1\.2|duration=20\.0":
+        "options in a command",
+    r"GAMES-105": "a course's name",
+    r"status 2": "the exit status of an error (asserted by the CLI tests)",
+    r"mjchar/Imitation-v0|mjchar/Stand-v0|walk60|mjchar-\*\.whl": "names",
+}
+
+
+def _prose(text: str) -> str:
+    """The README without its code blocks, image lines and link targets."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    text = re.sub(r"^!\[.*$", "", text, flags=re.M)
+    return re.sub(r"\]\([^)]*\)", "]", text)
+
+
+def test_every_number_in_the_readme_is_a_claim_with_a_test():
+    text = _prose(README.read_text())
+    for phrase in CLAIMS:
+        assert phrase in text, f"README.md no longer says {phrase!r}: update CLAIMS"
+        text = text.replace(phrase, " ")
+    for pattern in NOT_CLAIMS:
+        text = re.sub(pattern, " ", text)
+    loose = [(n + 1, line.strip()) for n, line in enumerate(text.splitlines())
+             if re.search(r"(?<![\w.-])\d+(\.\d+)?(?![\w-])", line)]
+    assert not loose, ("numbers in README.md with no claims test (add the phrase to CLAIMS with "
+                       "its test in tests/test_claims.py): "
+                       + "; ".join(f"{line}" for _, line in loose))
+
+
+def test_every_claim_test_is_in_the_claims_tier():
+    for test in set(CLAIMS.values()):
+        assert test.__module__ == "test_claims" and callable(test)
+    assert C.pytestmark.name == "claims"
+
+
+def test_ci_runs_the_readmes_test_command_then_the_claims_tier():
+    """`.ci/run` runs exactly the README's second set-up command, then `pytest -m claims`."""
+    readme = README.read_text()
+    setup = re.search(r"## Quick start.*?```bash\n(.*?)```", readme, re.S).group(1)
+    commands = [line for line in setup.splitlines() if line and not line.startswith("#")]
+    assert len(commands) == 2, "the quick start has exactly two set-up commands"
+    ci = (README.parent / ".ci" / "run").read_text().splitlines()
+    ci = [line for line in ci if line and not line.startswith(("#", "set ", "cd "))]
+    assert ci[0] == commands[1]
+    assert ci[1].startswith("python -m pytest -q -m claims")
