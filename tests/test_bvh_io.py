@@ -183,12 +183,19 @@ def test_joint_names_are_words_joined_by_one_space(name, monkeypatch):
                                    "0.12345678901234567890123", "1234567890123456789012345678.5",
                                    "-98765432109876543210987654321", "1." + "0" * 40])
 def test_frame_numbers_equal_python_float(token):
-    """Every accepted number form converts exactly like float(), fast path or not."""
-    text = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}\n"
-            f"MOTION\nFrames: 2\nFrame Time: 0.1\n1 {token} 3\n{token} 2 {token}\n")
-    values = bvh.loads(text).source_channels
+    """Every accepted number form converts exactly like float(), fast path or not; a file whose
+    positions no body could reach is refused (naming the line) after the conversion."""
+    body = f"1 {token} 3\n{token} 2 {token}\n"
     f = float(token)
-    np.testing.assert_array_equal(values, [[1, f, 3], [f, 2, f]])
+    np.testing.assert_array_equal(bvh_io._parse_frames(body, 11, 2, 9, 3, None),
+                                  [[1, f, 3], [f, 2, f]])
+    text = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}\n"
+            f"MOTION\nFrames: 2\nFrame Time: 0.1\n{body}")
+    if abs(f) <= bvh_io.MAX_POSITION:
+        np.testing.assert_array_equal(bvh.loads(text).source_channels, [[1, f, 3], [f, 2, f]])
+    else:
+        with pytest.raises(bvh.BVHError, match=r"line 10: value 2 of frame 1 .*cannot describe"):
+            bvh.loads(text)
 
 
 def test_end_site_order_survives_round_trip():

@@ -63,6 +63,8 @@ from mjchar.bvh.rigs.units import AXIS_VECTORS, unit_scale
 from mjchar.bvh.rotations import from_rotation
 
 JOINT_MODELS = ("hinge", "full", "ball")
+#: the heaviest body the converter builds (kg): ten tonnes, beyond any character
+MAX_MASS_KG = 1e4
 
 
 # ------------------------------------------------------------------------------------------------
@@ -277,8 +279,9 @@ def _check_options(total_mass, joint_model, unit, up_axis, timestep) -> dict:
         total_mass = float(total_mass)
     except (TypeError, ValueError):
         raise ConversionError(f"total mass must be a number of kg, got {total_mass!r}") from None
-    if not (math.isfinite(total_mass) and total_mass > 0):
-        raise ConversionError(f"total mass must be a positive number of kg, got {total_mass}")
+    if not (math.isfinite(total_mass) and 0 < total_mass <= MAX_MASS_KG):
+        raise ConversionError(f"total mass must be a positive number of kg up to "
+                              f"{MAX_MASS_KG:g}, got {total_mass:g}")
     if unit is not None:
         if isinstance(unit, str):
             try:

@@ -52,6 +52,8 @@ from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul
 
 #: metres: a non-root translation channel varying more than this from its mean is warned about
 BONE_TOLERANCE_M = 0.001
+#: the largest extent (m) of a rest pose the converter builds a body from
+MAX_SPAN_M = 100.0
 #: hip-to-ankle length (thigh + shank bones) as a fraction of the standing height
 LEG_FRACTION = 0.49
 #: degrees: leg bones within this of their mean direction count as a standing leg
@@ -136,6 +138,11 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     up = up_axis or _up_from_legs(sk, rec) or guess_up_axis(sk)
     rec = recognise(sk, AXIS_VECTORS[up], roles)
     scale = float(unit) if unit is not None else _unit_from_anatomy(sk, rec, up)
+    points = np.vstack([sk.rest_positions(), sk.rest_end_sites().reshape(-1, 3)])
+    span = float((points.max(axis=0) - points.min(axis=0)).max()) * scale
+    if span > MAX_SPAN_M:
+        raise ConversionError(f"the skeleton spans {span:.3g} m at {scale:g} m per unit: not a "
+                              f"body (at most {MAX_SPAN_M:g} m; check the OFFSETs or --unit)")
     noisy = {n: v * scale * 1000.0 for n, v in variation.items() if v * scale > BONE_TOLERANCE_M}
     if noisy:
         warns.append("translation channels vary (the mean is the bone): "

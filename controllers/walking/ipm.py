@@ -789,7 +789,7 @@ register(ControllerSpec(
     factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
                                                                            **options),
     abilities=("walk", "stand"), default_scenario="walk",
-    options=("speed", "heading", "params"), steps=True,
+    options=("speed", "heading", "params"), steps=True, tunables=IPMParams.tunables,
     # 60 s, no fall, steady speed within 0.15 m/s at 0.3-1.6 m/s on the bundled humanoid (0:
     # stops and stands; docs/ipm.md), the same Froude speeds on other bodies (as its parameters)
     limits=(("speed", 0.0, 1.6),), speed_leg_length=TUNED_LEG_LENGTH,

@@ -37,7 +37,7 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
-from .gaits import BUNDLED_LEG_LENGTH, GRAVITY, Gait, get_gait
+from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
@@ -703,6 +703,21 @@ def make_simbicon(
     return Simbicon(gait, **kw, **overrides)
 
 
+def simbicon_tunables(gait: str = "walk") -> list:
+    """What ``--param`` takes (``mjchar params simbicon``), with the defaults of ``gait`` (gain
+    groups the gait leaves out: :data:`DEFAULT_GAINS`, else the model's gains table)."""
+    if not isinstance(gait, str) or gait not in GAITS:
+        raise GaitError(f"unknown gait {gait!r}; choose from {', '.join(GAITS)}")
+    rows = []
+    for t in gait_tunables(GAITS[gait]):
+        group = t.name[5:] if t.name.startswith("gain_") else None
+        if group is not None and t.default is None:
+            t = (t._replace(default=DEFAULT_GAINS[group]) if group in DEFAULT_GAINS
+                 else t._replace(meaning=t.meaning + "; default: the model's gains table"))
+        rows.append(t)
+    return rows
+
+
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
@@ -714,5 +729,5 @@ register(ControllerSpec(
     # skeleton zoo (docs/simbicon.md); no --speed: the gait's own
     limits=(("speed", 0.6, 1.6),), speed_leg_length=BUNDLED_LEG_LENGTH,
     speed_every_body=(0.7, 1.5),
-    timestep=DEFAULT_TIMESTEP, push="walking",
+    timestep=DEFAULT_TIMESTEP, push="walking", tunables=simbicon_tunables,
     bench=("walk", "push-search", "slopes"), expected=("walk",)))

@@ -66,8 +66,14 @@ def run(args: argparse.Namespace) -> int:
     errors = None
     if args.verify:
         from mjchar.bvh.reference.reference_motion import replay_errors
+        from mjchar.controllers.core.progress import Progress
 
-        errors = replay_errors(model, converted.motion)
+        bar = Progress(enabled=False if args.json else None)
+        try:
+            errors = replay_errors(model, converted.motion,
+                                   progress=bar.counter("verify", "frames"))
+        finally:
+            bar.close()
     if args.json:
         out = {
             "output": output,

@@ -18,11 +18,15 @@ def run(args: argparse.Namespace) -> int:
 
     motion = bvh.load(args.file)
     sk = motion.skeleton
-    fk = bvh.forward_kinematics(motion)
-    lo = fk.positions.reshape(-1, 3).min(axis=0)
-    hi = fk.positions.reshape(-1, 3).max(axis=0)
-    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
-          f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
+    if motion.n_frames:
+        points = bvh.forward_kinematics(motion).positions.reshape(-1, 3)
+        frames = (f"{motion.n_frames} frames at {motion.fps:.2f} fps "
+                  f"({motion.duration:.2f} s)")
+    else:  # a skeleton without motion (the converter takes it): its rest pose
+        points = sk.rest_positions()
+        frames = "no frames (a skeleton without motion; the bounding box is the rest pose's)"
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, {frames}")
     from mjchar.bvh.mjcf import ConversionError
     from mjchar.bvh.mjcf.prepare import prepare
     from mjchar.bvh.rigs import units
