@@ -79,10 +79,12 @@ class Leg:
         self.knee = ch.joint_dofs(self.knee_name)
         self.ankle = ch.joint_dofs(self.ankle_name)
         self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
-        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3:
-            raise IPMError(f"IPM needs 3-dof hips and ankles and a hinge knee ({side} leg has "
-                           f"{len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs); convert "
-                           "with joint_model='hinge'")
+        hinges = ch.hinge_dofs[np.concatenate([self.hip, self.knee, self.ankle])].all()
+        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3 or not hinges:
+            raise IPMError(f"IPM needs hips and ankles of 3 hinges and a hinge knee ({side} leg "
+                           f"has {len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs"
+                           f"{'' if hinges else ', not all hinges'}); convert with "
+                           "joint_model='hinge'")
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
