@@ -79,7 +79,9 @@ class Leg:
         self.knee = ch.joint_dofs(self.knee_name)
         self.ankle = ch.joint_dofs(self.ankle_name)
         self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
-        hinges = ch.hinge_dofs[np.concatenate([self.hip, self.knee, self.ankle])].all()
+        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
+        self.all = np.concatenate([self.leg, self.toe])
+        hinges = ch.hinge_dofs[self.leg].all()
         if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3 or not hinges:
             raise IPMError(f"IPM needs hips and ankles of 3 hinges and a hinge knee ({side} leg "
                            f"has {len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs"
@@ -96,8 +98,6 @@ class Leg:
         self.ankle_jnt = ch.dof_joint[self.ankle]
         self.knee_q = ch.joint_qpos(self.knee_name)[0]
         self.knee_dof = int(self.knee[0])
-        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
-        self.all = np.concatenate([self.leg, self.toe])
         # geometry: the bones (model constants) and the knee's hinge axis in the thigh's frame
         if rest is None:
             rest = ch.poses.kinematics(ch.poses.rest())
