@@ -471,6 +471,29 @@ def test_pose_kinematics_leave_the_state_alone(humanoid):
     assert lo < hi
 
 
+def test_body_and_site_offsets_are_the_rest_poses_bones(humanoid):
+    # model constants in the parent's frame: at rest (world-aligned bodies, contract) a body's
+    # offset is its origin's position relative to its parent's, a site's relative to its body's
+    ch = humanoid
+    rest = ch.poses.kinematics(ch.poses.rest())
+    for name in ("lKnee", ch.role("right_ankle")):
+        b = ch.body_id(name)
+        off = ch.poses.body_offset(name)
+        assert off.shape == (3,)
+        np.testing.assert_array_equal(off, ch.poses.body_offset(b))
+        np.testing.assert_allclose(off, rest.body_positions[b]
+                                   - rest.body_positions[ch.body_parent[b]], atol=1e-12)
+    s = ch.site_id("left_foot")
+    body, pos = ch.poses.site_offset(s)
+    assert body == ch.body_id(ch.role("left_ankle"))
+    np.testing.assert_allclose(pos, rest.site_positions[s] - rest.body_positions[body],
+                               atol=1e-12)
+    pos[:] = 0.0  # copies: the model is untouched
+    off[:] = 0.0
+    assert np.linalg.norm(ch.poses.site_offset(s)[1]) > 0
+    assert np.linalg.norm(ch.poses.body_offset(ch.role("right_ankle"))) > 0
+
+
 def test_weld_holds_the_root_where_it_is(mini):
     q = standing(mini)
     q[mini.root_qpos[2]] += 0.2

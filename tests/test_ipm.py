@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion
+from mjchar.bvh.mjcf import convert
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.registry import make_controller
 from mjchar.controllers.core.scenarios import push, simulate, standing_pose, survived
@@ -186,6 +188,15 @@ def test_toe_up_ankle_limit_weight_follows_the_speed():
 def test_act_before_reset_raises():
     with pytest.raises(IPMError):
         IPMController().act(None, 0.0)
+
+
+def test_a_ball_jointed_model_is_refused():
+    # ball hips and ankles (and a hinge knee) have the leg's dof counts, but IPM maps torques to
+    # hinges: refused at reset, not walked on
+    c = convert(humanoid_rest_motion(), joint_model="ball")
+    ch = Character(c.compile(), info=c.info)
+    with pytest.raises(IPMError, match="not all hinges.*joint_model='hinge'"):
+        IPMController(speed=1.0).reset(ch)
 
 
 def test_foot_placement_follows_velocity_width_and_clamp(character):

@@ -1,8 +1,9 @@
 """``character.poses``: kinematic queries on a pose, computed on a scratch ``MjData`` so the
 simulation state is untouched: the rest and standing poses, the leg length, the lowest point of
 the character's geoms (above a level or a tilted floor), a pose put on the floor, a body's world
-pose, the world frames of every body, joint and site (:class:`Kinematics`), and damped
-least-squares inverse kinematics (``mj_jacBody``, ``mj_integratePos``).
+pose, the world frames of every body, joint and site (:class:`Kinematics`), the offsets of bodies
+and sites in their parents' frames (model constants), and damped least-squares inverse
+kinematics (``mj_jacBody``, ``mj_integratePos``).
 
 :class:`Poses` is the part a controller uses (names resolved, shapes checked); the functions
 below it take a model and ids.
@@ -184,6 +185,19 @@ class Poses:
     def standing(self) -> np.ndarray:
         """``(nq,)`` the rest pose with its lowest point on the floor z = 0 (:meth:`on_floor`)."""
         return self.on_floor(self._model.qpos0)
+
+    def body_offset(self, body: str | int) -> np.ndarray:
+        """``(3,)`` position (m) of ``body``'s origin (name or id) in its parent body's frame:
+        the model's constant ``body_pos``, the same in every pose (a bone: the offset of a BVH
+        joint from its parent; a copy)."""
+        return self._model.body_pos[self._body(body)].copy()
+
+    def site_offset(self, site: int) -> tuple[int, np.ndarray]:
+        """The body (id) that site id ``site`` is attached to, and the site's position ``(3,)``
+        (m) in that body's frame: the model's constants ``site_bodyid``, ``site_pos`` (a
+        copy)."""
+        m = self._model
+        return int(m.site_bodyid[site]), m.site_pos[site].copy()
 
     def dof_limits(self, dofs: np.ndarray) -> np.ndarray:
         """``(k, 2)`` lower and upper limits (rad, or m on slides) of the joints of hinge or slide
