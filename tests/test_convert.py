@@ -15,6 +15,7 @@ from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.kinematics.fk import forward_kinematics
 from mjchar.bvh.mjcf import ConversionError, ConvertedModel, ModelInfo, convert
+from mjchar.bvh.rigs.layouts import apply_record
 from mjchar.bvh.rigs.units import transform_motion
 from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, to_rotation
 from mjchar.cli import main as cli_main
@@ -35,8 +36,10 @@ def random_motion(sk: Skeleton, n_frames: int = 12, scale_deg: float = 60.0, see
 
 
 def kinematic_qpos(model: mujoco.MjModel, info: ModelInfo, motion) -> tuple[np.ndarray, np.ndarray]:
-    """(qpos (F, nq), expected body positions (F, K, 3)) from the contract alone: the clip in
-    MuJoCo axes, ``L_j = G_parent^-1 G_j`` and the recorded hinge orders (no projection)."""
+    """(qpos (F, nq), expected body positions (F, K, 3)) from the contract alone: the clip
+    through the model's ``rig`` record (its canonical rest), in MuJoCo axes,
+    ``L_j = G_parent^-1 G_j`` and the recorded hinge orders (no projection)."""
+    motion = apply_record(motion, info.extra.get("rig"))
     mm = transform_motion(motion, info.unit_scale, info.basis)
     fk = forward_kinematics(mm)
     sk = motion.skeleton

@@ -138,12 +138,36 @@ def test_varying_translation_channels_warn_in_mm():
     assert 2.0 < e["max_mm"] <= got + 0.1  # the bone is the mean: the variation is what is left
 
 
+def _twisted_arms(motion: bvh.Motion, shoulders: tuple[str, str], deg: float) -> bvh.Motion:
+    """The rest with each arm turned ``deg`` about its own upper-arm bone (joint positions
+    kept): a T-pose whose elbows do not bend about a world axis."""
+    from mjchar.bvh.rigs.layouts import rerest
+    from mjchar.bvh.rotations import quat_from_rotvec, quat_identity
+
+    sk = motion.skeleton
+    rest = sk.rest_positions()
+    r = quat_identity((sk.n_joints,))
+    for sh in shoulders:
+        s = sk.index(sh)
+        arm = rest[sk.children(s)[0]] - rest[s]
+        q = quat_from_rotvec(np.radians(deg) * arm / np.linalg.norm(arm))
+        for j in range(sk.n_joints):
+            if s in sk.chain(j):
+                r[j] = q
+    return rerest(motion, r)
+
+
 def test_flexion_axes_come_from_the_clip():
-    """A-pose elbows bend about an axis off the world axes: the hinge turns about it."""
+    """Elbows whose rest is twisted about the upper arm bend about an axis off the world axes:
+    the hinge turns about it. The canonical rest keeps a human rest's twist (it only swings
+    bones), so the axis is the clip's."""
     rig = _rig("lafan1-cm-yup-apose")
-    c = convert(_file_motion(rig))
+    m = _twisted_arms(_file_motion(rig), ("LeftArm", "RightArm"), 45.0)
+    c = convert(m)
     model = c.compile()
     ax = model.joint(c.info.joints["LeftForeArm"].mj_joints[0]).axis
     assert np.count_nonzero(np.abs(ax) > 0.2) >= 2  # not snapped to a world axis
     knee = model.joint(c.info.joints["LeftLeg"].mj_joints[0]).axis
     np.testing.assert_allclose(np.abs(knee), [0, 1, 0], atol=1e-9)  # lateral, as it bends
+    e = replay_errors(c, m)
+    assert e["end_effector_max_mm"] < 10.0
