@@ -30,6 +30,9 @@ SHARED_RIGS = {  # rig -> the shared clip it is made from
     "xsens-mm-yup-tall": "walk_forward",
 }
 BUNDLED_RIGS = ("humanoid-150-m-zup", "humanoid-195-in-yup")
+#: the structures of real exports (zoo_rigs(..., structures=True)), made from walk60
+STRUCTURE_RIGS = ("cmu-asf-yup", "daz-cm-yup-face", "lafan1-anon-cm-yup",
+                  "mixamo7-cm-yup-gimbal")
 ESSENTIAL = ("pelvis", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle",
              "right_ankle", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
              "head")
@@ -41,8 +44,11 @@ _RIGS: dict = {}
 def _rig(name: str):
     if name in SHARED_RIGS:
         shared_clip(f"{SHARED_RIGS[name]}.bvh")
+    if name in STRUCTURE_RIGS:
+        shared_clip("walk60.bvh")
     if not _RIGS:
-        _RIGS.update({r.name: r for r in zoo_rigs(SHARED_BVH if SHARED_BVH.is_dir() else None)})
+        _RIGS.update({r.name: r for r in zoo_rigs(SHARED_BVH if SHARED_BVH.is_dir() else None,
+                                                  structures=True)})
     return _RIGS[name]
 
 
@@ -61,9 +67,15 @@ def test_zoo_covers_the_conventions():
     assert {"m", "cm", "in"} <= {r.unit for r in rigs}
     assert {"y", "z"} <= {r.up for r in rigs}
     assert all(set(r.names) == set(CONVENTIONS["games"]) for r in rigs)
+    more = zoo_rigs(SHARED_BVH, humanoid=False, structures=True)
+    assert [r.name for r in more] == list(SHARED_RIGS) + list(STRUCTURE_RIGS)
+    assert all(set(r.names) == set(CONVENTIONS["games"]) for r in more)
 
 
-@pytest.mark.parametrize("name", list(SHARED_RIGS) + list(BUNDLED_RIGS))
+ALL_RIGS = list(SHARED_RIGS) + list(BUNDLED_RIGS) + list(STRUCTURE_RIGS)
+
+
+@pytest.mark.parametrize("name", ALL_RIGS)
 def test_zoo_rig_is_the_clip(name):
     """Forward kinematics of the rig's file = the source clip, scaled and re-axed."""
     rig = _rig(name)
@@ -79,7 +91,7 @@ def test_zoo_rig_is_the_clip(name):
     assert np.max(np.abs(got - expected)) * rig.unit_scale < 1e-5  # metres
 
 
-@pytest.mark.parametrize("name", list(SHARED_RIGS) + list(BUNDLED_RIGS))
+@pytest.mark.parametrize("name", ALL_RIGS)
 def test_zoo_rig_converts(name):
     rig = _rig(name)
     m = _file_motion(rig)

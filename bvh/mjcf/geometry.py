@@ -216,6 +216,13 @@ def _toe(b: _Body, subtree_points, ends: list[np.ndarray], sole: float, s: float
     b.sites[f"{b.side}_toe"] = np.array([center[0], center[1], sole])
 
 
+def _geom_top(bodies: dict[int, _Body]) -> float:
+    """The highest point of any geom (m, before the floor offset); -inf without geoms."""
+    tops = [float(max(g.a[2], g.b[2]) + g.radius) if g.kind == "capsule"
+            else float(g.center[2] + g.half[2]) for b in bodies.values() for g in b.geoms]
+    return max(tops, default=-np.inf)
+
+
 def _floor_offset(bodies: dict[int, _Body]) -> np.ndarray:
     """Translation putting the root above the origin and the lowest geom on the floor (z=0)."""
     root = next(iter(bodies.values()))

@@ -119,16 +119,18 @@ def default_drop(sk: Skeleton, rec: Recognition) -> list[int]:
             or (rec.joint_roles[sk.names[j]] == "twist" and not sk.children(j))]
 
 
-#: roles whose joint, when it is the only child of a joint of unknown role, makes that joint a
-#: helper of the body's structure (CMU's ``LHipJoint`` above ``LeftUpLeg``, a ``buttock``)
+#: roles whose joints, when they are all the children of a joint of unknown role, make that
+#: joint a helper of the body's structure (CMU's ``LHipJoint`` above ``LeftUpLeg``, a
+#: ``buttock``, Daz's ``pelvis`` above both thighs)
 _STRUCTURE_ROLES = ("hip", "clavicle", "shoulder", "spine", "neck", "head")
 
 
 def default_fuse(sk: Skeleton, rec: Recognition, scale: float, joint_model: str) -> list[int]:
     """Joints of unknown role that are zero-length (offset < 2 mm) or helpers of the body's
-    structure (a single child that is a hip, clavicle, shoulder or trunk joint: CMU's
-    ``LHipJoint``, a ``buttock``), and twist helpers inside a limb (they turn about their bone,
-    which keeps the limb's joints in place); none in the ``full`` model."""
+    structure (children that are all hips, clavicles, shoulders or trunk joints: CMU's
+    ``LHipJoint``, a ``buttock``, Daz's ``pelvis`` above both thighs), and twist helpers
+    inside a limb (they turn about their bone, which keeps the limb's joints in place); none in
+    the ``full`` model."""
     if joint_model == "full":
         return []
     lengths = sk.bone_lengths() * scale
@@ -138,7 +140,7 @@ def default_fuse(sk: Skeleton, rec: Recognition, scale: float, joint_model: str)
         role = rec.joint_roles[sk.names[j]]
         if not kids or role not in ("unknown", "twist"):
             continue
-        helper = len(kids) == 1 and rec.base_role(sk.names[kids[0]]) in _STRUCTURE_ROLES
+        helper = all(rec.base_role(sk.names[k]) in _STRUCTURE_ROLES for k in kids)
         if role == "twist" or lengths[j] < 0.002 or helper:
             out.append(j)
     return out

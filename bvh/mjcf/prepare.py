@@ -49,7 +49,13 @@ from mjchar.bvh.rigs.layouts import (
     static_chain_above,
 )
 from mjchar.bvh.rigs.naming import Clip, Recognition, recognise
-from mjchar.bvh.rigs.units import AXIS_VECTORS, UnitGuess, guess_up_axis, unit_from_stature
+from mjchar.bvh.rigs.units import (
+    AXIS_VECTORS,
+    UnitGuess,
+    guess_up_axis,
+    unit_from_stature,
+    unit_name,
+)
 
 #: metres: a non-root translation channel varying more than this from its mean is warned about
 BONE_TOLERANCE_M = 0.001
@@ -172,6 +178,19 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
                     stature)
 
 
+def describe_unit(prep: Prepared) -> str:
+    """The unit in words: ``"cm (0.01 m per file unit, from the body's size)"``,
+    ``"0.0564444 m per file unit (cmu, given)"``, ``"0.0531 m per file unit (the body's own
+    scale: no known unit fits)"``."""
+    g = prep.unit
+    if g is None:
+        name = unit_name(prep.scale)
+        return f"{prep.scale:g} m per file unit ({name + ', ' if name else ''}given)"
+    if g.name is None:
+        return f"{g.scale:.6g} m per file unit (the body's own scale: no known unit fits)"
+    return f"{g.name} ({g.scale:g} m per file unit, from the body's size)"
+
+
 # ------------------------------------------------------------------------------------------------
 # helpers
 # ------------------------------------------------------------------------------------------------
@@ -220,15 +239,26 @@ NOTE_DEG = 10.0
 
 
 def _rest_notes(can: CanonicalRest) -> list[str]:
+    """What the canonical rest changed, for the warnings (nothing for small changes)."""
+    if can.from_bones:
+        feet = "" if can.foot_pitch_deg is None else \
+            f"; the feet pitched {can.foot_pitch_deg:.0f} deg as in the clip's flat stance"
+        return ["the rest pose is not a standing figure (bones along local axes?): the "
+                "canonical rest is built from the skeleton's bones, each joint's twist about "
+                f"its bone from the clip's mean pose{feet}"]
     out = []
+    if can.moved.get("pelvis", 0.0) > NOTE_DEG:
+        out.append(f"the rest pose lies {can.moved['pelvis']:.0f} deg off the clip's up axis: "
+                   "stood upright")
     moved = [f"{'legs straightened' if g == 'legs' else 'arms put in a T-pose'} (up to "
-             f"{d:.0f} deg)" for g, d in sorted(can.moved.items()) if d > NOTE_DEG]
+             f"{can.moved[g]:.0f} deg)" for g in ("legs", "arms")
+             if can.moved.get(g, 0.0) > NOTE_DEG]
     if can.reaimed:
         what = ", ".join(can.reaimed[:8]) + (", ..." if len(can.reaimed) > 8 else "")
-        feet = "" if can.foot_pitch_deg is None else \
-            f"; feet pitched {can.foot_pitch_deg:.0f} deg (the clip's flat stance)"
-        out.append("the rest pose is not a standing figure (bones along local axes?): the "
-                   f"canonical rest re-aims {what} from the skeleton's bones{feet}")
+        moved.append(f"{what} re-aimed (not a human shape)")
+    if can.foot_pitch_deg is not None:
+        moved.append(f"feet pitched {can.foot_pitch_deg:.0f} deg")
     if moved:
-        out.append("rest pose made canonical: " + ", ".join(moved))
+        out.append("rest pose made canonical (standing, legs straight, arms in a T-pose): "
+                   + ", ".join(moved))
     return out

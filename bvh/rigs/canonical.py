@@ -69,6 +69,8 @@ class CanonicalRest:
         reaimed: joints whose file orientation was not plausible and was replaced.
         foot_pitch_deg: the feet's pitch when it was not the file's (from the clip or the
             default), else ``None``.
+        from_bones: True when the zero pose was no human pose and the rest was built from the
+            bones (twists from the clip's mean pose).
     """
 
     rest: np.ndarray | None
@@ -76,6 +78,7 @@ class CanonicalRest:
     moved: dict[str, float] = field(default_factory=dict)
     reaimed: list[str] = field(default_factory=list)
     foot_pitch_deg: float | None = None
+    from_bones: bool = False
 
 
 def _unit(v: np.ndarray) -> np.ndarray | None:
@@ -301,8 +304,9 @@ class _Geometry:
             base = R[p] if p >= 0 else np.eye(3)
             if j == self.pelvis:
                 R[j] = R_pel @ base
-                if not np.allclose(R_pel, np.eye(3), atol=1e-12, rtol=0):
-                    reaimed.append(nm)
+                turn = float(np.degrees(Rotation.from_matrix(R_pel).magnitude()))
+                if turn > 1e-9:
+                    moved["pelvis"] = turn
                 continue
             if base_role in ("ankle", "toe") and side and self.pelvis is not None:
                 base = R[self.pelvis]
@@ -376,7 +380,9 @@ class _Geometry:
                 R[j] = align(vb, U, _unit(base @ lr), L, F) @ base
             else:
                 R[j] = swing(vb, target, F) @ base
-        return self._result(R, {}, reaimed, foot_pitch)
+        out = self._result(R, {}, reaimed, foot_pitch)
+        out.from_bones = True
+        return out
 
 
 #: degrees: a zero pose whose thighs, shanks and trunk are this close to down / up (seen from
