@@ -155,3 +155,14 @@ def test_same_skeleton_from_two_clips(clip):
         worst = max(abs(sa[k] - sb[k]) for k in sa)
         assert worst < 1e-3, (ra.name, worst)
         assert abs(ca.summary["height_m"] - cb.summary["height_m"]) < 0.01, ra.name
+
+
+def test_info_shows_the_role_map_the_unit_and_the_height(capsys):
+    path = real_export("cmu_daz_02_03.bvh")
+    assert run_command(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "unit: cm (0.01 m per file unit" in out
+    height = float(out.split("the body it would build: ")[1].split(" m tall")[0])
+    assert 1.2 <= height <= 2.1
+    assert "left elbow      lelbow (name)" in out and "pelvis          hip (name)" in out
+    assert "dropped by default: face" in out

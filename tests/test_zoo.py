@@ -183,3 +183,27 @@ def test_flexion_axes_come_from_the_clip():
     np.testing.assert_allclose(np.abs(knee), [0, 1, 0], atol=1e-9)  # lateral, as it bends
     e = replay_errors(c, m)
     assert e["end_effector_max_mm"] < 10.0
+
+
+def test_a_cmu_asf_file_is_read_in_its_unit(tmp_path, capsys):
+    """The CMU file as most people download it (zero-length hip helpers, legs apart and arms
+    hanging at rest, lengths in 1/0.45 inch): at the defaults a 1.6 m body in the ASF unit,
+    standing straight with its arms out; no warning on stderr."""
+    from conftest import run_command
+
+    rig = _rig("cmu-asf-yup")
+    path = tmp_path / "cmu.bvh"
+    bvh.save(rig.motion, path)
+    assert run_command(["convert", str(path), "-o", str(tmp_path / "cmu.xml")]) == 0
+    cap = capsys.readouterr()
+    assert "unit: cmu (0.0564444 m per file unit, from the body's size)" in cap.out
+    assert cap.err == ""
+    c = convert(bvh.load(path))
+    assert 1.5 < c.summary["height_m"] < 1.7
+    assert set(c.summary["fused"]) == {"LHipJoint", "RHipJoint"}
+    m = c.compile()
+    pos = {n: m.body(n).pos for n in ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftForeArm")}
+    np.testing.assert_allclose(pos["LeftLeg"][:2], 0.0, atol=1e-9)  # thigh straight down
+    np.testing.assert_allclose(pos["LeftFoot"][:2], 0.0, atol=1e-9)  # shank straight down
+    assert pos["LeftForeArm"][1] > 0.2 and abs(pos["LeftForeArm"][2]) < 1e-9  # arm out, level
+    assert any("arms put in a T-pose (up to 90 deg)" in w for w in c.warnings)

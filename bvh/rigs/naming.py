@@ -296,11 +296,15 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
     trunk_ends = [j for j in (head, _find(role, "left_clavicle"), _find(role, "right_clavicle"),
                               _find(role, "left_shoulder"), _find(role, "right_shoulder"))
                   if j is not None]
+    if legs_by_shape:
+        by_structure.append(pelvis)
     for e in trunk_ends:
         for a in sk.chain(e)[:-1]:
             if a in role or a == pelvis or not _is_below(sk, pelvis, a):
                 continue
             role[a] = "neck" if "neck" in _core(names[a]) else "spine"
+            if e in by_structure:  # found around a joint the shape gave
+                by_structure.append(a)
 
     # -- feet: toe phalanges and other toes --------------------------------------------------------
     for s in ("left", "right"):
