@@ -166,3 +166,35 @@ def test_info_shows_the_role_map_the_unit_and_the_height(capsys):
     assert 1.2 <= height <= 2.1
     assert "left elbow      lelbow (name)" in out and "pelvis          hip (name)" in out
     assert "dropped by default: face" in out
+
+
+def test_a_leaning_clip_gives_the_same_body():
+    """A game-studio rig (static root, bones along local axes, 6 channels) from the course walk
+    and from the same walk leaning 35 degrees forward with its arms raised: the same body (the
+    rest was a frame of the clip: 1.594 m and 1.475 m tall)."""
+    from mjchar.bvh.bundled.zoo import (
+        CONVENTIONS,
+        add_static_root,
+        all_channels,
+        bone_local_axes,
+        rename,
+    )
+    from mjchar.bvh.rotations import quat_from_rotvec, quat_mul
+
+    walk = bvh.load(shared_clip("walk60.bvh"))
+    lean = walk.copy()
+    sk = lean.skeleton
+    for name, deg, axis in (("lowerback_torso", 35.0, 0), ("lShoulder", -60.0, 2),
+                            ("rShoulder", 60.0, 2)):
+        j = sk.index(name)
+        lean.rotations[:, j] = quat_mul(quat_from_rotvec(np.radians(deg) * np.eye(3)[axis]),
+                                        lean.rotations[:, j])
+
+    def gamestudio(m):
+        r = bone_local_axes(rename(m, CONVENTIONS["gamestudio"]), twist_deg=-31.0)
+        r = add_static_root(all_channels(r, "ZXY", six=True), "joint_Root")
+        return convert(bvh.loads(bvh.dumps(r)))
+
+    a, b = gamestudio(walk), gamestudio(lean)
+    assert abs(a.summary["height_m"] - b.summary["height_m"]) < 1e-3
+    np.testing.assert_allclose(a.compile().body_pos, b.compile().body_pos, atol=1e-3)
