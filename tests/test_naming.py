@@ -17,6 +17,7 @@ from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.rigs import units
 from mjchar.bvh.rigs.naming import is_end, is_finger, is_twist, recognise, side_of, tokens
 from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import quat_rotate
 
 ZYX = ("Zrotation", "Yrotation", "Xrotation")
 ZXY = ("Zrotation", "Xrotation", "Yrotation")
@@ -285,3 +286,48 @@ def test_conventions_of_real_exports(convention):
                     ("RootJoint", "pelvis")):
         assert rec.roles[role] == m[g], (convention, role)
     assert rec.by_structure == [] and rec.unrecognised == []
+
+
+def test_sides_from_the_knees_bend_in_any_pose():
+    """Anonymous names on the bundled walk turned to lie face down (its toes point down and
+    back along the ground, so where the feet point would swap the sides): the trunk x the
+    knees' bend still tells the left leg and arm from the right ones."""
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.bundled.zoo_layouts import anonymise
+    from mjchar.bvh.rigs.naming import Clip
+    from mjchar.bvh.rotations import quat_from_rotvec, quat_mul
+
+    m = bvh.load(motion_path("walk"))
+    lying = m.copy()
+    turn = quat_from_rotvec(np.radians(90.0) * np.eye(3)[0])  # face +Z -> face -Y (the floor)
+    lying.rotations[:, 0] = quat_mul(turn, lying.rotations[:, 0])
+    lying.local_positions[:, 0] = quat_rotate(turn, lying.local_positions[:, 0])
+    anon, names = anonymise(lying)
+    rec = recognise(anon.skeleton, np.eye(3)[1], clip=Clip.of(anon))
+    for g, role in (("lKnee", "left_knee"), ("rHip", "right_hip"), ("lElbow", "left_elbow"),
+                    ("rShoulder", "right_shoulder")):
+        assert rec.roles[role] == names[g], role
+
+
+def test_up_is_where_the_body_keeps_a_floor():
+    """A crawl along +Z (made up: hips 0.45 m above the ankles and 0.7 m ahead of them, the
+    lowest point always on the floor): the legs point more along Z than up, the floor says Y."""
+    from mjchar.bvh.rigs import structure
+    from mjchar.bvh.rigs.naming import Clip
+
+    sk = humanoid_skeleton()
+    n_f = 60
+    rng = np.random.default_rng(3)
+    z = np.linspace(0.0, 3.0, n_f)[:, None]
+    P = np.zeros((n_f, sk.n_joints, 3))
+    P[:, :, 1] = rng.uniform(0.05, 0.6, (n_f, sk.n_joints))  # everything between floor and hips
+    P[:, :, 2] = z + rng.uniform(-0.8, 0.4, (n_f, sk.n_joints))
+    P[:, :, 0] = rng.uniform(-0.3, 0.3, (n_f, sk.n_joints))
+    legs = [(sk.index(f"{s}Hip"), sk.index(f"{s}Knee"), sk.index(f"{s}Ankle")) for s in "lr"]
+    for h, k, a in legs:
+        P[:, h] = np.c_[np.zeros(n_f), np.full(n_f, 0.5), z[:, 0]]
+        P[:, k] = np.c_[np.zeros(n_f), np.full(n_f, 0.03), z[:, 0] - 0.3]
+        P[:, a] = np.c_[np.zeros(n_f), np.full(n_f, 0.05), z[:, 0] - 0.7]
+    P[:, sk.index("lToeJoint"), 1] = 0.0  # the floor
+    clip = Clip(P, np.zeros(sk.n_joints, bool))
+    assert structure.up_axis(sk, legs, clip) == "y"

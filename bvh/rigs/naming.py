@@ -355,15 +355,11 @@ def _core(name: str) -> str:
 
 def _leg_lefts(sk: Skeleton, role: dict[int, str], up: np.ndarray,
                clip: Clip | None) -> np.ndarray | None:
-    """The character's left per frame from its recognised legs (``None`` without both)."""
-    legs, toes = [], []
-    for s in ("left", "right"):
-        h, k, a = (_find(role, f"{s}_{r}") for r in ("hip", "knee", "ankle"))
-        if h is None or k is None or a is None:
-            return None
-        legs.append((h, k, a))
-        toes.append(_find(role, f"{s}_toe"))
-    return structure.lefts(sk, legs, toes, up, clip)
+    """The character's left per frame from its recognised hips (``None`` without both)."""
+    lh, rh = _find(role, "left_hip"), _find(role, "right_hip")
+    if lh is None or rh is None:
+        return None
+    return structure.hips_left(sk, lh, rh, clip)
 
 
 def _head_by_structure(sk, role, pelvis, children, descendants, clip):

@@ -180,10 +180,11 @@ def _forward(P: np.ndarray, up: np.ndarray, legs, toes) -> np.ndarray:
     return np.where(n > 0.03 * np.maximum(size, 1e-12), v / np.maximum(n, 1e-300), 0.0)
 
 
-def lefts(sk: Skeleton, legs, toes, up: np.ndarray, clip: Clip | None) -> np.ndarray:
-    """``(F, 3)``: the character's left per frame of the clip (or the rest pose) from its legs
-    (``[(hip, knee, ankle), ...]``) and toes (``[toe or None, ...]``)."""
-    return _lefts(_frames(sk, clip), up, legs, toes)
+def hips_left(sk: Skeleton, left_hip: int, right_hip: int, clip: Clip | None) -> np.ndarray:
+    """``(F, 3)``: the character's left per frame of the clip (or the rest pose) from its known
+    hips: the line from the right hip to the left one."""
+    P = _frames(sk, clip)
+    return P[:, left_hip] - P[:, right_hip]
 
 
 def _lefts(P: np.ndarray, up: np.ndarray, legs, toes) -> np.ndarray:
@@ -209,33 +210,78 @@ def pair_legs(pair: _Pair) -> list[tuple[int, int, int]]:
 
 
 def up_axis(sk: Skeleton, legs, clip: Clip | None) -> str | None:
-    """The file axis along the legs (hips above ankles, ``legs`` = ``[(hip, knee, ankle)...]``)
-    on average over the clip (or in the rest pose); ``None`` when no axis dominates."""
+    """The file's up axis from the legs (``[(hip, knee, ankle)...]``), or ``None`` when it
+    cannot tell. In the rest pose: the axis along the hips-above-ankles vector when it
+    dominates. Over a clip: among the axes along which the hips stand above the ankles by at
+    least 30% of that vector on average, the one along which the body's lowest point stays on
+    a floor in most frames (a crawl or a fall has its legs along the ground for a while, its
+    lowest point on the floor throughout); ties go to the larger leg component."""
     P = _frames(sk, clip)
     v = np.zeros(3)
     for h, _, a in legs:
         v += np.mean(P[:, h] - P[:, a], axis=0)
     n = np.linalg.norm(v)
-    i = int(np.argmax(np.abs(v)))
-    if n < 1e-12 or abs(v[i]) < 0.8 * n:
+    if n < 1e-12:
         return None
-    return "xyz"[i]
+    if P.shape[0] < 2:
+        i = int(np.argmax(np.abs(v)))
+        return "xyz"[i] if abs(v[i]) >= 0.8 * n else None
+    size = float(np.median(np.ptp(P, axis=1).max(axis=1)))
+
+    def floor(i: int) -> float:
+        low = np.min(np.sign(v[i]) * P[:, :, i], axis=1)  # the lowest point along +-axis i
+        return float(np.mean(np.abs(low - np.median(low)) < 0.05 * size))
+
+    cands = [i for i in range(3) if abs(v[i]) >= 0.3 * n]
+    best = max(cands, key=lambda i: (round(floor(i), 1), abs(v[i])))
+    return "xyz"[best]
+
+
+def _chirality(P: np.ndarray, legs, pelvis: int, upper: list[int]) -> tuple[np.ndarray,
+                                                                              np.ndarray]:
+    """``(lefts (F, 3), weights (F,))``: per frame, the character's left as the trunk's
+    direction (pelvis to the upper body's centre) x the knees' bend (the knee's offset from the
+    hip-ankle line: a knee bends forward in any pose, standing, crawling or lying), unit
+    vectors; the weights are the bends' size (zero for straight knees)."""
+    b = P[:, upper].mean(axis=1) - P[:, pelvis]
+    b /= np.maximum(np.linalg.norm(b, axis=1, keepdims=True), 1e-300)
+    acc = np.zeros_like(b)
+    for h, k, a in legs:
+        u = P[:, a] - P[:, h]
+        u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
+        d = P[:, k] - P[:, h]
+        acc += np.cross(b, d - np.sum(d * u, axis=1, keepdims=True) * u)
+    w = np.linalg.norm(acc, axis=1)
+    return acc / np.maximum(w, 1e-300)[:, None], w
 
 
 def side_legs(sk: Skeleton, pair: _Pair, up: np.ndarray, clip: Clip | None,
               toe_of) -> tuple[dict[str, int], np.ndarray | None, str | None]:
     """``(knees, lefts, problem)``: which of the pair's knees is left and right, the left axis
     per frame used (``(F, 3)``, file axes), or ``problem`` when the legs are not apart
-    sideways. Each frame is judged in its own facing, so a clip that turns round is fine."""
+    sideways. Each frame is judged in its own facing, so a clip that turns round is fine. The
+    facing is the trunk x the knees' bend where the knees bend (:func:`_chirality`), else up x
+    where the feet point (the rest pose)."""
     P = _frames(sk, clip)
     legs = pair_legs(pair)
     toes = [toe_of(a) for _, _, a in legs]
+    in_legs = {j for p in pair.paths for j in range(sk.n_joints)
+               if p[0] in sk.chain(j)}
+    upper = [j for j in range(sk.n_joints) if j not in in_legs and j != pair.branch]
     lefts = _lefts(P, up, legs, toes)
+    thigh = np.mean([np.linalg.norm(P[:, k] - P[:, h], axis=1).mean() for h, k, _ in legs])
+    if upper:
+        chiral, w = _chirality(P, legs, pair.branch, upper)
+        bent = w > 0.05 * thigh  # knees bent by more than about 3 degrees
+        if bent.any():
+            lefts = np.where(bent[:, None], chiral, 0.0)
     height = float(np.mean(np.ptp(P @ up, axis=1)))
     (h1, k1, _), (h2, k2, _) = legs
-    sep = float(np.mean(np.sum((P[:, h1] - P[:, h2]) * lefts, axis=1)))
+    on = np.linalg.norm(lefts, axis=1) > 0.5
+    sep = float(np.mean(np.sum((P[on, h1] - P[on, h2]) * lefts[on], axis=1))) if on.any() else 0.0
     if abs(sep) < 0.02 * height:
-        sep = float(np.mean(np.sum((P[:, k1] - P[:, k2]) * lefts, axis=1)))
+        sep = float(np.mean(np.sum((P[on, k1] - P[on, k2]) * lefts[on], axis=1))) \
+            if on.any() else 0.0
     if abs(sep) < 0.02 * height:
         return {}, lefts, (f"two leg chains ({sk.names[pair.paths[0][0]]}, "
                            f"{sk.names[pair.paths[1][0]]}) but their hips and knees are not "
@@ -245,13 +291,16 @@ def side_legs(sk: Skeleton, pair: _Pair, up: np.ndarray, clip: Clip | None,
 
 def side_arms(sk: Skeleton, pair: _Pair, lefts: np.ndarray, clip: Clip | None) -> dict[int, str]:
     """``{elbow: side}`` for an arm pair, by where its shoulders lie along the left axis
-    (``(3,)``, or ``(F, 3)`` per frame)."""
+    (``(3,)``, or ``(F, 3)`` per frame; frames with a zero axis are skipped)."""
     P = _frames(sk, clip)
     lefts = np.broadcast_to(lefts, (P.shape[0], 3))
+    on = np.linalg.norm(lefts, axis=1) > 1e-9
+    if not on.any():
+        return {}
     (e1, e2), (s1, s2) = pair.joints, pair.uppers
-    sep = float(np.mean(np.sum((P[:, s1] - P[:, s2]) * lefts, axis=1)))
+    sep = float(np.mean(np.sum((P[on, s1] - P[on, s2]) * lefts[on], axis=1)))
     if abs(sep) < 1e-9:
-        sep = float(np.mean(np.sum((P[:, e1] - P[:, e2]) * lefts, axis=1)))
+        sep = float(np.mean(np.sum((P[on, e1] - P[on, e2]) * lefts[on], axis=1)))
     if abs(sep) < 1e-9:
         return {}
     return {e1: "left", e2: "right"} if sep > 0 else {e1: "right", e2: "left"}
