@@ -17,7 +17,7 @@ from mjchar import bvh
 from mjchar.bvh.io import reader as bvh_io
 from mjchar.bvh.io.motion import _continuous_euler
 from mjchar.bvh.io.skeleton import Skeleton
-from mjchar.bvh.rotations import quat_from_euler, to_rotation
+from mjchar.bvh.rotations import quat_from_euler, quat_from_rotvec, to_rotation
 
 VARIANTS = all_variants()
 
@@ -486,3 +486,20 @@ def test_bvh_error_is_a_project_error():
     assert issubclass(bvh.BVHError, bvh.MjcharError)
     e = bvh.BVHError("bad", line=3, path="x.bvh")
     assert (e.reason, e.line, e.path, str(e)) == ("bad", 3, "x.bvh", "x.bvh, line 3: bad")
+
+
+def test_a_skeleton_numbered_out_of_depth_first_order_round_trips():
+    """Joints appended after their subtree was written (a chain added under the head later)
+    come back renumbered depth-first with their own channel values."""
+    from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+    from mjchar.bvh.bundled.zoo_layouts import add_chain
+
+    m = bvh.Motion.rest(humanoid_skeleton(), 3)
+    m.rotations[:] = quat_from_rotvec(
+        np.random.default_rng(1).normal(0, 0.3, (3, m.skeleton.n_joints, 3)))
+    m = add_chain(m, "torso_head", [("extra", (0.0, 0.05, 0.1))], end=(0.0, 0.0, 0.05))
+    back = bvh.loads(bvh.dumps(m))
+    assert back.skeleton.names != m.skeleton.names  # renumbered
+    fk, fk2 = bvh.forward_kinematics(m).positions, bvh.forward_kinematics(back).positions
+    idx = [back.skeleton.index(n) for n in m.skeleton.names]
+    np.testing.assert_allclose(fk2[:, idx], fk, atol=1e-6)
