@@ -143,9 +143,10 @@ class FallDetector:
         h = character.state.root_height
         if h < self.fall_height:
             return f"root height {h:.3f} m below {self.fall_height:.3f} m"
-        bodies = character.contacts.non_foot()
-        if bodies:
-            return f"{', '.join(bodies)} touched the ground"
+        if character.contacts.any_non_foot():
+            bodies = character.contacts.non_foot()
+            if bodies:
+                return f"{', '.join(bodies)} touched the ground"
         return None
 
 
@@ -179,9 +180,13 @@ class Recorder:
 
     def record(self, character: Character) -> None:
         """Record the step just taken (root wrench of the last action, positions when due)."""
-        w = character.actuation.root_wrench
-        self.root_force.append(float(np.linalg.norm(w[:3])))
-        self.root_torque.append(float(np.linalg.norm(w[3:])))
+        if character.actuation.root_wrench_applied:
+            w = character.actuation.root_wrench
+            self.root_force.append(float(np.linalg.norm(w[:3])))
+            self.root_torque.append(float(np.linalg.norm(w[3:])))
+        else:  # no wrench: the norms of zero vectors
+            self.root_force.append(0.0)
+            self.root_torque.append(0.0)
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)

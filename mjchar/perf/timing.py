@@ -27,7 +27,7 @@ from typing import Any
 
 from .errors import PerfError, positive_int
 
-__all__ = ["CLOCKS", "Timing", "Runs", "timed", "rounds", "load_average"]
+__all__ = ["CLOCKS", "Timing", "Runs", "Laps", "timed", "rounds", "load_average"]
 
 #: the clocks a :class:`Timing` holds (attribute names)
 CLOCKS = ("wall_s", "cpu_s", "thread_s")
@@ -152,6 +152,51 @@ def rounds(cases: Mapping[str, Callable[[], Any]], *, repeats: int = 1,
         if gc_off and was_enabled:
             gc.enable()
     return out
+
+
+class Laps:
+    """A callback that reads the process CPU clock (``time.process_time``) at every call, for
+    timing a loop from inside (a run's ``frame_callback``: called after the reset and after
+    every control step).
+
+    :attr:`span` is the CPU seconds from the first call to the last, less the callbacks' own
+    cost (:meth:`overhead`, measured once per process): what the loop between them cost.
+    """
+
+    _cost: float | None = None
+
+    def __init__(self) -> None:
+        self.first: float | None = None
+        self.last: float | None = None
+        self.calls = 0
+
+    def __call__(self, *_args) -> None:
+        t = time.process_time()
+        if self.first is None:
+            self.first = t
+        self.last = t
+        self.calls += 1
+
+    @classmethod
+    def overhead(cls, calls: int = 20000) -> float:
+        """CPU seconds one call adds to the loop it times (the smallest of three measurements
+        of ``calls`` calls in a row)."""
+        if cls._cost is None:
+            best = math.inf
+            for _ in range(3):
+                laps = cls()
+                for _ in range(calls):
+                    laps()
+                best = min(best, (laps.last - laps.first) / (calls - 1))
+            cls._cost = best
+        return cls._cost
+
+    @property
+    def span(self) -> float:
+        """CPU seconds between the first and the last call, less the calls' own cost."""
+        if self.first is None or self.calls < 2:
+            raise PerfError("Laps was called fewer than twice")
+        return max(self.last - self.first - (self.calls - 1) * self.overhead(), 0.0)
 
 
 def load_average() -> float | None:

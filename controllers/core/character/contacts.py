@@ -61,6 +61,14 @@ class Contacts:
         self._foot_side = foot_side
         self._foot_sites = foot_sites
         self._force = np.zeros(6)
+        # (geom, geom) pairs of a contact between the floor and a body other than a foot (the
+        # pairs non_foot() names, as a table: a fall test per step without names)
+        ng = int(model.ngeom)
+        other = np.full((ng, ng), -1)
+        other[self.floor_geom, :] = np.arange(ng)
+        rows = np.flatnonzero(np.arange(ng) != self.floor_geom)
+        other[rows, self.floor_geom] = rows
+        self._non_foot_pair = (other >= 0) & ~self._is_foot[self._geom_body[np.maximum(other, 0)]]
 
     # -- contacts -----------------------------------------------------------------------------
     def _floor_geoms(self) -> tuple[np.ndarray, np.ndarray]:
@@ -97,6 +105,14 @@ class Contacts:
         geoms, _ = self._floor_geoms()
         sides = self._geom_side[geoms].tolist()
         return 0 in sides, 1 in sides
+
+    def any_non_foot(self) -> bool:
+        """Whether a character body other than the feet touches the floor (a fall; the names
+        are :meth:`non_foot`'s)."""
+        if self._data.ncon == 0:
+            return False
+        g = self._data.contact.geom
+        return bool(self._non_foot_pair[g[:, 0], g[:, 1]].any())
 
     def non_foot(self) -> list[str]:
         """Names of character bodies other than the feet that touch the floor (a fall)."""
