@@ -167,11 +167,17 @@ class Recorder:
         self.root_torque: list[float] = []
         self.start_root = character.state.root_position
         self.root = self.start_root.copy()
-        self.start_feet = np.array([p[:2] for p in character.contacts.foot_sites()])
+        self.start_feet = self._feet_xy(character)
         self.foot_travel = 0.0
         self.start_com_z = float(character.state.com()[2])
         self.com_min_z = self.start_com_z
         self._sample(character)
+
+    @staticmethod
+    def _feet_xy(character: Character) -> np.ndarray:
+        """``(2, 2)`` horizontal positions (m) of the left and right sole sites."""
+        left, right = character.contacts.foot_sites()
+        return np.array([left[:2], right[:2]])
 
     def _sample(self, character: Character) -> None:
         self.times.append(character.time)
@@ -190,10 +196,11 @@ class Recorder:
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
-            feet = np.array([p[:2] for p in character.contacts.foot_sites()])
+            feet = self._feet_xy(character)
             self.foot_travel = max(self.foot_travel,
                                    float(np.linalg.norm(feet - self.start_feet, axis=1).max()))
-            self.com_min_z = min(self.com_min_z, float(character.state.com()[2]))
+            self.com_min_z = min(self.com_min_z,
+                                 float(character.state.subtree_coms[character.root_body, 2]))
 
     def tracking_errors(self, joint_body_index: int = 0) -> tuple[float | None, float | None]:
         """``(mean joint error, mean root error)`` in m against the reference (``None`` without).
