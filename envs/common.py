@@ -79,8 +79,8 @@ def heading_rotation(root_xmat: np.ndarray) -> np.ndarray:
     matrix is ``root_xmat`` (``(9,)`` or ``(3, 3)``): the yaw of the body's x axis (facing
     direction) projected on the floor. World vectors ``v`` (rows) map to the heading frame as
     ``v @ R``."""
-    m = np.asarray(root_xmat, dtype=float).reshape(3, 3)
-    yaw = math.atan2(m[1, 0], m[0, 0])
+    m = np.asarray(root_xmat, dtype=float).reshape(-1).tolist()
+    yaw = math.atan2(m[3], m[0])
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
@@ -146,8 +146,9 @@ class BodyObserver:
         V = np.concatenate([data.xpos[self._sel] - origin, xm[:, 0::3], xm[:, 2::3]])
         return (V @ H).ravel()
 
-    def observe(self, data: mujoco.MjData) -> np.ndarray:
-        """``(size,)`` float64 features (see the class docstring), not yet clipped."""
+    def observe(self, data: mujoco.MjData, extra: int = 0) -> np.ndarray:
+        """``(size + extra,)`` float64 features (see the class docstring), not yet clipped;
+        the last ``extra`` entries are left for the caller to fill."""
         H, r = self.frame(data)
         V, rows, sel = self._V, self._rows, self._sel
         xpos = data.xpos[sel]
@@ -159,9 +160,9 @@ class BodyObserver:
         ang = cv[:, :3]
         V[rows["ang"]] = ang
         V[rows["lin"]] = cv[:, 3:] + _cross(ang, xpos - data.subtree_com[self._com_of])
-        out = np.empty(self.size)
+        out = np.empty(self.size + extra)
         out[0] = r[2]
-        np.matmul(V, H, out=out[1:].reshape(-1, 3))
+        np.matmul(V, H, out=out[1:self.size].reshape(-1, 3))
         return out
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -333,6 +334,14 @@ class CharacterEnv(gym.Env):
         """The base controller (from the controller registry), reset by the base class."""
         return make_controller(self.BASE_CONTROLLER, self.character, self._pd_target())
 
+    def _reuse_controller(self) -> bool:
+        """Whether :meth:`reset` keeps the last episode's controller and gives it the new
+        target: the default :meth:`_make_controller` built it (a subclass that builds its own
+        gets a new one every episode) and it can take a new target."""
+        return (self._controller is not None
+                and type(self)._make_controller is CharacterEnv._make_controller
+                and hasattr(self._controller, "set_target"))
+
     def _extra_observation(self) -> np.ndarray:
         """Task features appended to the body features."""
         return np.zeros(0)
@@ -367,8 +376,13 @@ class CharacterEnv(gym.Env):
         ch = self.character
         qpos, qvel = self._start(options)
         ch.reset(qpos, qvel)
-        self._controller = self._make_controller()
-        self._controller.reset(ch)
+        if self._reuse_controller():
+            # the registered base controller of the last episode: only its target changes
+            # (gains, actuation and its bookkeeping are what a fresh one would set up)
+            self._controller.set_target(self._pd_target(), ch)
+        else:
+            self._controller = self._make_controller()
+            self._controller.reset(ch)
         self._recorder = Recorder(ch)
         self._diverged = False
         self._fell, self._fall_time, self._fall_reason = False, None, None
@@ -391,8 +405,8 @@ class CharacterEnv(gym.Env):
         a = np.asarray(action, dtype=float)
         if a.shape != self.action_space.shape:
             raise EnvError(f"action must have shape {self.action_space.shape}, got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise EnvError("action contains NaN or infinity")
+        if not (math.isfinite(np.add.reduce(a)) or np.isfinite(a).all()):  # (a sum is finite
+            raise EnvError("action contains NaN or infinity")  # unless one is not, or overflow)
         ch = self.character
         self._before_step()
         base = self._controller.act(ch, ch.time)
@@ -437,8 +451,10 @@ class CharacterEnv(gym.Env):
         return self._diverged_at if self._diverged else self.character.time
 
     def _observe(self) -> np.ndarray:
-        x = np.concatenate([self.observer.observe(self.character.data),
-                            self._extra_observation()])
+        extra = self._extra_observation()
+        x = self.observer.observe(self.character.data, extra=len(extra))
+        if len(extra):
+            x[self.observer.size:] = extra
         np.clip(x, self._obs_low, self._obs_high, out=x)
         if not math.isfinite(x.sum()):  # clipped values sum finitely: only a NaN survives
             raise SimulationDiverged("non-finite observation", self.character.time)
@@ -451,7 +467,8 @@ class CharacterEnv(gym.Env):
         rec = self._recorder
         # Recorder.aggregates() rebuilds arrays over the whole episode; its two fields needed
         # here are read directly (same definitions) to keep a step O(1)
-        dist = float(math.hypot(*(rec.root - rec.start_root)[:2]))
+        (x, y, _), (x0, y0, _) = rec.root.tolist(), rec.start_root.tolist()
+        dist = math.hypot(x - x0, y - y0)
         travel = float(rec.foot_travel)
         t = self.sim_time
         info = {

@@ -146,6 +146,8 @@ class ImitationEnv(CharacterEnv):
 
         # dofs of the pose and velocity terms: everything but the root translation
         self._pose_dofs = np.setdiff1d(np.arange(ch.nv), ch.root_dofs[:3])
+        if np.array_equal(self._pose_dofs, np.arange(3, ch.nv)):  # root first: a view
+            self._pose_dofs = slice(3, ch.nv)
         self._ee = np.array([ch.body_id(ch.role(r)) for r in END_EFFECTOR_ROLES
                              if ch.role(r, required=False)], dtype=int)
         self._joint_bodies = self.reference.joint_body_ids
@@ -250,7 +252,7 @@ class ImitationEnv(CharacterEnv):
         ref = self._reference_kinematics(self.reference_time).xpos[self._joint_bodies]
         diff = sim - ref
         err = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        self._joint_error = float(err.mean())
+        self._joint_error = float(np.add.reduce(err) / len(err))  # (= err.mean())
         self._err_sum += self._joint_error
         self._root_err_sum += float(err[0])
         self._err_n += 1
@@ -293,6 +295,8 @@ class ImitationEnv(CharacterEnv):
         phi = self.phase()
         a = (2.0 if self.reference.cyclic else 1.0) * math.pi * phi
         parts = [np.array([math.cos(a), math.sin(a)])]
+        if not self.future_steps:
+            return parts[0]
         if self.future_steps:
             d = self.character.data
             H, r = self.observer.frame(d)

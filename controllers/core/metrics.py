@@ -154,7 +154,8 @@ class Recorder:
     """Collects what a run's :class:`Result` needs, one :meth:`record` per control step.
 
     Joint and root positions are sampled at most ``sample_rate`` times per second (tracking
-    errors are computed against the reference once, at the end).
+    errors are computed against the reference once, at the end); without a reference there are
+    no tracking errors, and ``joint_positions`` stays empty.
     """
 
     def __init__(self, character: Character, reference=None, sample_rate: float = 120.0):
@@ -181,7 +182,8 @@ class Recorder:
 
     def _sample(self, character: Character) -> None:
         self.times.append(character.time)
-        self.joint_positions.append(character.state.joint_positions())
+        if self.reference is not None:
+            self.joint_positions.append(character.state.joint_positions())
         self._next_sample = character.time + self.sample_dt - 1e-9
 
     def record(self, character: Character) -> None:
@@ -196,9 +198,13 @@ class Recorder:
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
-            feet = self._feet_xy(character)
-            self.foot_travel = max(self.foot_travel,
-                                   float(np.linalg.norm(feet - self.start_feet, axis=1).max()))
+            (lx, ly), (rx, ry) = self._feet_xy(character).tolist()
+            (sx, sy), (tx, ty) = self.start_feet.tolist()
+            # the largest of the two feet's horizontal displacements (on Python floats: the
+            # same operations as np.linalg.norm(feet - start_feet, axis=1).max())
+            lx, ly, rx, ry = lx - sx, ly - sy, rx - tx, ry - ty
+            travel = max(math.sqrt(lx * lx + ly * ly), math.sqrt(rx * rx + ry * ry))
+            self.foot_travel = max(self.foot_travel, travel)
             self.com_min_z = min(self.com_min_z,
                                  float(character.state.subtree_coms[character.root_body, 2]))
 

@@ -16,8 +16,10 @@ median round is reported, so all rows share the machine's load. Columns:
 - bare mj_step/s (with ``bare=True``): plain ``mujoco.mj_step(m, d, n_substeps)`` calls from the
   physics states the same seeded run visited (every 5th env step, controls as the env set them),
   timed in the same round: the ceiling of the physics column for that state distribution;
-- physics share: physics steps/s over bare mj_step/s (the rest is Python: observation, reward,
-  termination, resets, the wrappers).
+- physics share: the process CPU time bare ``mj_step`` takes for the round's physics steps
+  over the CPU time of the round's env loop, both in this process (the rest is Python:
+  observation, reward, termination, resets, the wrappers). The actions are drawn before the
+  timed loop (the sampler is the policy's cost, not the env's).
 """
 
 from __future__ import annotations
@@ -34,30 +36,38 @@ from .errors import PerfUnavailable, positive_int
 from .report import DOCS, machine_line, write_block
 from .timing import Timing, timed
 
-__all__ = ["ENV_IDS", "random_env_steps", "visited_states", "bare_step_rate", "env_throughput",
-           "main"]
+__all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
+           "bare_step_rate", "env_throughput", "main"]
 
 #: envs compared by :func:`env_throughput` (the last one is the yardstick)
 ENV_IDS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
 
 
-def random_env_steps(env, steps: int, seed: int) -> tuple[float, int]:
-    """``(wall seconds, episodes ended)`` for ``steps`` uniformly random actions in a Gymnasium
-    ``env`` (seeded ``reset`` and action space; resets when an episode ends, timed too)."""
+def random_actions(env, steps: int, seed: int) -> list:
+    """``steps`` uniformly random actions of ``env``'s action space (``action_space.sample()``,
+    seeded): drawn before a timed loop, so that the loop times the env, not the sampler."""
     env.action_space.seed(seed)
+    return [env.action_space.sample() for _ in range(steps)]
+
+
+def random_env_steps(env, steps: int, seed: int) -> tuple[Timing, int]:
+    """``(Timing, episodes ended)`` of ``steps`` uniformly random actions in a Gymnasium ``env``
+    (seeded ``reset`` and actions, :func:`random_actions`, drawn before the timed loop; resets
+    when an episode ends, timed too)."""
+    actions = random_actions(env, steps, seed)
     env.reset(seed=seed)
 
     def run() -> int:
         ended = 0
-        for _ in range(steps):
-            _, _, term, trunc, _ = env.step(env.action_space.sample())
+        for a in actions:
+            _, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 ended += 1
                 env.reset()
         return ended
 
     ended, t = timed(run)
-    return t.wall_s, ended
+    return t, ended
 
 
 def _substeps(env) -> int:
@@ -79,11 +89,11 @@ def visited_states(env, steps: int, seed: int, every: int = 5) -> list[np.ndarra
     same seeded random run as :func:`random_env_steps` (not timed)."""
     m, d = _model_data(env)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
-    env.action_space.seed(seed)
+    actions = random_actions(env, steps, seed)
     env.reset(seed=seed)
     out = []
-    for i in range(steps):
-        _, _, term, trunc, _ = env.step(env.action_space.sample())
+    for i, a in enumerate(actions):
+        _, _, term, trunc, _ = env.step(a)
         if i % every == 0:
             s = np.empty(mujoco.mj_stateSize(m, sig))
             mujoco.mj_getState(m, d, s, sig)
@@ -93,9 +103,9 @@ def visited_states(env, steps: int, seed: int, every: int = 5) -> list[np.ndarra
     return out
 
 
-def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
-    """``mj_step``/s of plain ``mujoco.mj_step(m, d, n_substeps)`` calls from ``states``
-    (controls as the env left them) on a fresh MjData of the env's model (wall clock)."""
+def bare_step_time(env, states: Sequence[np.ndarray]) -> tuple[Timing, int]:
+    """``(Timing, physics steps)`` of plain ``mujoco.mj_step(m, d, n_substeps)`` calls from
+    ``states`` (controls as the env left them) on a fresh MjData of the env's model."""
     m, _ = _model_data(env)
     d = mujoco.MjData(m)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -104,7 +114,13 @@ def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
     for s in states:
         mujoco.mj_setState(m, d, s, sig)
         total += timed(mujoco.mj_step, m, d, n)[1]
-    return len(states) * n / total.wall_s
+    return total, len(states) * n
+
+
+def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
+    """``mj_step``/s (wall clock) of :func:`bare_step_time`."""
+    t, n = bare_step_time(env, states)
+    return n / t.wall_s
 
 
 def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repeats: int = 3,
@@ -114,8 +130,11 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
     reported. Physics steps per second = env steps/s x physics steps per env step.
 
     With ``bare``, each round also times bare ``mj_step`` from the states that round visited
-    (:func:`visited_states`, :func:`bare_step_rate`; median over rounds), and each env gets
-    ``"bare_steps_per_s"`` and ``"physics_share"`` (physics steps/s over bare ``mj_step``/s).
+    (:func:`visited_states`, :func:`bare_step_time`), and each env gets ``"bare_steps_per_s"``
+    (wall clock, median over rounds) and ``"physics_share"``: the process CPU time bare
+    ``mj_step`` needs for the round's physics steps over the CPU time of the round's env loop
+    (the share of the env's time that is physics; median over rounds, every round's in
+    ``"physics_shares"``).
 
     Returns:
         ``{"steps", "repeats", "envs": {id: {"env_steps_per_s", "physics_steps_per_s",
@@ -140,14 +159,21 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                                       f"{str(e).splitlines()[0] if str(e) else ''})") from None
         rounds: dict[str, list[tuple[float, int]]] = {eid: [] for eid in env_ids}
         bares: dict[str, list[float]] = {eid: [] for eid in env_ids}
+        shares: dict[str, list[float]] = {eid: [] for eid in env_ids}
         for r in range(repeats):
             for eid, env in made.items():
-                wall, ended = random_env_steps(env, steps, seed + r)
-                rounds[eid].append((steps / wall, ended))
+                t, ended = random_env_steps(env, steps, seed + r)
+                rounds[eid].append((steps / t.wall_s, ended))
                 if bare:
-                    bares[eid].append(bare_step_rate(env, visited_states(env, steps, seed + r)))
+                    bt, bn = bare_step_time(env, visited_states(env, steps, seed + r))
+                    bares[eid].append(bn / bt.wall_s)
+                    # CPU seconds bare mj_step takes for this round's physics steps, over the
+                    # CPU seconds the env loop took (one process, the same clock)
+                    physics_cpu = bt.cpu_s / bn * steps * _substeps(env)
+                    shares[eid].append(physics_cpu / max(t.cpu_s, 1e-12))
                 if log is not None:
-                    log(f"round {r + 1}/{repeats} {eid}: {steps / wall:.0f} env steps/s")
+                    log(f"round {r + 1}/{repeats} {eid}: {steps / t.wall_s:.0f} env steps/s"
+                        + (f", physics share {shares[eid][-1]:.0%}" if bare else ""))
         out = {}
         for eid, env in made.items():
             rates = sorted(rounds[eid])
@@ -163,8 +189,8 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                         "act_dim": int(np.prod(env.action_space.shape))}
             if bare:
                 b = statistics.median(bares[eid])
-                out[eid].update(bare_steps_per_s=b, physics_share=rate * sub / b,
-                                nv=int(_model_data(env)[0].nv))
+                out[eid].update(bare_steps_per_s=b, physics_share=statistics.median(shares[eid]),
+                                physics_shares=shares[eid], nv=int(_model_data(env)[0].nv))
     finally:
         for env in made.values():
             env.close()
