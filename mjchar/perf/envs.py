@@ -37,7 +37,7 @@ from .report import DOCS, machine_line, write_block
 from .timing import Timing, timed
 
 __all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
-           "bare_step_rate", "env_throughput", "main"]
+           "bare_step_rate", "env_throughput", "vector_throughput", "main"]
 
 #: envs compared by :func:`env_throughput` (the last one is the yardstick)
 ENV_IDS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
@@ -199,6 +199,67 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                     "physics_steps": v["physics_steps_per_s"] / out[ref]["physics_steps_per_s"]}
               for eid, v in out.items()}
     return {"steps": steps, "repeats": repeats, "envs": out, "reference": ref, "ratios": ratios}
+
+
+def vector_throughput(env_ids: Sequence[str] = (ENV_IDS[0], ENV_IDS[-1]), *,
+                      num_envs: int = 2, steps: int = 1000, repeats: int = 3, seed: int = 0,
+                      log=None) -> dict:
+    """Env steps per second of each env id run as one process and as a
+    ``gymnasium.vector.AsyncVectorEnv`` of ``num_envs`` worker processes with shared memory
+    (``gym.make_vec(id, num_envs, vectorization_mode="async", vector_kwargs={"shared_memory":
+    True})``; episodes reset inside the workers, Gymnasium's autoreset), with uniform random
+    actions drawn before the timed loop; the cases take turns in ``repeats`` rounds, the median
+    round is reported (wall clock: the workers' time is not this process's CPU time).
+
+    Returns:
+        ``{"num_envs", "steps", "repeats", "cores", "envs": {id: {"single_steps_per_s",
+        "vector_steps_per_s", "speedup"}}}``; a vector env's steps count every worker's.
+    """
+    import os
+
+    steps, repeats = positive_int(steps, "steps"), positive_int(repeats, "repeats")
+    num_envs = positive_int(num_envs, "num_envs")
+    try:
+        import gymnasium as gym
+    except Exception as e:
+        raise PerfUnavailable(f"gymnasium does not import ({type(e).__name__}: {e})") from None
+    singles, vectors = {}, {}
+    try:
+        for eid in env_ids:
+            try:
+                singles[eid] = gym.make(eid)
+                vectors[eid] = gym.make_vec(eid, num_envs=num_envs, vectorization_mode="async",
+                                            vector_kwargs={"shared_memory": True})
+            except Exception as e:
+                raise PerfUnavailable(f"gymnasium.make_vec({eid!r}) failed ({type(e).__name__}:"
+                                      f" {str(e).splitlines()[0] if str(e) else ''})") from None
+        rates: dict[str, dict[str, list[float]]] = {eid: {"single": [], "vector": []}
+                                                    for eid in env_ids}
+        for r in range(repeats):
+            for eid in env_ids:
+                t, _ = random_env_steps(singles[eid], steps, seed + r)
+                rates[eid]["single"].append(steps / t.wall_s)
+                venv = vectors[eid]
+                venv.action_space.seed(seed + r)
+                acts = [venv.action_space.sample() for _ in range(steps // num_envs)]
+                venv.reset(seed=seed + r)
+                t = timed(lambda venv=venv, acts=acts: [venv.step(a) for a in acts] and None)[1]
+                rates[eid]["vector"].append(len(acts) * num_envs / t.wall_s)
+                if log is not None:
+                    log(f"round {r + 1}/{repeats} {eid}: {rates[eid]['single'][-1]:.0f} env "
+                        f"steps/s in one process, {rates[eid]['vector'][-1]:.0f} with "
+                        f"{num_envs} workers")
+    finally:
+        for env in (*singles.values(), *vectors.values()):
+            env.close()
+    out = {}
+    for eid in env_ids:
+        one = statistics.median(rates[eid]["single"])
+        vec = statistics.median(rates[eid]["vector"])
+        out[eid] = {"single_steps_per_s": one, "vector_steps_per_s": vec, "speedup": vec / one,
+                    "single_rounds": rates[eid]["single"], "vector_rounds": rates[eid]["vector"]}
+    return {"num_envs": num_envs, "steps": steps, "repeats": repeats, "cores": os.cpu_count(),
+            "envs": out}
 
 
 def table(res: dict) -> str:

@@ -237,6 +237,9 @@ def run_cost(spec, *, repeats: int = 3, segment: int = 20) -> RunCost:
     from mjchar.controllers.core.runs import execute
 
     repeats, segment = positive_int(repeats, "repeats"), positive_int(segment, "segment")
+    if spec.scenario_spec.protocol:
+        raise PerfError(f"{spec.controller}/{spec.scenario_spec.name}: run_cost needs a scenario "
+                        f"with one Result, not a protocol of many runs")
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
     saved: list[tuple[np.ndarray, float]] = []
     built = spec.build()
