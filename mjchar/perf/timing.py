@@ -27,7 +27,7 @@ from typing import Any
 
 from .errors import PerfError, positive_int
 
-__all__ = ["CLOCKS", "Timing", "Runs", "Laps", "timed", "rounds", "load_average"]
+__all__ = ["CLOCKS", "Timing", "Runs", "Laps", "PhysicsClock", "timed", "rounds", "load_average"]
 
 #: the clocks a :class:`Timing` holds (attribute names)
 CLOCKS = ("wall_s", "cpu_s", "thread_s")
@@ -197,6 +197,58 @@ class Laps:
         if self.first is None or self.calls < 2:
             raise PerfError("Laps was called fewer than twice")
         return max(self.last - self.first - (self.calls - 1) * self.overhead(), 0.0)
+
+
+class PhysicsClock:
+    """Process CPU seconds spent inside MuJoCo's stepping functions (``mj_step``, ``mj_step1``,
+    ``mj_step2``) called through the name ``mujoco`` of some modules, while active.
+
+    A context manager: on entry, each module's global ``mujoco`` is replaced by a stand-in that
+    forwards every attribute to the real module and times the three stepping functions (two
+    clock reads around each call; their cost lands outside the timed intervals, so the physics
+    share it gives errs low); on exit the modules get the real one back. For measurements only.
+    """
+
+    STEPPING = ("mj_step", "mj_step1", "mj_step2")
+
+    def __init__(self, *modules):
+        self.modules = modules
+        self.cpu_s = 0.0
+        self.calls = 0
+        self._saved: list = []
+
+    def __enter__(self) -> PhysicsClock:
+        clock = self
+
+        class _Timed:
+            def __init__(self, real):
+                self._real = real
+                for name in PhysicsClock.STEPPING:
+                    setattr(self, name, self._timer(getattr(real, name)))
+
+            @staticmethod
+            def _timer(fn):
+                def call(*args, **kwargs):
+                    t0 = time.process_time()
+                    try:
+                        return fn(*args, **kwargs)
+                    finally:
+                        clock.cpu_s += time.process_time() - t0
+                        clock.calls += 1
+                return call
+
+            def __getattr__(self, name):
+                return getattr(self._real, name)
+
+        self._saved = [(m, m.mujoco) for m in self.modules]
+        for m, real in self._saved:
+            m.mujoco = _Timed(real)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for m, real in self._saved:
+            m.mujoco = real
+        self._saved = []
 
 
 def load_average() -> float | None:
