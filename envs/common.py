@@ -146,10 +146,12 @@ class BodyObserver:
         V = np.concatenate([data.xpos[self._sel] - origin, xm[:, 0::3], xm[:, 2::3]])
         return (V @ H).ravel()
 
-    def observe(self, data: mujoco.MjData, extra: int = 0) -> np.ndarray:
+    def observe(self, data: mujoco.MjData, extra: int = 0,
+                frame: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """``(size + extra,)`` float64 features (see the class docstring), not yet clipped;
-        the last ``extra`` entries are left for the caller to fill."""
-        H, r = self.frame(data)
+        the last ``extra`` entries are left for the caller to fill. ``frame``: :meth:`frame`
+        of ``data`` when already computed."""
+        H, r = self.frame(data) if frame is None else frame
         V, rows, sel = self._V, self._rows, self._sel
         xpos = data.xpos[sel]
         np.subtract(xpos[1:], r, out=V[rows["pos"]])
@@ -286,6 +288,7 @@ class CharacterEnv(gym.Env):
         self._controller = None
         self._recorder = None
         self._last_obs = None
+        self._frame = None
         self._diverged = False
         self._diverged_at = 0.0
 
@@ -376,6 +379,7 @@ class CharacterEnv(gym.Env):
         ch = self.character
         qpos, qvel = self._start(options)
         ch.reset(qpos, qvel)
+        self._frame = None
         if self._reuse_controller():
             # the registered base controller of the last episode: only its target changes
             # (gains, actuation and its bookkeeping are what a fresh one would set up)
@@ -410,8 +414,9 @@ class CharacterEnv(gym.Env):
         ch = self.character
         self._before_step()
         base = self._controller.act(ch, ch.time)
-        target = base.target + self.action_scale_rad * np.clip(a, -1.0, 1.0)
+        target = base.target + self.action_scale_rad * np.minimum(np.maximum(a, -1.0), 1.0)
         try:
+            self._frame = None  # the state changes: the heading frame is computed anew
             ch.step(Action(torque=base.torque, target=target), self.n_substeps)
             self._n_steps += self.n_substeps
             self._recorder.record(ch)
@@ -450,12 +455,20 @@ class CharacterEnv(gym.Env):
         MuJoCo may have reset the data)."""
         return self._diverged_at if self._diverged else self.character.time
 
+    def _frame_now(self) -> tuple[np.ndarray, np.ndarray]:
+        """The observer's heading frame ``(H (3, 3), r (3,))`` of the current state, computed
+        once per step (the observation and a reward share it)."""
+        if self._frame is None:
+            self._frame = self.observer.frame(self.character.data)
+        return self._frame
+
     def _observe(self) -> np.ndarray:
         extra = self._extra_observation()
-        x = self.observer.observe(self.character.data, extra=len(extra))
+        x = self.observer.observe(self.character.data, extra=len(extra), frame=self._frame_now())
         if len(extra):
             x[self.observer.size:] = extra
-        np.clip(x, self._obs_low, self._obs_high, out=x)
+        np.maximum(x, self._obs_low, out=x)  # (np.clip's result, without its wrapper)
+        np.minimum(x, self._obs_high, out=x)
         if not math.isfinite(x.sum()):  # clipped values sum finitely: only a NaN survives
             raise SimulationDiverged("non-finite observation", self.character.time)
         return x.astype(np.float32)
