@@ -290,25 +290,28 @@ def vector_throughput(env_ids: Sequence[str] = (ENV_IDS[0], ENV_IDS[-1]), *,
             "envs": out}
 
 
-def table(res: dict) -> str:
+def table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of docs/envs.md from ``env_throughput(..., bare=True)``."""
     import gymnasium as gym
 
     lines = [
-        f"Measured by `python -m mjchar.perf.envs` on {machine_line(Gymnasium=gym.__version__)}"
-        f"; random actions, {res['steps']} env steps per round, median of {res['repeats']} "
-        f"interleaved rounds, one process.",
+        f"Measured by `{command}` on {machine_line(Gymnasium=gym.__version__)}"
+        f"; random actions drawn before the timed loop, {res['steps']} env steps per round, "
+        f"median of {res['repeats']} interleaved rounds, one process; shares on the process CPU "
+        f"clock (spread: smallest and largest round).",
         "",
         "| env | obs / act | nv | physics dt | physics steps per env step | env steps/s | "
-        "physics steps/s | bare mj_step/s | physics share | episodes per round |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "physics steps/s | time in mj_step | spread | bare-equivalent share | "
+        "episodes per round |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for eid, r in res["envs"].items():
         lines.append(
             f"| {eid} | {r['obs_dim']} / {r['act_dim']} | {r['nv']} | "
             f"{r['timestep_s'] * 1000:.2f} ms | {r['physics_steps_per_env_step']} | "
             f"{r['env_steps_per_s']:.0f} | {r['physics_steps_per_s']:.0f} | "
-            f"{r['bare_steps_per_s']:.0f} | {r['physics_share']:.0%} | "
+            f"{r['time_in_mj_step']:.0%} | {min(r['times_in_mj_step']):.0%}-"
+            f"{max(r['times_in_mj_step']):.0%} | {r['physics_share']:.0%} | "
             f"{r['episodes_per_round']} |")
     first, ref = res["envs"][ENV_IDS[0]], res["envs"][res["reference"]]
     ratio = res["ratios"][ENV_IDS[0]]
@@ -317,6 +320,23 @@ def table(res: dict) -> str:
               f"{ratio['env_steps']:.2f}x the env steps per second (it simulates "
               f"{first['physics_steps_per_env_step']} steps per action against "
               f"{ref['physics_steps_per_env_step']})."]
+    return "\n".join(lines)
+
+
+def vector_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
+    """The Markdown table of :func:`vector_throughput`."""
+    n = res["num_envs"]
+    lines = [f"Measured by `{command}` on {machine_line()}; random actions, "
+             f"{res['steps']} env steps per case and round, median of {res['repeats']} "
+             f"interleaved rounds (wall clock; spread: slowest and fastest round).", "",
+             f"| env | env steps/s, one process | spread | env steps/s, AsyncVectorEnv x {n} "
+             f"(shared memory, {res['cores']} cores) | spread | speed-up |",
+             "|---|---|---|---|---|---|"]
+    for eid, r in res["envs"].items():
+        lines.append(f"| {eid} | {r['single_steps_per_s']:.0f} | "
+                     f"{min(r['single_rounds']):.0f}-{max(r['single_rounds']):.0f} | "
+                     f"{r['vector_steps_per_s']:.0f} | {min(r['vector_rounds']):.0f}-"
+                     f"{max(r['vector_rounds']):.0f} | {r['speedup']:.2f} |")
     return "\n".join(lines)
 
 
@@ -332,13 +352,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         res = env_throughput(steps=a.steps, repeats=a.repeats, bare=True,
                              log=lambda s: print(s, file=sys.stderr, flush=True))
+        vec = vector_throughput(steps=a.steps, repeats=a.repeats,
+                                log=lambda s: print(s, file=sys.stderr, flush=True))
     except PerfUnavailable as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    body = table(res)
-    print(body)
+    body, vbody = table(res), vector_table(vec)
+    print(body + "\n\n" + vbody)
     if a.write:
-        print(f"updated {write_block(DOCS / 'envs.md', 'envs', body)}", file=sys.stderr)
+        write_block(DOCS / "envs.md", "envs", body)
+        print(f"updated {write_block(DOCS / 'envs.md', 'envs-vector', vbody)}", file=sys.stderr)
     return 0
 
 

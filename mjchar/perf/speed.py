@@ -12,11 +12,12 @@ docs/controllers.md and docs/envs.md).
   :data:`MPC_DURATION` s), its loop timed on the process CPU clock from inside, over bare
   ``mj_step`` on the same model and time step from the states that run visited; timed runs and
   bare loops take turns, median of the repeats, their spread beside it.
-- **Envs** (:func:`mjchar.perf.envs.env_throughput`, :func:`mjchar.perf.envs.vector_throughput`):
-  the physics share of each env with random actions in one process (bare ``mj_step`` CPU time for
-  the same physics steps over the env loop's CPU time), then env steps per second in one process
-  and as a ``gymnasium.vector.AsyncVectorEnv`` of two workers with shared memory, ``Humanoid-v5``
-  alongside.
+- **Envs** (:func:`mjchar.perf.envs.env_throughput`, :func:`mjchar.perf.envs.vector_throughput`,
+  the tables of :mod:`mjchar.perf.envs`): the share of each env's time spent inside MuJoCo's
+  stepping functions with random actions in one process (and the bare-equivalent share: bare
+  ``mj_step`` CPU time for the same physics steps over the env loop's CPU time), then env steps
+  per second in one process and as a ``gymnasium.vector.AsyncVectorEnv`` of two workers with
+  shared memory, ``Humanoid-v5`` alongside.
 
 Timings are CPU time of this process where they are ratios (other processes' load affects the
 controller and its yardstick alike) and wall time where they are throughputs; a table says the
@@ -33,7 +34,7 @@ from .errors import PerfUnavailable
 from .physics import run_cost
 from .report import DOCS, machine_line, write_block
 
-__all__ = ["MPC_DURATION", "controller_run_costs", "controllers_table", "envs_table", "main"]
+__all__ = ["MPC_DURATION", "controller_run_costs", "controllers_table", "main"]
 
 #: seconds the MPC's run lasts here (its default run takes minutes of planning)
 MPC_DURATION = 0.5
@@ -71,29 +72,6 @@ def controllers_table(costs: dict, repeats: int) -> str:
     return "\n".join(lines)
 
 
-def envs_table(share: dict, vector: dict) -> str:
-    """Markdown tables of :func:`~mjchar.perf.envs.env_throughput` (``bare=True``) and
-    :func:`~mjchar.perf.envs.vector_throughput`."""
-    import gymnasium as gym
-
-    lines = [f"Measured by `python -m mjchar.perf.speed --only envs` on "
-             f"{machine_line(Gymnasium=gym.__version__)}; random actions (drawn before the timed "
-             f"loop), {share['steps']} env steps per round, median of {share['repeats']} "
-             f"interleaved rounds.", "",
-             "| env | physics steps per env step | physics share (one process) | spread |",
-             "|---|---|---|---|"]
-    for eid, r in share["envs"].items():
-        lines.append(f"| {eid} | {r['physics_steps_per_env_step']} | {r['physics_share']:.0%} | "
-                     f"{min(r['physics_shares']):.0%}-{max(r['physics_shares']):.0%} |")
-    n = vector["num_envs"]
-    lines += ["", f"| env | env steps/s, one process | env steps/s, AsyncVectorEnv x {n} "
-                  f"(shared memory, {vector['cores']} cores) | speed-up |", "|---|---|---|---|"]
-    for eid, r in vector["envs"].items():
-        lines.append(f"| {eid} | {r['single_steps_per_s']:.0f} | {r['vector_steps_per_s']:.0f} | "
-                     f"{r['speedup']:.2f} |")
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m mjchar.perf.speed",
                                 description=__doc__.splitlines()[0])
@@ -116,9 +94,10 @@ def main(argv: list[str] | None = None) -> int:
         costs = controller_run_costs(a.controllers or None, repeats=a.repeats, log=log)
         sections["speed"] = ("controllers.md", controllers_table(costs, a.repeats))
     if a.only in (None, "envs"):
-        from .envs import ENV_IDS, env_throughput, vector_throughput
+        from .envs import ENV_IDS, env_throughput, table, vector_table, vector_throughput
 
-        log("envs: physics share, one process and AsyncVectorEnv")
+        log("envs: time in mj_step, one process and AsyncVectorEnv")
+        command = "python -m mjchar.perf.speed --only envs"
         try:
             share = env_throughput(ENV_IDS, steps=a.env_steps, repeats=a.repeats, bare=True,
                                    log=log)
@@ -127,7 +106,8 @@ def main(argv: list[str] | None = None) -> int:
         except PerfUnavailable as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
-        sections["envs-speed"] = ("envs.md", envs_table(share, vector))
+        sections["envs"] = ("envs.md", table(share, command))
+        sections["envs-vector"] = ("envs.md", vector_table(vector, command))
     for key, (_, body) in sections.items():
         print(f"\n## {key}\n\n{body}")
     if a.write:

@@ -35,6 +35,7 @@ class Dynamics:
         self._scratch = mujoco.MjData(model)
         # the diagonal of the CSR mass matrix (as intp: int32 indices are converted per use)
         self._M_diag = (model.M_rowadr + model.M_rownnz - 1).astype(np.intp)
+        self._M_add = np.full(len(self._data.M), -0.0)
 
     def _body(self, body: str | int) -> int:
         return int(body) if isinstance(body, (int, np.integer)) else self._body_id(body)
@@ -62,9 +63,14 @@ class Dynamics:
         scratch copy (``mj_factorM``/``mj_solveM``), a few microseconds for a humanoid.
         """
         sd = self._scratch
-        sd.M[:] = self._data.M
-        if diagonal is not None:
-            sd.M[self._M_diag] += diagonal
+        if diagonal is None:
+            sd.M[:] = self._data.M
+        else:
+            # M + diag in one pass: the diagonal's entries where they go, -0.0 elsewhere
+            # (x + -0.0 is x for every x, signed zeros included)
+            add = self._M_add
+            add[self._M_diag] = diagonal
+            np.add(self._data.M, add, out=sd.M)
         mujoco.mj_factorM(self._model, sd)
         x = np.empty((1, self._nv))
         mujoco.mj_solveM(self._model, sd, x, np.ascontiguousarray(rhs, dtype=float).reshape(1, -1))
