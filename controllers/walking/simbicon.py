@@ -236,6 +236,12 @@ class Simbicon:
         self._step_start = (character.time, character.state.com())
         self._command_time = character.time
         self._limits = character.actuation.torque_limits()[self._act_dof]
+        # the clamps the step applies, as (low, high) per group (read per step, fixed here)
+        lim = self._limits
+        self._neg_limits = -lim
+        for leg in self._legs:
+            leg["hip_limits"] = (-lim[leg["hip_acts"]], lim[leg["hip_acts"]])
+        self._pelvis_limits = [(-lim[a], lim[a]) for _, a in self._pelvis_children]
         self._ready = True
 
     def _hinges(self, character: Character, joint: str) -> dict[str, _Hinge]:
@@ -589,7 +595,8 @@ class Simbicon:
         kps, kds = self._swing_gains
         tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
         acts = sw["hip_acts"]
-        tau[acts] = s.joint_axes[sw["hip_joints"]] @ tau_w
+        axes_sw = s.joint_axes[sw["hip_joints"]]
+        tau[acts] = axes_sw @ tau_w
         if "z" in sw["hip"]:
             # its twist stays local, towards the twist that points the foot at the desired
             # heading (thigh yaw = pelvis yaw + s q_twist)
@@ -602,8 +609,10 @@ class Simbicon:
             character.dynamics.com_jacobian(sw["hip_body"], out=self._jac)
             tau[sw["leg_acts"]] += (g.swing_gravity * GRAVITY * sw["leg_mass"]
                                     * self._jac[2, sw["leg_dofs"]])
-        tau[acts] = np.minimum(np.maximum(tau[acts], -lim[acts]), lim[acts])
-        tau_sw = _world_torque(s.joint_axes[sw["hip_joints"]], tau[acts])
+        lo, hi = sw["hip_limits"]
+        clamped = np.minimum(np.maximum(tau[acts], lo), hi)
+        tau[acts] = clamped
+        tau_sw = _world_torque(axes_sw, clamped)
 
         # torso (pelvis), world frame: desired heading and forward lean
         Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
@@ -612,9 +621,10 @@ class Simbicon:
 
         # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
         react = np.zeros(3)
-        for js, a in self._pelvis_children:
-            tau[a] = np.minimum(np.maximum(tau[a], -lim[a]), lim[a])
-            react += _world_torque(s.joint_axes[js], tau[a])
+        for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
+            clamped = np.minimum(np.maximum(tau[a], lo), hi)
+            tau[a] = clamped
+            react += _world_torque(s.joint_axes[js], clamped)
         tau_st = -tau_torso - tau_sw - react
         acts = st["hip_acts"]
         if "z" in st["hip"]:
@@ -641,7 +651,7 @@ class Simbicon:
             kpa, kda = self._ankle_world_gains
             tau_f = kpa * _log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
             tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
-        return np.minimum(np.maximum(tau, -lim), lim)
+        return np.minimum(np.maximum(tau, self._neg_limits), lim)
 
     def _world_target(self, key: str, yaw: float, pitch: float) -> np.ndarray:
         """``(3, 3)`` ``R_z(yaw) R_y(pitch)``: a world target orientation (torso, swing foot),
