@@ -169,6 +169,7 @@ class Recorder:
         self.start_root = character.state.root_position
         self.root = self.start_root.copy()
         self.start_feet = self._feet_xy(character)
+        self._feet = (character.site_id("left_foot"), character.site_id("right_foot"))
         self.foot_travel = 0.0
         self.start_com_z = float(character.state.com()[2])
         self.com_min_z = self.start_com_z
@@ -198,7 +199,8 @@ class Recorder:
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
-            (lx, ly), (rx, ry) = self._feet_xy(character).tolist()
+            sites, (left, right) = character.state.site_positions, self._feet
+            (lx, ly), (rx, ry) = sites[left, :2].tolist(), sites[right, :2].tolist()
             (sx, sy), (tx, ty) = self.start_feet.tolist()
             # the largest of the two feet's horizontal displacements (on Python floats: the
             # same operations as np.linalg.norm(feet - start_feet, axis=1).max())
