@@ -145,6 +145,19 @@ def test_speed_tables_state_each_ratio_and_its_spread():
     assert "| native_pd | stand | 2 ms |" in text and "python -m mjchar.perf.speed" in text
 
 
+def test_env_shares_and_the_vectorised_path_report_rates():
+    r = perf.env_throughput(("mjchar/Stand-v0",), steps=20, repeats=1, bare=True)
+    e = r["envs"]["mjchar/Stand-v0"]
+    assert 0 < e["time_in_mj_step"] < 1 and 0 < e["physics_share"] < 1.5
+    assert len(e["times_in_mj_step"]) == 1 and e["env_steps_per_s"] > 0
+    from mjchar.perf.envs import vector_throughput
+
+    v = vector_throughput(("mjchar/Stand-v0",), num_envs=2, steps=8, repeats=1)
+    s = v["envs"]["mjchar/Stand-v0"]
+    assert v["num_envs"] == 2 and s["single_steps_per_s"] > 0 and s["vector_steps_per_s"] > 0
+    assert s["speedup"] == pytest.approx(s["vector_steps_per_s"] / s["single_steps_per_s"])
+
+
 def test_rollout_throughput_compares_against_the_python_loop():
     r = perf.rollout_throughput(samples=2, steps=3, repeats=1, threads=(1,))
     assert [c["threads"] for c in r["cases"]] == [1, 1]
