@@ -85,13 +85,13 @@ def heading_rotation(root_xmat: np.ndarray) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of ``(n, 3)`` arrays (``np.cross`` is ~10x slower at this size)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
+    """Row-wise cross product of ``(n, 3)`` arrays, ``a_{i+1} b_{i+2} - a_{i+2} b_{i+1}`` per
+    column ``i`` in three whole-array products (``np.cross`` is ~10x slower at this size)."""
+    return a[:, _NEXT] * b[:, _PREV] - a[:, _PREV] * b[:, _NEXT]
 
 
 class BodyObserver:
