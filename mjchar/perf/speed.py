@@ -42,13 +42,18 @@ MPC_DURATION = 0.5
 
 def controller_run_costs(names: Sequence[str] | None = None, *, repeats: int = 3,
                          log: Callable[[str], None] = lambda msg: None) -> dict:
-    """``{name: RunCost.to_dict()}`` for the registered controllers ``names`` (default: all),
-    each on its default run (:func:`~mjchar.perf.physics.run_cost`)."""
+    """``{name: RunCost.to_dict()}`` for the registered controllers ``names`` (default: all
+    that run without a file: the generic ``replay``, which plays a trajectory it is given, is
+    the controller ``samcon_replay`` and ``cmaes_replay`` run on their bundled ones), each on
+    its default run (:func:`~mjchar.perf.physics.run_cost`)."""
     from mjchar.controllers.core import registry
     from mjchar.controllers.core.runs import RunSpec
 
+    if not names:
+        names = [s.name for s in registry.specs()
+                 if not (s.kind == "replay" and not s.trajectory_prefixes)]
     out = {}
-    for name in names or registry.names():
+    for name in names:
         options = {"duration": MPC_DURATION} if name == "mpc" else {}
         c = run_cost(RunSpec(name, scenario_options=options), repeats=repeats)
         out[name] = c.to_dict()
