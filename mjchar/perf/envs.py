@@ -189,7 +189,7 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                 t, ended = random_env_steps(env, steps, seed + r, physics=clock)
                 rounds[eid].append((steps / t.wall_s, ended))
                 if bare:
-                    inside[eid].append(clock.cpu_s / max(t.cpu_s, 1e-12))
+                    inside[eid].append(clock.share(t.cpu_s))
                     bt, bn = bare_step_time(env, visited_states(env, steps, seed + r))
                     bares[eid].append(bn / bt.wall_s)
                     # CPU seconds bare mj_step takes for this round's physics steps, over the
