@@ -146,9 +146,14 @@ class ImitationEnv(CharacterEnv):
 
         # dofs of the pose and velocity terms: everything but the root translation
         self._pose_dofs = np.setdiff1d(np.arange(ch.nv), ch.root_dofs[:3])
+        if np.array_equal(self._pose_dofs, np.arange(3, ch.nv)):  # root first: a view
+            self._pose_dofs = slice(3, ch.nv)
         self._ee = np.array([ch.body_id(ch.role(r)) for r in END_EFFECTOR_ROLES
                              if ch.role(r, required=False)], dtype=int)
         self._joint_bodies = self.reference.joint_body_ids
+        jb = self._joint_bodies  # a contiguous run of bodies (the converter's layout): a view
+        if len(jb) and np.array_equal(jb, np.arange(jb[0], jb[0] + len(jb))):
+            self._joint_bodies = slice(int(jb[0]), int(jb[0]) + len(jb))
         self._ref_data = mujoco.MjData(ch.model)
         self._ref_data_time = None
         self._future_data = mujoco.MjData(ch.model)
@@ -250,7 +255,7 @@ class ImitationEnv(CharacterEnv):
         ref = self._reference_kinematics(self.reference_time).xpos[self._joint_bodies]
         diff = sim - ref
         err = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        self._joint_error = float(err.mean())
+        self._joint_error = float(np.add.reduce(err) / len(err))  # (= err.mean())
         self._err_sum += self._joint_error
         self._root_err_sum += float(err[0])
         self._err_n += 1
@@ -261,19 +266,23 @@ class ImitationEnv(CharacterEnv):
         t = self.reference_time
         rd = self._reference_kinematics(t)
         d = ch.data
-        e_q = ch.dynamics.difference(d.qpos, self._ref.qpos(t))[self._pose_dofs]
-        e_v = (d.qvel - self._ref.qvel(t))[self._pose_dofs]
-        rb = ch.root_body
-        ps = (d.xpos[self._ee] - d.xpos[rb]) @ heading_rotation(d.xmat[rb])
-        ps[:, 2] = d.xpos[self._ee, 2]
-        pr = (rd.xpos[self._ee] - rd.xpos[rb]) @ heading_rotation(rd.xmat[rb])
-        pr[:, 2] = rd.xpos[self._ee, 2]
+        pose, ee, rb = self._pose_dofs, self._ee, ch.root_body
+        e_q = ch.dynamics.difference(d.qpos, self._ref.qpos(t))[pose]
+        e_v = d.qvel[pose] - self._ref.qvel(t)[pose]
+        H, r = self._frame_now()
+        xpos, rxpos = d.xpos, rd.xpos
+        ps = (xpos[ee] - r) @ H
+        ps[:, 2] = xpos[ee, 2]
+        pr = (rxpos[ee] - rxpos[rb]) @ heading_rotation(rd.xmat[rb])
+        pr[:, 2] = rxpos[ee, 2]
         e_c = d.subtree_com[rb] - rd.subtree_com[rb]
         e_p = (ps - pr).ravel()
-        sq = {"pose": float(e_q @ e_q), "velocity": float(e_v @ e_v),
-              "end_effector": float(e_p @ e_p), "com": float(e_c @ e_c)}
-        terms = {k: math.exp(-self.reward_scales[k] * sq[k]) for k in sq}
-        return sum(self.reward_weights[k] * terms[k] for k in terms), terms
+        scales, weights = self.reward_scales, self.reward_weights
+        terms = {"pose": math.exp(-scales["pose"] * float(e_q @ e_q)),
+                 "velocity": math.exp(-scales["velocity"] * float(e_v @ e_v)),
+                 "end_effector": math.exp(-scales["end_effector"] * float(e_p @ e_p)),
+                 "com": math.exp(-scales["com"] * float(e_c @ e_c))}
+        return sum(weights[k] * terms[k] for k in terms), terms
 
     def _after_step(self) -> None:
         self._accumulate_errors()
@@ -293,6 +302,8 @@ class ImitationEnv(CharacterEnv):
         phi = self.phase()
         a = (2.0 if self.reference.cyclic else 1.0) * math.pi * phi
         parts = [np.array([math.cos(a), math.sin(a)])]
+        if not self.future_steps:
+            return parts[0]
         if self.future_steps:
             d = self.character.data
             H, r = self.observer.frame(d)

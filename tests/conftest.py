@@ -14,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
 SHARED_CLIPS = ["walk60.bvh", "idle.bvh", "walk_forward.bvh", "walk_and_turn_right.bvh"]
+SHARED_REAL = ROOT.parent / "shared" / "data" / "real"
 
 
 def shared_clip(name: str) -> Path:
@@ -22,6 +23,17 @@ def shared_clip(name: str) -> Path:
     if not path.is_file():
         pytest.skip(f"shared motion data not found at {path} (a clone outside the mjchar "
                     f"workplace has no ../shared/data); this test needs it")
+    return path
+
+
+def real_export(name: str) -> Path:
+    """Path of a real export in ../shared/data/real; skips the calling test with a clear
+    message when it is absent."""
+    path = SHARED_REAL / name
+    if not path.is_file():
+        pytest.skip(f"real export not found at {path} (../shared/data/real holds the real "
+                    f"exports of more rig families; a clone outside the mjchar workplace has "
+                    f"none); this test needs it")
     return path
 
 

@@ -223,27 +223,27 @@ def test_the_graph_sees_real_edges():
     assert "mjchar.bvh.io.motion" in GRAPH["mjchar.bvh.io.reader"]
 
 
-#: the Character's former flat names that still forward to its parts for
-#: controllers/walking/ipm.py (rewritten separately; they go when the rewrite lands)
-IPM_FORWARDERS = ("mass", "qpos", "set_actuation", "default_gains", "torque_limits", "com",
-                  "com_velocity", "mass_matrix", "point_jacobian", "ground_contacts",
-                  "foot_contacts", "support_polygon", "on_floor", "solve_ik")
+#: the Character's former flat names, forwarders to its parts until the IPM walker went through
+#: the parts too: gone, and nothing may call them
+FORMER_FLAT_NAMES = ("mass", "qpos", "set_actuation", "default_gains", "torque_limits", "com",
+                     "com_velocity", "mass_matrix", "point_jacobian", "ground_contacts",
+                     "foot_contacts", "support_polygon", "on_floor", "solve_ik")
 
 
-def test_the_characters_flat_forwarders_serve_ipm_only():
-    """Everything else uses the Character's parts (``character.state.qpos``, ...)."""
-    flat = re.compile(r"\b(?:character|ch|humanoid|mini)\.(" + "|".join(IPM_FORWARDERS)
+def test_the_character_has_no_flat_forwarders_left():
+    """Everything uses the Character's parts (``character.state.qpos``, ...), the docs and
+    examples included (which no call would catch)."""
+    from mjchar.controllers.core.character import Character
+
+    assert not [n for n in FORMER_FLAT_NAMES if hasattr(Character, n)]
+    flat = re.compile(r"\b(?:character|ch|humanoid|mini)\.(" + "|".join(FORMER_FLAT_NAMES)
                       + r")\b")
-    ipm = ROOT / "controllers" / "walking" / "ipm.py"
     files = [*MODULES.values(), *(ROOT / "tests").rglob("*.py"),
              *(ROOT / "examples").rglob("*.py"), *(ROOT / "docs").glob("*.md"),
              ROOT / "README.md"]
-    bad = [f"{f.relative_to(ROOT)}: {m.group(0)}" for f in files if f != ipm
+    bad = [f"{f.relative_to(ROOT)}: {m.group(0)}" for f in files
            for m in flat.finditer(f.read_text())]
     assert not bad, "\n".join(bad)
-    src = (ROOT / "controllers" / "core" / "character" / "__init__.py").read_text()
-    for name in IPM_FORWARDERS:
-        assert re.search(rf"def {name}\(.*# IPM: moves with the IPM rewrite", src), name
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))

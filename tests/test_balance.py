@@ -88,7 +88,7 @@ def test_squats_02m_and_rises(ch):
     c = StaticBalance(height=squat_profile(0.2, start=0.5, down=1.5, hold=1.0, up=1.5))
     com = []
     r = S.simulate(ch, c, duration=6.0, scenario="squat", qpos=S.standing_pose(ch),
-                   frame_callback=lambda x: com.append(x.com()[2]))
+                   frame_callback=lambda x: com.append(x.state.com()[2]))
     com = np.array(com)
     assert not r.fell and not r.stepped
     assert com.min() <= com[0] - 0.18          # went down ~0.2 m

@@ -17,7 +17,7 @@ from mjchar import bvh
 from mjchar.bvh.io import reader as bvh_io
 from mjchar.bvh.io.motion import _continuous_euler
 from mjchar.bvh.io.skeleton import Skeleton
-from mjchar.bvh.rotations import quat_from_euler, to_rotation
+from mjchar.bvh.rotations import quat_from_euler, quat_from_rotvec, to_rotation
 
 VARIANTS = all_variants()
 
@@ -183,12 +183,19 @@ def test_joint_names_are_words_joined_by_one_space(name, monkeypatch):
                                    "0.12345678901234567890123", "1234567890123456789012345678.5",
                                    "-98765432109876543210987654321", "1." + "0" * 40])
 def test_frame_numbers_equal_python_float(token):
-    """Every accepted number form converts exactly like float(), fast path or not."""
-    text = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}\n"
-            f"MOTION\nFrames: 2\nFrame Time: 0.1\n1 {token} 3\n{token} 2 {token}\n")
-    values = bvh.loads(text).source_channels
+    """Every accepted number form converts exactly like float(), fast path or not; a file whose
+    positions no body could reach is refused (naming the line) after the conversion."""
+    body = f"1 {token} 3\n{token} 2 {token}\n"
     f = float(token)
-    np.testing.assert_array_equal(values, [[1, f, 3], [f, 2, f]])
+    np.testing.assert_array_equal(bvh_io._parse_frames(body, 11, 2, 9, 3, None),
+                                  [[1, f, 3], [f, 2, f]])
+    text = ("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}\n"
+            f"MOTION\nFrames: 2\nFrame Time: 0.1\n{body}")
+    if abs(f) <= bvh_io.MAX_POSITION:
+        np.testing.assert_array_equal(bvh.loads(text).source_channels, [[1, f, 3], [f, 2, f]])
+    else:
+        with pytest.raises(bvh.BVHError, match=r"line 10: value 2 of frame 1 .*cannot describe"):
+            bvh.loads(text)
 
 
 def test_end_site_order_survives_round_trip():
@@ -479,3 +486,20 @@ def test_bvh_error_is_a_project_error():
     assert issubclass(bvh.BVHError, bvh.MjcharError)
     e = bvh.BVHError("bad", line=3, path="x.bvh")
     assert (e.reason, e.line, e.path, str(e)) == ("bad", 3, "x.bvh", "x.bvh, line 3: bad")
+
+
+def test_a_skeleton_numbered_out_of_depth_first_order_round_trips():
+    """Joints appended after their subtree was written (a chain added under the head later)
+    come back renumbered depth-first with their own channel values."""
+    from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
+    from mjchar.bvh.bundled.zoo_layouts import add_chain
+
+    m = bvh.Motion.rest(humanoid_skeleton(), 3)
+    m.rotations[:] = quat_from_rotvec(
+        np.random.default_rng(1).normal(0, 0.3, (3, m.skeleton.n_joints, 3)))
+    m = add_chain(m, "torso_head", [("extra", (0.0, 0.05, 0.1))], end=(0.0, 0.0, 0.05))
+    back = bvh.loads(bvh.dumps(m))
+    assert back.skeleton.names != m.skeleton.names  # renumbered
+    fk, fk2 = bvh.forward_kinematics(m).positions, bvh.forward_kinematics(back).positions
+    idx = [back.skeleton.index(n) for n in m.skeleton.names]
+    np.testing.assert_allclose(fk2[:, idx], fk, atol=1e-6)

@@ -344,6 +344,30 @@ def test_lying_body_counts_as_non_foot_contact(mini):
     assert "RootJoint" in mini.contacts.non_foot()
 
 
+def test_contact_tables_agree_with_the_contact_list(humanoid):
+    """``feet()`` and the fall test read geom-pair tables built at start-up: on poses from
+    standing to lying they say what the contact list says (the floor's other geom, its body,
+    its side)."""
+    c = humanoid.contacts
+    rng = np.random.default_rng(3)
+    falls = 0
+    for _ in range(120):
+        q = humanoid.dynamics.integrate(standing(humanoid), rng.normal(0, 0.6, humanoid.nv), 1.0)
+        q[humanoid.root_qpos[2]] += rng.uniform(-0.8, 0.05)
+        humanoid.reset(q)
+        n = humanoid.data.ncon
+        g = humanoid.data.contact.geom[:n]
+        other = np.where(g[:, 0] == c.floor_geom, g[:, 1],
+                         np.where(g[:, 1] == c.floor_geom, g[:, 0], -1))
+        bodies = humanoid.model.geom_bodyid[other[other >= 0]]
+        left = {humanoid.body_id(humanoid.role(f"left_{p}")) for p in ("ankle", "toe")}
+        right = {humanoid.body_id(humanoid.role(f"right_{p}")) for p in ("ankle", "toe")}
+        assert c.feet() == (bool(left & set(bodies)), bool(right & set(bodies)))
+        assert c.any_non_foot() == bool(set(bodies) - left - right) == bool(c.non_foot())
+        falls += c.any_non_foot()
+    assert 10 < falls < 110  # both kinds of pose were seen
+
+
 def test_convex_hull_and_margin():
     pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5], [1, 0], [0.5, 0]])
     hull = convex_hull_2d(pts)
@@ -471,6 +495,29 @@ def test_pose_kinematics_leave_the_state_alone(humanoid):
     assert lo < hi
 
 
+def test_body_and_site_offsets_are_the_rest_poses_bones(humanoid):
+    # model constants in the parent's frame: at rest (world-aligned bodies, contract) a body's
+    # offset is its origin's position relative to its parent's, a site's relative to its body's
+    ch = humanoid
+    rest = ch.poses.kinematics(ch.poses.rest())
+    for name in ("lKnee", ch.role("right_ankle")):
+        b = ch.body_id(name)
+        off = ch.poses.body_offset(name)
+        assert off.shape == (3,)
+        np.testing.assert_array_equal(off, ch.poses.body_offset(b))
+        np.testing.assert_allclose(off, rest.body_positions[b]
+                                   - rest.body_positions[ch.body_parent[b]], atol=1e-12)
+    s = ch.site_id("left_foot")
+    body, pos = ch.poses.site_offset(s)
+    assert body == ch.body_id(ch.role("left_ankle"))
+    np.testing.assert_allclose(pos, rest.site_positions[s] - rest.body_positions[body],
+                               atol=1e-12)
+    pos[:] = 0.0  # copies: the model is untouched
+    off[:] = 0.0
+    assert np.linalg.norm(ch.poses.site_offset(s)[1]) > 0
+    assert np.linalg.norm(ch.poses.body_offset(ch.role("right_ankle"))) > 0
+
+
 def test_weld_holds_the_root_where_it_is(mini):
     q = standing(mini)
     q[mini.root_qpos[2]] += 0.2
@@ -503,6 +550,32 @@ def test_exploding_velocity_raises_simulation_diverged(mini):
         for _ in range(5):
             mini.step(Action(torque=tau))
     assert e.value.time >= 0
+
+
+def test_bad_actions_are_refused_whatever_their_form(mini):
+    """The per-step finiteness test (one sum of absolute values, numpy's test when that is not
+    finite) refuses NaN and infinite torques and targets, huge finite ones included, and takes
+    targets of any float type or layout."""
+    mini.reset(standing(mini))
+    mini.actuation.set_mode("native")
+    u = np.zeros(mini.nu)
+    for bad in (np.nan, np.inf, -np.inf):
+        t = u.copy()
+        t[-1] = bad
+        with pytest.raises(SimulationDiverged, match="target"):
+            mini.step(Action(target=t))
+    huge = np.full(mini.nu, 1e308)  # finite, though their sum is not
+    mini.actuation.apply(Action(target=huge))
+    np.testing.assert_array_equal(mini.data.ctrl, huge)
+    mini.actuation.apply(Action(target=np.ones(mini.nu, dtype=np.float32)))
+    np.testing.assert_array_equal(mini.data.ctrl, np.ones(mini.nu))
+    strided = np.zeros(2 * mini.nu)[::2]
+    mini.actuation.apply(Action(target=strided))
+    mini.actuation.set_mode("torque")
+    tau = np.zeros(mini.nv)
+    tau[mini.actuator_dof[0]] = -np.inf
+    with pytest.raises(SimulationDiverged, match="torque"):
+        mini.step(Action(torque=tau))
 
 
 def test_ik_lowers_pelvis_with_feet_in_place(humanoid):

@@ -96,7 +96,7 @@ def test_saved_trajectories_replay_walk60(name, bar):
 
 # mpc: "tracks walk60 within 2.5 cm"
 def test_mpc_tracks_walk60_within_2_5_cm():
-    r = run("mpc", "track", motion=shared_clip("walk60.bvh"), progress=False)
+    r = run("mpc", "track", motion=shared_clip("walk60.bvh"))
     assert not r.fell and r.tracking_error_m < 0.025 and r.root_force_max_N == 0.0
 
 

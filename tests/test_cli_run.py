@@ -67,7 +67,7 @@ def test_malformed_options_give_one_line_and_non_zero_exit(args, needle, capsys)
     (["run", "mpc", "--param", "plan_timestep=0.003"], "not a whole number"),
     (["run", "mpc", "--param", "sample=8"], "unknown MPC option(s) sample; valid: samples"),
     (["run", "ipm", "--param", "timing.step_time=-1"],
-     "IPM parameter timing.step_time must be a finite number > 0 (s), got -1"),
+     "IPM parameter timing.step_time must be a finite number > 0 and <= 10 (s), got -1"),
     (["run", "ipm", "--param", "timing.stepp_time=0.5"],
      "unknown IPM parameter(s) timing.stepp_time (did you mean timing.step_time?); valid: "),
     (["run", "ipm", "--param", "step_time=0.5"],

@@ -15,6 +15,7 @@ from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.kinematics.fk import forward_kinematics
 from mjchar.bvh.mjcf import ConversionError, ConvertedModel, ModelInfo, convert
+from mjchar.bvh.rigs.layouts import apply_record
 from mjchar.bvh.rigs.units import transform_motion
 from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, to_rotation
 from mjchar.cli import main as cli_main
@@ -35,8 +36,10 @@ def random_motion(sk: Skeleton, n_frames: int = 12, scale_deg: float = 60.0, see
 
 
 def kinematic_qpos(model: mujoco.MjModel, info: ModelInfo, motion) -> tuple[np.ndarray, np.ndarray]:
-    """(qpos (F, nq), expected body positions (F, K, 3)) from the contract alone: the clip in
-    MuJoCo axes, ``L_j = G_parent^-1 G_j`` and the recorded hinge orders (no projection)."""
+    """(qpos (F, nq), expected body positions (F, K, 3)) from the contract alone: the clip
+    through the model's ``rig`` record (its canonical rest), in MuJoCo axes,
+    ``L_j = G_parent^-1 G_j`` and the recorded hinge orders (no projection)."""
+    motion = apply_record(motion, info.extra.get("rig"))
     mm = transform_motion(motion, info.unit_scale, info.basis)
     fk = forward_kinematics(mm)
     sk = motion.skeleton
@@ -494,3 +497,25 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     bvh.save(bvh.Motion.rest(_single_joint()), src)
     assert cli_main(["convert", str(src), "--joint-model", "ball"]) == 2
     assert "1 joint" in capsys.readouterr().err
+
+
+def test_cli_prints_the_unit_and_height_and_warns_outside_the_human_range(tmp_path, capsys):
+    sk = humanoid_skeleton()
+    src = tmp_path / "dm.bvh"  # decimetres: no known unit makes it a human
+    bvh.save(bvh.Motion.rest(Skeleton(sk.names, sk.parents, sk.offsets * 10, sk.channels,
+                                      sk.end_site_parents, sk.end_site_offsets * 10), 2), src)
+    assert cli_main(["convert", str(src), "-o", str(tmp_path / "a.xml")]) == 0
+    cap = capsys.readouterr()
+    assert "unit: 0.1" in cap.out and "no known unit fits" in cap.out
+    height = float(cap.out.split("; height ")[1].split(" m")[0])
+    assert 1.6 < height < 1.9 and cap.err == ""
+    assert cli_main(["convert", str(src), "-o", str(tmp_path / "b.xml"), "--unit", "in"]) == 0
+    cap = capsys.readouterr()
+    assert "unit: 0.0254 m per file unit (in, given); height 0.4" in cap.out
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and "outside 1.0-2.3 m" in err[0] and "--unit" in err[0]
+    assert "outside" not in cap.out  # said once, on stderr
+    assert cli_main(["convert", str(src), "-o", str(tmp_path / "c.xml"), "--unit", "cmu",
+                     "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["unit"] == "cmu" and res["unit_scale"] == pytest.approx(0.0254 / 0.45)

@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion
+from mjchar.bvh.mjcf import convert
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.registry import make_controller
 from mjchar.controllers.core.scenarios import push, simulate, standing_pose, survived
@@ -131,17 +133,19 @@ def test_options_are_checked():
     with pytest.raises(IPMError, match=r"human_top \(did you mean speed.human_top\?\)"):
         IPMController(human_top=1.4)
     for name, value, accepted in (
-            ("timing.step_time", -0.1, "a finite number > 0 (s)"),
-            ("timing.step_time", float("nan"), "a finite number > 0 (s)"),
-            ("timing.step_time", "fast", "a finite number > 0 (s)"),
-            ("tracking.hip_kp", math.inf, "a finite number >= 0 (N m/rad)"),
-            ("tracking.hip_kd", True, "a finite number >= 0 (N m s/rad)"),
+            ("timing.step_time", -0.1, "a finite number > 0 and <= 10 (s)"),
+            ("timing.step_time", float("nan"), "a finite number > 0 and <= 10 (s)"),
+            ("timing.step_time", "fast", "a finite number > 0 and <= 10 (s)"),
+            ("timing.step_time", 1e9, "a finite number > 0 and <= 10 (s)"),
+            ("tracking.hip_kp", math.inf, "a finite number >= 0 and <= 100000 (N m/rad)"),
+            ("tracking.hip_kd", True, "a finite number >= 0 and <= 10000 (N m s/rad)"),
             ("feet.push_off_phase", 1.0, "a finite number >= 0 and < 1 (step phase)"),
             ("swing.blend", "linear", "one of 'quadratic', 'smooth'"),
-            ("swing.heights", 0.1, "3 finite numbers (m)"),
-            ("feet.ankle_back_speeds", 0.8, "2 finite numbers, each >= 0 (m/s)"),
-            ("turning.ankle_limit", None, "3 finite numbers, each >= 0 (m)"),
-            ("stance.ankle_limit", (0.08, -0.01, 0.02), "3 finite numbers, each >= 0 (m), or null"),
+            ("swing.heights", 0.1, "3 finite numbers, each >= -10 and <= 10 (m)"),
+            ("feet.ankle_back_speeds", 0.8, "2 finite numbers, each >= 0 and <= 20 (m/s)"),
+            ("turning.ankle_limit", None, "3 finite numbers, each >= 0 and <= 10 (m)"),
+            ("stance.ankle_limit", (0.08, -0.01, 0.02),
+             "3 finite numbers, each >= 0 and <= 10 (m), or null"),
             ("tracking.feedforward", 1, "true or false")):
         with pytest.raises(IPMError) as e:
             IPMController(**{name: value})
@@ -184,6 +188,15 @@ def test_toe_up_ankle_limit_weight_follows_the_speed():
 def test_act_before_reset_raises():
     with pytest.raises(IPMError):
         IPMController().act(None, 0.0)
+
+
+def test_a_ball_jointed_model_is_refused():
+    # ball hips and ankles (and a hinge knee) have the leg's dof counts, but IPM maps torques to
+    # hinges: refused at reset, not walked on
+    c = convert(humanoid_rest_motion(), joint_model="ball")
+    ch = Character(c.compile(), info=c.info)
+    with pytest.raises(IPMError, match="not all hinges.*joint_model='hinge'"):
+        IPMController(speed=1.0).reset(ch)
 
 
 def test_foot_placement_follows_velocity_width_and_clamp(character):
@@ -518,9 +531,9 @@ def test_parameters_follow_the_body_by_similarity():
     """Every IPM parameter declares its dimension on its field; the body scaling is derived from
     those declarations (each value times its dimension's factor); the tuned body keeps them
     exactly (the same object); and a few declarations are pinned here."""
+    from mjchar.controllers.core import param_fields as F
+    from mjchar.controllers.core.similarity import similarity_factors
     from mjchar.controllers.walking import ipm_params as P
-    from mjchar.controllers.walking import param_fields as F
-    from mjchar.controllers.walking.similarity import similarity_factors
 
     dims = {f"{g}.{n}": spec.dimension for g, n, spec in F.leaves(P.IPMParams)}
     assert list(dims) == P.IPMParams.names() and len(dims) == 79
@@ -555,7 +568,7 @@ def test_every_parameter_is_declared_with_a_dimension():
     """A parameter group field without a dimension helper is refused when the set is used."""
     import dataclasses
 
-    from mjchar.controllers.walking import param_fields as F
+    from mjchar.controllers.core import param_fields as F
 
     @dataclasses.dataclass(frozen=True)
     class Plain:

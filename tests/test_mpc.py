@@ -34,7 +34,7 @@ FAST = {"samples": 8, "horizon": 0.2, "knots": 2, "replan": 0.04, "threads": 2}
 
 def _track(character, reference, duration, **options):
     """Run the MPC in the track scenario; returns ``(result, qpos rows per control step)``."""
-    controller = make_mpc(character, reference, progress=False, **{**FAST, **options})
+    controller = make_mpc(character, reference, **{**FAST, **options})
     rows = []
     r = S.track(character, controller, reference, duration=duration,
                 frame_callback=lambda ch: rows.append(ch.state.qpos.copy()))
@@ -46,25 +46,32 @@ def _track(character, reference, duration, **options):
 @pytest.mark.parametrize("options, match", [
     ({"samples": 1}, "samples"),
     ({"knots": 1}, "knots"),
-    ({"update": "newton"}, "update must be one of sampling, mppi, cem"),
+    ({"update": "newton"}, "update must be one of 'sampling', 'mppi', 'cem'"),
     ({"horizon": 0.25}, "horizon .* whole number of controls"),
     ({"replan": 0.5, "horizon": 0.3}, "replan .* cannot exceed horizon"),
-    ({"noise": -1.0}, "noise must be a positive number"),
+    ({"noise": -1.0}, "noise must be a finite number > 0"),
     ({"threads": 0}, "threads"),
     ({"plan_timestep": 0.003}, "control_dt 0.02 s is not a whole number of plan_timestep"),
-    ({"plan_timestep": -0.004}, "plan_timestep must be a positive number or None"),
-    ({"plan_timestep": 0.05}, "not a whole number of plan_timestep"),
+    ({"plan_timestep": -0.004}, r"plan_timestep must be a finite number >= 1e-05 .*or null"),
+    ({"plan_timestep": 0.008}, "not a whole number of plan_timestep"),
+    ({"plan_timestep": 0.05}, r"plan_timestep must be a finite number >= 1e-05 and <= 0.01"),
+    ({"samples": 10**9}, "samples must be an integer >= 2 and <= 4096"),
+    ({"samples": 48.0}, "samples must be an integer"),
+    ({"horizon": 1e9}, r"horizon must be a finite number > 0 and <= 5 \(s\)"),
+    ({"weights": {"pose": 1e300}}, "weights must be an object"),
     ({"smoothness": float("nan")}, "smoothness"),
-    ({"plan_solver": "quick"}, "plan_solver must be one of fast, exact"),
+    ({"plan_solver": "quick"}, "plan_solver must be one of 'fast', 'exact'"),
     ({"near": 0.25}, "near .* whole number of controls"),
-    ({"keep": 0.0}, "keep must be a fraction"),
-    ({"keep": 1.5}, "keep must be a fraction"),
+    ({"near": -0.02}, r"near must be a finite number >= 0 and <= 5 \(s\)"),
+    ({"keep": 0.0}, "keep must be a finite number > 0 and <= 1"),
+    ({"keep": 1.5}, "keep must be a finite number > 0 and <= 1"),
     ({"tail_timestep": 0.003}, "not a whole number of tail_timestep"),
-    ({"stance_height": 0.0}, "stance_height must be a positive fraction"),
-    ({"stance_height": "low"}, "stance_height must be a positive fraction"),
+    ({"tail_timestep": 0.05}, r"tail_timestep must be a finite number >= 1e-05 and <= 0.01"),
+    ({"stance_height": 0.0}, "stance_height must be a finite number > 0 and <= 1"),
+    ({"stance_height": "low"}, "stance_height must be a finite number > 0 and <= 1"),
     ({"colour": "red"}, "unknown MPC option.*colour.*valid: samples"),
     ({"weights": {"pose": -1.0}}, "cost weight pose"),
-    ({"widths": {"tail": 0.1}}, "unknown joint role 'tail'"),
+    ({"widths": {"tail": 0.1}}, r"widths must be an object of names \(hip, knee"),
 ])
 def test_bad_options_are_refused_with_a_clear_message(character, walk_ref, options, match):
     with pytest.raises(MjcharError, match=match):  # MpcError, or TrackingError for costs/widths
@@ -87,7 +94,7 @@ def test_the_planning_model_has_its_own_time_step(character, walk_ref):
 
     from mjchar.controllers.sampling.trajectory import model_fingerprint
 
-    c = make_mpc(character, walk_ref, progress=False, **FAST)
+    c = make_mpc(character, walk_ref, **FAST)
     c.reset(character)
     m = c._rmodel.model
     assert m.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
@@ -177,7 +184,7 @@ def test_stance_height_default_follows_the_reference_floor(character, walk_ref):
     assert stance_height(MpcOptions(), walk_ref) == MPC_STANCE_HEIGHT
     assert stance_height(MpcOptions(), clip_ref) == CONTACT_HEIGHT
     assert stance_height(MpcOptions(stance_height=0.05), clip_ref) == 0.05
-    c = make_mpc(character, walk_ref, progress=False, **FAST)
+    c = make_mpc(character, walk_ref, **FAST)
     c.reset(character)
     assert c.grid.stance_height == MPC_STANCE_HEIGHT
     c.close()
@@ -200,7 +207,7 @@ def test_every_update_tracks(walk_ref, update):
 
 def test_holds_a_pose_in_the_stand_scenario():
     ch = Character()
-    c = make_mpc(ch, S.standing_pose(ch), progress=False, **FAST)
+    c = make_mpc(ch, S.standing_pose(ch), **FAST)
     r = S.stand(ch, c, duration=0.3)
     assert not r.fell and r.com_drop_m < 0.02
 
@@ -227,7 +234,7 @@ def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
     """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
     at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, plan_timestep=0.002, plan_solver="exact",
+    c = make_mpc(ch, walk_ref, plan_timestep=0.002, plan_solver="exact",
                  **FAST)  # the character's own step and solver
     ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
     c.reset(ch)
@@ -254,7 +261,7 @@ def test_plan_from_a_given_state_and_clip_time(walk_ref):
     """plan() plans from a full-physics state at a clip time without touching the character;
     the same random stream gives the same plan; a Plan warm starts the next one."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, **FAST)
     c.reset(ch)
     ch.reset(walk_ref.qpos(0.3), walk_ref.qvel(0.3))
     state = ch.state.get_physics()
@@ -278,7 +285,7 @@ def test_plan_off_the_control_grid_uses_a_grid_of_its_own(walk_ref):
     """A 30 Hz learner's states fall between the MPC's 0.02 s controls: the base targets and
     cost features are sampled from the state's own time on."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, **FAST)
     c.reset(ch)
     t = 1 / 30
     ch.reset(walk_ref.qpos(t), walk_ref.qvel(t))
@@ -297,7 +304,7 @@ def test_plan_off_the_control_grid_uses_a_grid_of_its_own(walk_ref):
 def test_a_nominal_of_pd_targets_is_fitted_to_the_knots(walk_ref):
     """Targets the knots can represent come back exactly: the nominal candidate is them."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, **FAST)
     c.reset(ch)
     grid, n0 = c._grid_at(0.2)
     base = grid.base(n0, n0 + c.T)
@@ -315,7 +322,7 @@ def test_a_nominal_of_pd_targets_is_fitted_to_the_knots(walk_ref):
 
 def test_the_closed_loop_plans_through_plan(walk_ref):
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, **FAST)
     S.track(ch, c, walk_ref, duration=0.12)
     c.close()
     assert c.stats["replans"] == 3 and isinstance(c.last_plan, Plan)
@@ -346,7 +353,7 @@ def test_a_rollout_continued_without_warm_start_is_the_same_rollout(character, w
 
 def test_cost_over_time_matches_the_cost_per_control(walk_ref):
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **FAST)
+    c = make_mpc(ch, walk_ref, **FAST)
     c.reset(ch)
     ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
     base = c.grid.base(0, c.T)
@@ -369,7 +376,7 @@ def test_early_termination_and_the_coarse_tail(walk_ref):
     depend on the thread count."""
     o = {**FAST, "horizon": 0.2, "near": 0.08, "keep": 0.5, "tail_timestep": 0.01}
     ch = Character()
-    c = make_mpc(ch, walk_ref, progress=False, **o)
+    c = make_mpc(ch, walk_ref, **o)
     c.reset(ch)
     assert c._tail_model.model.opt.timestep == 0.01 and (c.T_near, c.k_tail) == (4, 2)
     p = c.plan(ch.state.get_physics(), 0.0)
@@ -473,7 +480,7 @@ def _shared_ref(ch, name, cyclic=False):
 def test_slow_tracks_the_shared_clips(clip, bound):
     ch = Character()
     ref = _shared_ref(ch, clip)
-    c = make_mpc(ch, ref, progress=False)
+    c = make_mpc(ch, ref)
     r = S.track(ch, c, ref)
     c.close()
     assert not r.fell and r.root_force_mean_N == 0.0
@@ -484,7 +491,7 @@ def test_slow_tracks_the_shared_clips(clip, bound):
 def test_slow_loops_walk60_for_a_minute():
     ch = Character()
     ref = _shared_ref(ch, "walk60", cyclic=True)
-    c = make_mpc(ch, ref, progress=False)
+    c = make_mpc(ch, ref)
     r = S.track(ch, c, ref, duration=60.0)
     c.close()
     assert not r.fell and r.tracking_error_m < 0.06
@@ -500,7 +507,7 @@ def test_slow_recovers_from_pushes_while_walking(moment):
         ch = Character()
         ref = _shared_ref(ch, "walk60", cyclic=True)
         push = S.PushEvent(100.0, direction, round(0.5 + moment * ref.duration / 4, 3), 0.2)
-        c = make_mpc(ch, ref, progress=False)
+        c = make_mpc(ch, ref)
         t, pos = [], []
 
         def probe(ch, t=t, pos=pos):
@@ -524,7 +531,7 @@ def test_slow_survives_perturbed_starts(seed):
     ch = Character()
     ref = _shared_ref(ch, "walk60")
     start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
-    c = make_mpc(ch, ref, progress=False)
+    c = make_mpc(ch, ref)
     r = S.track(ch, c, ref, start=start)
     c.close()
     assert not r.fell

@@ -15,8 +15,9 @@ from mjchar import bvh
 from mjchar.bvh.bundled.humanoid_skeleton import humanoid_skeleton
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.rigs import units
-from mjchar.bvh.rigs.naming import is_end, is_finger, recognise, side_of, tokens
+from mjchar.bvh.rigs.naming import is_end, is_finger, is_twist, recognise, side_of, tokens
 from mjchar.bvh.rigs.units import transform_motion, up_axis_rotation
+from mjchar.bvh.rotations import quat_rotate
 
 ZYX = ("Zrotation", "Yrotation", "Xrotation")
 ZXY = ("Zrotation", "Xrotation", "Yrotation")
@@ -209,3 +210,124 @@ def test_knee_spellings(name):
     rec = recognise(Skeleton(names, sk.parents, sk.offsets, sk.channels,
                              sk.end_site_parents, sk.end_site_offsets))
     assert rec.roles["left_knee"] == name and rec.by_structure == []
+
+
+def test_namespaces_glued_sides_and_details():
+    assert tokens("mixamorig7:LeftUpLeg") == ["left", "up", "leg"]
+    assert tokens("Armature|LeftLeg") == ["left", "leg"]
+    assert tokens("rknee") == ["r", "knee"] and tokens("lShldr") == ["l", "shldr"]
+    assert tokens("finger2-2.r") == ["finger", "2", "2", "r"]
+    for word in ("leg", "lower", "left", "right", "ring", "root", "lowerback"):
+        assert tokens(word) == [word]  # not a side letter glued to a word
+    for name, side in [("rcollar", "right"), ("lbuttock", "left"), ("finger2-2.r", "right"),
+                       ("ltibia", "left"), ("Armature|RightForeArm", "right"),
+                       ("abdomen", None), ("neck1", None)]:
+        assert side_of(name) == side, name
+    assert is_finger("metacarpal3.l") and is_finger("RightInHandIndex")
+    assert is_finger("__rthumb") and not is_finger("rhand")
+    assert is_twist("lForearmTwist") and is_twist("upperarm_twist_01_l")
+    assert not is_twist("lForeArm")
+
+
+def _named(mapping: dict[str, str]) -> Skeleton:
+    sk = humanoid_skeleton()
+    return Skeleton([mapping.get(n, n) for n in sk.names], sk.parents, sk.offsets, sk.channels,
+                    sk.end_site_parents, sk.end_site_offsets)
+
+
+def _convention(trunk, limb, left, right) -> dict[str, str]:
+    g = ("RootJoint", "pelvis_lowerback", "lowerback_torso", "torso_head")
+    parts = ("Hip", "Knee", "Ankle", "ToeJoint", "Torso_Clavicle", "Shoulder", "Elbow", "Wrist")
+    out = dict(zip(g, trunk, strict=True))
+    for p, pat in zip(parts, limb, strict=True):
+        out[f"l{p}"], out[f"r{p}"] = pat.format(s=left), pat.format(s=right)
+    return out
+
+
+#: naming conventions of real exports: MakeHuman's CMU-MB (lower case, side letters glued on),
+#: Daz/Poser, Xsens MVN as its BVH export writes it, Perception Neuron, CMU's ASF names,
+#: Mixamo under a numbered namespace and under a Blender armature
+REAL_CONVENTIONS = {
+    "makehuman": _convention(("hip", "abdomen", "chest", "head"),
+                             ("{s}hip", "{s}knee", "{s}foot", "{s}toe", "{s}collar",
+                              "{s}shoulder", "{s}elbow", "{s}hand"), "l", "r"),
+    "daz": _convention(("hip", "abdomen", "chest", "head"),
+                       ("{s}Thigh", "{s}Shin", "{s}Foot", "{s}Toe", "{s}Collar", "{s}Shldr",
+                        "{s}ForeArm", "{s}Hand"), "l", "r"),
+    "xsens-bvh": _convention(("Hips", "Chest", "Chest4", "Head"),
+                             ("{s}Hip", "{s}Knee", "{s}Ankle", "{s}Toe", "{s}Collar",
+                              "{s}Shoulder", "{s}Elbow", "{s}Wrist"), "Left", "Right"),
+    "neuron": _convention(("Hips", "Spine", "Spine3", "Head"),
+                          ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                           "{s}Arm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
+    "asf": _convention(("root", "lowerback", "thorax", "head"),
+                       ("{s}femur", "{s}tibia", "{s}foot", "{s}toes", "{s}clavicle",
+                        "{s}humerus", "{s}radius", "{s}wrist"), "l", "r"),
+    "mixamo7": _convention(tuple(f"mixamorig7:{n}" for n in ("Hips", "Spine", "Spine2", "Head")),
+                           tuple("mixamorig7:" + p for p in (
+                               "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                               "{s}Arm", "{s}ForeArm", "{s}Hand")), "Left", "Right"),
+    "armature": _convention(tuple(f"Armature|{n}" for n in ("Hips", "Spine", "Chest", "Head")),
+                            tuple("Armature|" + p for p in (
+                                "UpperLeg_{s}", "LowerLeg_{s}", "Foot_{s}", "Toes_{s}",
+                                "Shoulder_{s}", "UpperArm_{s}", "LowerArm_{s}", "Hand_{s}")),
+                            "L", "R"),
+}
+
+
+@pytest.mark.parametrize("convention", sorted(REAL_CONVENTIONS))
+def test_conventions_of_real_exports(convention):
+    m = REAL_CONVENTIONS[convention]
+    rec = recognise(_named(m))
+    for g, role in (("lHip", "left_hip"), ("rKnee", "right_knee"), ("lAnkle", "left_ankle"),
+                    ("rToeJoint", "right_toe"), ("lShoulder", "left_shoulder"),
+                    ("rElbow", "right_elbow"), ("lWrist", "left_wrist"),
+                    ("rTorso_Clavicle", "right_clavicle"), ("torso_head", "head"),
+                    ("RootJoint", "pelvis")):
+        assert rec.roles[role] == m[g], (convention, role)
+    assert rec.by_structure == [] and rec.unrecognised == []
+
+
+def test_sides_from_the_knees_bend_in_any_pose():
+    """Anonymous names on the bundled walk turned to lie face down (its toes point down and
+    back along the ground, so where the feet point would swap the sides): the trunk x the
+    knees' bend still tells the left leg and arm from the right ones."""
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.bvh.bundled.zoo_layouts import anonymise
+    from mjchar.bvh.rigs.naming import Clip
+    from mjchar.bvh.rotations import quat_from_rotvec, quat_mul
+
+    m = bvh.load(motion_path("walk"))
+    lying = m.copy()
+    turn = quat_from_rotvec(np.radians(90.0) * np.eye(3)[0])  # face +Z -> face -Y (the floor)
+    lying.rotations[:, 0] = quat_mul(turn, lying.rotations[:, 0])
+    lying.local_positions[:, 0] = quat_rotate(turn, lying.local_positions[:, 0])
+    anon, names = anonymise(lying)
+    rec = recognise(anon.skeleton, np.eye(3)[1], clip=Clip.of(anon))
+    for g, role in (("lKnee", "left_knee"), ("rHip", "right_hip"), ("lElbow", "left_elbow"),
+                    ("rShoulder", "right_shoulder")):
+        assert rec.roles[role] == names[g], role
+
+
+def test_up_is_where_the_body_keeps_a_floor():
+    """A crawl along +Z (made up: hips 0.45 m above the ankles and 0.7 m ahead of them, the
+    lowest point always on the floor): the legs point more along Z than up, the floor says Y."""
+    from mjchar.bvh.rigs import structure
+    from mjchar.bvh.rigs.naming import Clip
+
+    sk = humanoid_skeleton()
+    n_f = 60
+    rng = np.random.default_rng(3)
+    z = np.linspace(0.0, 3.0, n_f)[:, None]
+    P = np.zeros((n_f, sk.n_joints, 3))
+    P[:, :, 1] = rng.uniform(0.05, 0.6, (n_f, sk.n_joints))  # everything between floor and hips
+    P[:, :, 2] = z + rng.uniform(-0.8, 0.4, (n_f, sk.n_joints))
+    P[:, :, 0] = rng.uniform(-0.3, 0.3, (n_f, sk.n_joints))
+    legs = [(sk.index(f"{s}Hip"), sk.index(f"{s}Knee"), sk.index(f"{s}Ankle")) for s in "lr"]
+    for h, k, a in legs:
+        P[:, h] = np.c_[np.zeros(n_f), np.full(n_f, 0.5), z[:, 0]]
+        P[:, k] = np.c_[np.zeros(n_f), np.full(n_f, 0.03), z[:, 0] - 0.3]
+        P[:, a] = np.c_[np.zeros(n_f), np.full(n_f, 0.05), z[:, 0] - 0.7]
+    P[:, sk.index("lToeJoint"), 1] = 0.0  # the floor
+    clip = Clip(P, np.zeros(sk.n_joints, bool))
+    assert structure.up_axis(sk, legs, clip) == "y"

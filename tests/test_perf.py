@@ -25,7 +25,7 @@ from mjchar.perf import report
 from mjchar.perf.timing import Timing, rounds, timed
 
 PERF = Path(perf.__file__).parent
-ENTRY_POINTS = ("pd", "rollouts", "envs", "bvh", "simbicon", "ipm", "mpc", "samcon")
+ENTRY_POINTS = ("pd", "rollouts", "envs", "bvh", "simbicon", "ipm", "mpc", "samcon", "speed")
 
 
 # -- the timing primitive -----------------------------------------------------------------------
@@ -110,6 +110,52 @@ def test_step_cost_and_raw_rate_report_positive_finite_numbers():
     assert raw["c_loop_steps_per_s"] > 0 and raw["python_loop_steps_per_s"] > 0
     with pytest.raises(perf.PerfError):
         perf.raw_step_rate(ch.model, steps=0)
+
+
+def test_run_cost_reports_ratios_to_bare_mj_step_in_the_same_run():
+    """What ``mjchar run`` costs per physics step over bare ``mj_step``: a ratio per repeat, the
+    median of them, and the run's own facts (never a timing threshold)."""
+    from mjchar.controllers.core.runs import RunSpec
+
+    c = perf.run_cost(RunSpec("native_pd", scenario_options={"duration": 0.1}), repeats=2,
+                      segment=10)
+    assert len(c.ratios) == 2 and c.ratio == pytest.approx(sorted(c.ratios)[0] / 2
+                                                           + sorted(c.ratios)[1] / 2)
+    assert all(math.isfinite(r) and r > 0 for r in c.ratios)
+    assert c.run_us > 0 and c.bare_us > 0 and c.steps == 50 and c.scenario == "stand"
+    with pytest.raises(perf.PerfError, match="protocol"):
+        perf.run_cost(RunSpec("spd", "push-search", scenario_options={"phases": 1, "seeds": 1}),
+                      repeats=1)
+
+
+def test_laps_time_a_loop_from_inside():
+    laps = perf.Laps()
+    with pytest.raises(perf.PerfError):
+        _ = laps.span
+    for _ in range(100):
+        laps()
+    assert laps.calls == 100 and laps.span >= 0 and perf.Laps.overhead() > 0
+
+
+def test_speed_tables_state_each_ratio_and_its_spread():
+    from mjchar.perf import speed
+
+    costs = speed.controller_run_costs(["native_pd"], repeats=1)
+    text = speed.controllers_table(costs, 1)
+    assert "| native_pd | stand | 2 ms |" in text and "python -m mjchar.perf.speed" in text
+
+
+def test_env_shares_and_the_vectorised_path_report_rates():
+    r = perf.env_throughput(("mjchar/Stand-v0",), steps=20, repeats=1, bare=True)
+    e = r["envs"]["mjchar/Stand-v0"]
+    assert 0 < e["time_in_mj_step"] < 1 and 0 < e["physics_share"] < 1.5
+    assert len(e["times_in_mj_step"]) == 1 and e["env_steps_per_s"] > 0
+    from mjchar.perf.envs import vector_throughput
+
+    v = vector_throughput(("mjchar/Stand-v0",), num_envs=2, steps=8, repeats=1)
+    s = v["envs"]["mjchar/Stand-v0"]
+    assert v["num_envs"] == 2 and s["single_steps_per_s"] > 0 and s["vector_steps_per_s"] > 0
+    assert s["speedup"] == pytest.approx(s["vector_steps_per_s"] / s["single_steps_per_s"])
 
 
 def test_rollout_throughput_compares_against_the_python_loop():

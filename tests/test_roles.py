@@ -126,3 +126,26 @@ def test_roles_mapping_overrides_names():
     assert load_roles({"roles": {"pelvis": "RootJoint"}}) == {"pelvis": "RootJoint"}
     with pytest.raises(ConversionError, match="spine must be"):
         load_roles({"spine": 3})
+
+
+def test_info_says_where_each_role_came_from(tmp_path, capsys):
+    """``mjchar info``: the role map with each joint's provenance (its name, or the skeleton's
+    shape), the unit and the height of the body the converter would build."""
+    from mjchar.bvh.bundled.assets import motion_path
+
+    named = motion_path("walk")
+    assert cli_main(["info", str(named)]) == 0
+    out = capsys.readouterr().out
+    assert "left knee       lKnee (name)" in out and "unit: m (1 m per file unit" in out
+    assert "the body it would build: 1.6" in out
+    anon = _save(tmp_path, _renamed({n: f"j{i}" for i, n in
+                                     enumerate(humanoid_skeleton().names)}), "anon.bvh")
+    assert cli_main(["info", str(anon)]) == 0
+    out = capsys.readouterr().out
+    assert "left knee       j13 (shape)" in out and "right elbow     j10 (shape)" in out
+    assert "pelvis          j0 (shape)" in out and "head            j3 (shape)" in out
+    assert "spine           j1, j2 (shape)" in out
+    roles = tmp_path / "roles.toml"
+    roles.write_text('left_knee = "j13"\nright_knee = "j17"\n')
+    assert cli_main(["info", str(anon), "--roles", str(roles)]) == 0
+    assert "left knee       j13 (given)" in capsys.readouterr().out

@@ -9,10 +9,14 @@ from scipy.spatial.transform import Rotation
 
 from mjchar import bvh
 from mjchar.bvh.rigs.units import (
+    CMU_UNIT,
+    KNOWN_UNITS,
     guess_unit_scale,
     guess_up_axis,
     to_metres,
     transform_motion,
+    unit_from_stature,
+    unit_name,
     unit_scale,
     up_axis_rotation,
 )
@@ -102,3 +106,19 @@ def test_flat_skeleton_has_no_unit_guess():
     sk = bvh.Skeleton(["a", "b"], [-1, 0], [[0, 0, 0], [0, 0, 0]], [(), ()])
     with pytest.raises(bvh.SkeletonError, match="no height"):
         guess_unit_scale(sk)
+
+
+@pytest.mark.parametrize("unit", sorted(KNOWN_UNITS))
+@pytest.mark.parametrize("height_m", [1.1, 1.4, 1.7, 2.0, 2.2])
+def test_units_snap_from_the_body(unit, height_m):
+    """A body of 1.1-2.2 m in any known unit (m, cm, mm, in, ft, CMU ASF) is read in it."""
+    g = unit_from_stature(height_m / KNOWN_UNITS[unit])
+    assert g.name == unit and g.scale == KNOWN_UNITS[unit]
+    assert g.height_m == pytest.approx(height_m)
+
+
+def test_no_known_unit_gives_the_anatomical_scale():
+    g = unit_from_stature(17.0)  # decimetres: 17 m, 5.2 ft, 0.96 m in CMU units, 0.43 m in inches
+    assert g.name is None and g.scale == pytest.approx(1.7 / 17.0)
+    assert unit_scale("cmu") == pytest.approx(0.0254 / 0.45) == CMU_UNIT
+    assert unit_name(0.0254) == "in" and unit_name(0.05) is None

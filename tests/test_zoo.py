@@ -30,6 +30,9 @@ SHARED_RIGS = {  # rig -> the shared clip it is made from
     "xsens-mm-yup-tall": "walk_forward",
 }
 BUNDLED_RIGS = ("humanoid-150-m-zup", "humanoid-195-in-yup")
+#: the structures of real exports (zoo_rigs(..., structures=True)), made from walk60
+STRUCTURE_RIGS = ("cmu-asf-yup", "daz-cm-yup-face", "lafan1-anon-cm-yup",
+                  "mixamo7-cm-yup-gimbal")
 ESSENTIAL = ("pelvis", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle",
              "right_ankle", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
              "head")
@@ -41,8 +44,11 @@ _RIGS: dict = {}
 def _rig(name: str):
     if name in SHARED_RIGS:
         shared_clip(f"{SHARED_RIGS[name]}.bvh")
+    if name in STRUCTURE_RIGS:
+        shared_clip("walk60.bvh")
     if not _RIGS:
-        _RIGS.update({r.name: r for r in zoo_rigs(SHARED_BVH if SHARED_BVH.is_dir() else None)})
+        _RIGS.update({r.name: r for r in zoo_rigs(SHARED_BVH if SHARED_BVH.is_dir() else None,
+                                                  structures=True)})
     return _RIGS[name]
 
 
@@ -61,9 +67,15 @@ def test_zoo_covers_the_conventions():
     assert {"m", "cm", "in"} <= {r.unit for r in rigs}
     assert {"y", "z"} <= {r.up for r in rigs}
     assert all(set(r.names) == set(CONVENTIONS["games"]) for r in rigs)
+    more = zoo_rigs(SHARED_BVH, humanoid=False, structures=True)
+    assert [r.name for r in more] == list(SHARED_RIGS) + list(STRUCTURE_RIGS)
+    assert all(set(r.names) == set(CONVENTIONS["games"]) for r in more)
 
 
-@pytest.mark.parametrize("name", list(SHARED_RIGS) + list(BUNDLED_RIGS))
+ALL_RIGS = list(SHARED_RIGS) + list(BUNDLED_RIGS) + list(STRUCTURE_RIGS)
+
+
+@pytest.mark.parametrize("name", ALL_RIGS)
 def test_zoo_rig_is_the_clip(name):
     """Forward kinematics of the rig's file = the source clip, scaled and re-axed."""
     rig = _rig(name)
@@ -79,7 +91,7 @@ def test_zoo_rig_is_the_clip(name):
     assert np.max(np.abs(got - expected)) * rig.unit_scale < 1e-5  # metres
 
 
-@pytest.mark.parametrize("name", list(SHARED_RIGS) + list(BUNDLED_RIGS))
+@pytest.mark.parametrize("name", ALL_RIGS)
 def test_zoo_rig_converts(name):
     rig = _rig(name)
     m = _file_motion(rig)
@@ -138,12 +150,60 @@ def test_varying_translation_channels_warn_in_mm():
     assert 2.0 < e["max_mm"] <= got + 0.1  # the bone is the mean: the variation is what is left
 
 
+def _twisted_arms(motion: bvh.Motion, shoulders: tuple[str, str], deg: float) -> bvh.Motion:
+    """The rest with each arm turned ``deg`` about its own upper-arm bone (joint positions
+    kept): a T-pose whose elbows do not bend about a world axis."""
+    from mjchar.bvh.rigs.layouts import rerest
+    from mjchar.bvh.rotations import quat_from_rotvec, quat_identity
+
+    sk = motion.skeleton
+    rest = sk.rest_positions()
+    r = quat_identity((sk.n_joints,))
+    for sh in shoulders:
+        s = sk.index(sh)
+        arm = rest[sk.children(s)[0]] - rest[s]
+        q = quat_from_rotvec(np.radians(deg) * arm / np.linalg.norm(arm))
+        for j in range(sk.n_joints):
+            if s in sk.chain(j):
+                r[j] = q
+    return rerest(motion, r)
+
+
 def test_flexion_axes_come_from_the_clip():
-    """A-pose elbows bend about an axis off the world axes: the hinge turns about it."""
+    """Elbows whose rest is twisted about the upper arm bend about an axis off the world axes:
+    the hinge turns about it. The canonical rest keeps a human rest's twist (it only swings
+    bones), so the axis is the clip's."""
     rig = _rig("lafan1-cm-yup-apose")
-    c = convert(_file_motion(rig))
+    m = _twisted_arms(_file_motion(rig), ("LeftArm", "RightArm"), 45.0)
+    c = convert(m)
     model = c.compile()
     ax = model.joint(c.info.joints["LeftForeArm"].mj_joints[0]).axis
     assert np.count_nonzero(np.abs(ax) > 0.2) >= 2  # not snapped to a world axis
     knee = model.joint(c.info.joints["LeftLeg"].mj_joints[0]).axis
     np.testing.assert_allclose(np.abs(knee), [0, 1, 0], atol=1e-9)  # lateral, as it bends
+    e = replay_errors(c, m)
+    assert e["end_effector_max_mm"] < 10.0
+
+
+def test_a_cmu_asf_file_is_read_in_its_unit(tmp_path, capsys):
+    """The CMU file as most people download it (zero-length hip helpers, legs apart and arms
+    hanging at rest, lengths in 1/0.45 inch): at the defaults a 1.6 m body in the ASF unit,
+    standing straight with its arms out; no warning on stderr."""
+    from conftest import run_command
+
+    rig = _rig("cmu-asf-yup")
+    path = tmp_path / "cmu.bvh"
+    bvh.save(rig.motion, path)
+    assert run_command(["convert", str(path), "-o", str(tmp_path / "cmu.xml")]) == 0
+    cap = capsys.readouterr()
+    assert "unit: cmu (0.0564444 m per file unit, from the body's size)" in cap.out
+    assert cap.err == ""
+    c = convert(bvh.load(path))
+    assert 1.5 < c.summary["height_m"] < 1.7
+    assert set(c.summary["fused"]) == {"LHipJoint", "RHipJoint"}
+    m = c.compile()
+    pos = {n: m.body(n).pos for n in ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftForeArm")}
+    np.testing.assert_allclose(pos["LeftLeg"][:2], 0.0, atol=1e-9)  # thigh straight down
+    np.testing.assert_allclose(pos["LeftFoot"][:2], 0.0, atol=1e-9)  # shank straight down
+    assert pos["LeftForeArm"][1] > 0.2 and abs(pos["LeftForeArm"][2]) < 1e-9  # arm out, level
+    assert any("arms put in a T-pose (up to 90 deg)" in w for w in c.warnings)

@@ -33,8 +33,8 @@ from mjchar.bvh.rigs.layouts import rerest
 from mjchar.bvh.rigs.units import UNIT_SCALES, transform_motion, up_axis_rotation
 from mjchar.bvh.rotations import quat_conj, quat_from_rotvec, quat_identity, quat_mul, quat_rotate
 
-__all__ = ["ZooRig", "zoo_rigs", "CONVENTIONS", "rename", "with_channels", "add_static_root",
-           "insert_zero_length_joint", "bone_local_axes", "a_pose", "stature"]
+__all__ = ["ZooRig", "zoo_rigs", "structure_rigs", "CONVENTIONS", "rename", "with_channels",
+           "add_static_root", "insert_zero_length_joint", "bone_local_axes", "a_pose", "stature"]
 
 _G = ("RootJoint", "pelvis_lowerback", "lowerback_torso", "torso_head")
 _LIMB = ("Hip", "Knee", "Ankle", "ToeJoint", "Torso_Clavicle", "Shoulder", "Elbow", "Wrist")
@@ -74,6 +74,14 @@ CONVENTIONS: dict[str, dict[str, str]] = {
     "blender": _names(("hips", "spine", "chest", "head"),
                       ("thigh.{s}", "shin.{s}", "foot.{s}", "toe.{s}", "shoulder.{s}",
                        "upper_arm.{s}", "forearm.{s}", "hand.{s}"), "L", "R"),
+    "daz": _names(("hip", "abdomen", "chest", "head"),
+                  ("{s}Thigh", "{s}Shin", "{s}Foot", "{s}Toe", "{s}Collar", "{s}Shldr",
+                   "{s}ForeArm", "{s}Hand"), "l", "r"),
+    "mixamo7": _names(("mixamorig7:Hips", "mixamorig7:Spine", "mixamorig7:Spine1",
+                       "mixamorig7:Head"),
+                      tuple("mixamorig7:" + p for p in (
+                          "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder", "{s}Arm",
+                          "{s}ForeArm", "{s}Hand")), "Left", "Right"),
     "xsens": _names(("Pelvis", "L5", "T8", "Head"),
                     ("{s}UpperLeg", "{s}LowerLeg", "{s}Foot", "{s}Toe", "{s}Shoulder",
                      "{s}UpperArm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
@@ -291,15 +299,19 @@ def _half_rate(motion: Motion) -> Motion:
 # the zoo
 # ------------------------------------------------------------------------------------------------
 def _rig(name, motion, convention, unit, up, height_m, source, features,
-         mass_kg: float = 70.0) -> ZooRig:
+         mass_kg: float = 70.0, names: dict[str, str] | None = None) -> ZooRig:
     return ZooRig(name, motion, convention, unit, up, float(height_m), source, features,
-                  dict(CONVENTIONS[convention]), float(mass_kg))
+                  dict(CONVENTIONS[convention]) if names is None else names, float(mass_kg))
 
 
-def zoo_rigs(shared_bvh: str | os.PathLike | None = None, *, humanoid: bool = True) -> list[ZooRig]:
+def zoo_rigs(shared_bvh: str | os.PathLike | None = None, *, humanoid: bool = True,
+             structures: bool = False) -> list[ZooRig]:
     """The zoo: rigs made from ``walk60.bvh`` and ``walk_forward.bvh`` in ``shared_bvh`` (skipped
     when the folder or a file is absent) and, with ``humanoid``, the bundled humanoid's walk on
-    its skeleton scaled to 1.5 m and 1.95 m."""
+    its skeleton scaled to 1.5 m and 1.95 m. With ``structures``, also the rigs of
+    :func:`structure_rigs` (the structures of real exports: a CMU ASF rest, Daz names with a
+    face and fingers, anonymous names on local-axis bones, namespaced names on a root near
+    gimbal lock), made from ``walk60.bvh``."""
     out: list[ZooRig] = []
     clips = {}
     if shared_bvh is not None:
@@ -313,6 +325,8 @@ def zoo_rigs(shared_bvh: str | os.PathLike | None = None, *, humanoid: bool = Tr
         out += _from_clip(clips["walk_forward"], "walk_forward", even=False)
     if humanoid:
         out += _humanoids()
+    if structures and "walk60" in clips:
+        out += structure_rigs(clips["walk60"], "walk60")
     return out
 
 
@@ -374,6 +388,86 @@ def _from_clip(m: Motion, src: str, even: bool) -> list[ZooRig]:
     return out
 
 
+def structure_rigs(m: Motion, src: str) -> list[ZooRig]:
+    """The structures of real exports, made from one shared clip ``m`` (GAMES-105 skeleton,
+    metres, Y-up, facing +Z) named ``src``; any clip of that skeleton gives the same skeletons:
+
+    - ``cmu-asf-yup``: a CMU file as most people download it: CMU names, zero-length
+      ``LHipJoint``/``RHipJoint``, the legs 20 degrees apart and the arms hanging in the rest,
+      lengths in the ASF unit (1/0.45 inch), ZYX;
+    - ``daz-cm-yup-face``: Daz/Poser names (``hip``, ``abdomen``, ``lThigh``, ``lShin``,
+      ``lShldr``), a ``pelvis`` helper between ``hip`` and the thighs, five three-joint fingers
+      per hand and a face (jaw, tongue, eyes, brows, ears) that never moves, cm, root ZYX,
+      others ZXY;
+    - ``lafan1-anon-cm-yup``: LAFAN1's layout with anonymous names (``Joint0``...), bones along
+      local axes, no End Sites, cm, ZYX;
+    - ``mixamo7-cm-yup-gimbal``: ``mixamorig7:`` names, 6 channels on every joint, ZXY, cm,
+      a Z-up rest written into a Y-up file with no node above it: the root's middle Euler angle
+      sits near -90 degrees (gimbal lock).
+    """
+    from mjchar.bvh.bundled.zoo_layouts import (
+        add_chain,
+        anonymise,
+        insert_joint,
+        spread_legs,
+        strip_end_sites,
+        turn_rest,
+    )
+    from mjchar.bvh.rotations import quat_from_rotvec
+
+    h0 = stature(m.skeleton)
+    conv = CONVENTIONS
+    out = []
+    # CMU ASF: zero-length hip helpers, legs apart, arms hanging, 1/0.45 inch, ZYX
+    r = rename(m, conv["cmu"])
+    for s in ("Left", "Right"):
+        r = insert_joint(r, [f"{s}UpLeg"], f"{s[0]}HipJoint", (0.0, 0.0, 0.0))
+    r = spread_legs(r, ("LeftUpLeg", "RightUpLeg"), 20.0)
+    r = a_pose(r, ("LeftArm", "RightArm"), 90.0)
+    r = all_channels(_units_axes(r, 1.0, "cmu", "y"), "ZYX")
+    out.append(_rig("cmu-asf-yup", r, "cmu", "cmu", "y", h0, src,
+                    ["zero-length hip joints", "legs 20 degrees apart", "arms hanging",
+                     "CMU ASF unit", "ZYX"]))
+    # Daz/Poser: hip above a pelvis helper, fingers, a face, cm
+    r = rename(m, conv["daz"])
+    r = insert_joint(r, ["lThigh", "rThigh"], "pelvis", (0.0, -0.03, 0.0))
+    for s, x in (("l", 1.0), ("r", -1.0)):
+        for finger, base, spread in (("Thumb", (0.02, -0.01, 0.03), 0.7),
+                                     ("Index", (0.09, 0, 0.02), 0), ("Mid", (0.095, 0, 0), 0),
+                                     ("Ring", (0.09, 0, -0.015), 0),
+                                     ("Pinky", (0.08, 0, -0.03), 0)):
+            step = (0.03 * x * (1 - 0.3 * spread), 0.0, 0.03 * spread)
+            r = add_chain(r, f"{s}Hand", [(f"{s}{finger}1", (base[0] * x, base[1], base[2])),
+                                          (f"{s}{finger}2", step), (f"{s}{finger}3", step)],
+                          end=step)
+    r = add_chain(r, "head", [("lowerJaw", (0.0, 0.02, 0.03)), ("tongueBase", (0.0, 0.0, 0.03)),
+                              ("tongue01", (0.0, 0.0, 0.015)), ("tongue02", (0.0, 0.0, 0.015))],
+                  end=(0.0, 0.0, 0.01))
+    for s, x in (("l", 1.0), ("r", -1.0)):
+        r = add_chain(r, "head", [(f"{s}Eye", (0.032 * x, 0.09, 0.08))], end=(0.0, 0.0, 0.02))
+        r = add_chain(r, "head", [(f"{s}Ear", (0.075 * x, 0.07, 0.0))], end=(0.01 * x, 0.0, 0.0))
+        r = add_chain(r, "head", [(f"{s}BrowInner", (0.015 * x, 0.12, 0.09))],
+                      end=(0.01 * x, 0.0, 0.0))
+    r = all_channels(_units_axes(r, 1.0, "cm", "y"), "ZXY")
+    r = with_channels(r, {"hip": POSITION_CHANNELS + _rot("ZYX")})
+    out.append(_rig("daz-cm-yup-face", r, "daz", "cm", "y", h0, src,
+                    ["Daz names", "pelvis helper", "fingers", "face joints", "root ZYX, ZXY"]))
+    # LAFAN1, anonymous: local-axis bones, no End Sites, cm, ZYX
+    r = bone_local_axes(rename(m, conv["lafan1"]), twist_deg=17.0)
+    r = all_channels(_units_axes(strip_end_sites(r), 1.0, "cm", "y"), "ZYX")
+    r, anon = anonymise(r)
+    out.append(_rig("lafan1-anon-cm-yup", r, "lafan1", "cm", "y", h0, src,
+                    ["anonymous names", "local-X bones", "no End Sites", "ZYX"],
+                    names={g: anon[n] for g, n in conv["lafan1"].items()}))
+    # Mixamo, namespaced: a Z-up rest in a Y-up file (the root near gimbal lock), 6 channels
+    r = turn_rest(rename(m, conv["mixamo7"]), quat_from_rotvec(np.radians(90.0) * np.eye(3)[0]))
+    r = all_channels(_units_axes(r, 1.0, "cm", "y"), "ZXY", six=True)
+    out.append(_rig("mixamo7-cm-yup-gimbal", r, "mixamo7", "cm", "y", h0, src,
+                    ["namespaced names (mixamorig7:)", "6 channels on every joint",
+                     "root near gimbal lock (a Z-up rest in a Y-up file)", "ZXY"]))
+    return out
+
+
 def _humanoids() -> list[ZooRig]:
     from mjchar.bvh.bundled.assets import motion_path
 
@@ -398,7 +492,7 @@ def main(argv: list[str] | None = None) -> int:
         print("usage: python -m mjchar.bvh.bundled.zoo SHARED_BVH_DIR OUT_DIR", file=sys.stderr)
         return 2
     os.makedirs(argv[1], exist_ok=True)
-    for rig in zoo_rigs(argv[0]):
+    for rig in zoo_rigs(argv[0], structures=True):
         save(rig.motion, os.path.join(argv[1], f"{rig.name}.bvh"))
         print(f"{rig.name}: {rig.convention}, {rig.unit}, {rig.up}-up, {rig.height_m:.2f} m, "
               f"{rig.mass_kg:g} kg, "

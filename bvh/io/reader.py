@@ -9,7 +9,13 @@ zero-length bones and any units or up axis (kept as they are in the file; see
 :func:`read_channels`.
 
 Numbers follow the plain decimal grammar ``[+-]digits[.digits][(e|E)[+-]digits]`` (``.5`` and
-``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. The frame section is
+``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. Numbers that cannot
+describe a human are rejected too, naming the line (:data:`MAX_OFFSET`, :data:`MAX_FRAME_TIME`,
+:data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous (a 2 m body in millimetres
+has offsets near 500, a root travelling 10 km in millimetres positions of 1e7) but stop the
+1e30 that would build a 1e30 m body or a frame time that makes a clip last for ages.
+``Frames: 0`` is a skeleton without motion (accepted: the converter builds models from such
+files). The frame section is
 converted with a vectorised decimal parser whose results are bit-identical to Python's
 ``float()`` (an exact integer mantissa divided by an exact power of ten is correctly rounded);
 anything outside its fast path (exponents, very long numbers, malformed text) goes through a
@@ -38,6 +44,14 @@ _NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\
 _FRAMES_RE = re.compile(r"\s*Frames\s*:\s*(\S+)\s*\Z", re.IGNORECASE)
 _FRAME_TIME_RE = re.compile(r"\s*Frame\s+Time\s*:\s*(\S+)\s*\Z", re.IGNORECASE)
 _CHANNEL_BY_LOWER = {c.lower(): c for c in VALID_CHANNELS}
+#: largest |OFFSET| component, in file units: 1e5 mm is 100 m, far beyond any body, in any unit
+MAX_OFFSET = 1e5
+#: largest frame time in seconds (0.1 fps); the smallest is anything above 0
+MAX_FRAME_TIME = 10.0
+#: largest |rotation channel| in degrees (about 280 turns: unwrapped angles of long clips pass)
+MAX_ROTATION = 1e5
+#: largest |position channel| in file units (10 km in millimetres)
+MAX_POSITION = 1e7
 _NUM = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
 _EOL = r"[ \t]*(?:\r\n|\r|\n)"
 _HIER_START_RE = re.compile(r"\s*HIERARCHY" + _EOL)
@@ -175,7 +189,32 @@ def _parse_unchecked(text: str, path: str | None) -> tuple[Skeleton, float, np.n
     frame_time = _parse_frame_time_line(found[1][1], found[1][0], path)
     values = _parse_frames(text[pos:], found[1][0] + 1, n_frames, frames_line,
                            skeleton.n_channels, path)
+    _check_channel_values(skeleton, values, text[pos:], found[1][0] + 1, path)
     return skeleton, frame_time, values
+
+
+def _check_channel_values(skeleton: Skeleton, values: np.ndarray, body: str, first_line: int,
+                          path: str | None) -> None:
+    """A :class:`BVHError` naming the first frame value beyond :data:`MAX_ROTATION` degrees
+    (rotation channels) or :data:`MAX_POSITION` file units (position channels), in file order.
+    ``body`` is the frame text, ``first_line`` its first line's number."""
+    if values.size == 0:
+        return
+    limits = np.array([MAX_ROTATION if c.endswith("rotation") else MAX_POSITION
+                       for chans in skeleton.channels for c in chans])
+    if bool(np.all(values.max(axis=0) <= limits)) and bool(np.all(values.min(axis=0) >= -limits)):
+        return
+    row, col = np.argwhere(np.abs(values) > limits)[0]
+    joint = int(np.searchsorted(skeleton.channel_starts(), col, side="right")) - 1
+    channel = skeleton.channels[joint][col - int(skeleton.channel_starts()[joint])]
+    rotation = channel.endswith("rotation")
+    what = (f"degrees (expected within +-{MAX_ROTATION:g})" if rotation
+            else f"file units (expected within +-{MAX_POSITION:g}, 10 km in millimetres)")
+    lines = _BREAK_RE.split(body)
+    frame_lines = [first_line + i for i, ln in enumerate(lines) if ln.strip()]
+    raise BVHError(f"value {col + 1} of frame {row + 1} ({channel} of joint "
+                   f"{skeleton.names[joint]!r}) is {values[row, col]:g} {what}: it cannot "
+                   f"describe a pose", line=frame_lines[row], path=path)
 
 
 def _parse_frames_line(line: str, line_no: int, path: str | None) -> int:
@@ -192,6 +231,9 @@ def _parse_frame_time_line(line: str, line_no: int, path: str | None) -> float:
     if not (np.isfinite(value) and value > 0):
         raise BVHError(f"expected 'Frame Time: T' with T a positive number of seconds, found "
                        f"{line.strip()!r}", line=line_no, path=path)
+    if value > MAX_FRAME_TIME:
+        raise BVHError(f"Frame Time {m.group(1)} s is not a frame time (expected at most "
+                       f"{MAX_FRAME_TIME:g} s between frames)", line=line_no, path=path)
     return value
 
 
@@ -247,6 +289,9 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
             v = float(tok)
             if not isfinite(v):
                 raise err(f"expected a finite number in the OFFSET of {what}, found {tok!r}", k)
+            if abs(v) > MAX_OFFSET:
+                raise err(f"OFFSET of {what}: {tok} cannot be a length on a body (expected "
+                          f"within +-{MAX_OFFSET:g} file units, 100 m in millimetres)", k)
             out.append(v)
             pos += 1
         return out
@@ -400,7 +445,7 @@ def _hierarchy_fast(head: str) -> Skeleton | None:
             off = [float(ox), float(oy), float(oz)]
             chans = _channel_list(chan_text)
             if (chans is None or len(chans) != int(n)
-                    or not (isfinite(off[0]) and isfinite(off[1]) and isfinite(off[2]))):
+                    or not max(abs(off[0]), abs(off[1]), abs(off[2])) <= MAX_OFFSET):
                 return None
             parts = name.split()  # names are whitespace-separated words, joined by one space
             names.append(parts[0] if len(parts) == 1 else " ".join(parts))
@@ -418,7 +463,7 @@ def _hierarchy_fast(head: str) -> Skeleton | None:
             if not stack:
                 return None
             off = [float(ex), float(ey), float(ez)]
-            if not (isfinite(off[0]) and isfinite(off[1]) and isfinite(off[2])):
+            if not max(abs(off[0]), abs(off[1]), abs(off[2])) <= MAX_OFFSET:  # also NaN, inf
                 return None
             es_offsets.append(off)
             es_parents.append(stack[-1])

@@ -52,8 +52,10 @@ def dumps(motion: Motion, precision: int = 6) -> str:
         return " ".join(fmt.format(float(x)) for x in v)
 
     out = ["HIERARCHY"]
+    written: list[int] = []  # joints in the order the file holds them (its channel order)
 
     def open_joint(j: int, ind: str) -> None:
+        written.append(j)
         out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
         out.append(f"{ind}{{")
         out.append(f"{ind}\tOFFSET {vec(sk.offsets[j])}")
@@ -81,6 +83,10 @@ def dumps(motion: Motion, precision: int = 6) -> str:
     out.append(f"Frames: {motion.n_frames}")
     out.append(f"Frame Time: {motion.frame_time:.{max(precision, 8)}g}")
     values = motion.to_channels()
+    if written != list(range(n_j)):  # a skeleton not numbered depth-first: the file's order
+        starts = sk.channel_starts()
+        cols = [starts[j] + k for j in written for k in range(len(sk.channels[j]))]
+        values = values[:, cols]
     if values.shape[1]:
         row = " ".join([f"%.{precision}f"] * values.shape[1])
         out.extend(row % tuple(r) for r in values.tolist())

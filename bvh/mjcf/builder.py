@@ -44,7 +44,7 @@ from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import tables as T
 from mjchar.bvh.mjcf.dynamics import _actuators, _joints, _masses
-from mjchar.bvh.mjcf.geometry import _floor_offset, _geometry
+from mjchar.bvh.mjcf.geometry import _floor_offset, _geom_top, _geometry
 from mjchar.bvh.mjcf.info import ConversionError, JointInfo, ModelInfo, source_record
 from mjchar.bvh.mjcf.layout import (
     _basis_matrix,
@@ -53,16 +53,18 @@ from mjchar.bvh.mjcf.layout import (
     default_drop,  # noqa: F401  (public: mjchar.bvh.mjcf imports it from here)
     default_fuse,  # noqa: F401  (public: mjchar.bvh.mjcf imports it from here)
 )
-from mjchar.bvh.mjcf.prepare import Prepared, prepare
+from mjchar.bvh.mjcf.prepare import Prepared, describe_unit, prepare
 from mjchar.bvh.mjcf.roles import load_roles
 from mjchar.bvh.mjcf.writer import (
     AXIS_INDEX,  # noqa: F401  (kept importable from mjchar.bvh.mjcf.builder)
     _write_xml,
 )
-from mjchar.bvh.rigs.units import AXIS_VECTORS, unit_scale
+from mjchar.bvh.rigs.units import AXIS_VECTORS, HEIGHT_RANGE_M, unit_name, unit_scale
 from mjchar.bvh.rotations import from_rotation
 
 JOINT_MODELS = ("hinge", "full", "ball")
+#: the heaviest body the converter builds (kg): ten tonnes, beyond any character
+MAX_MASS_KG = 1e4
 
 
 # ------------------------------------------------------------------------------------------------
@@ -84,7 +86,10 @@ class ConvertedModel:
             the model's ``rig`` record to it.
         prepared: the :class:`~.prepare.Prepared` rig (normalised motion, roles, guesses).
         summary: ``n_bodies``, ``n_dofs`` (incl. the 6 root dofs), ``n_actuators``,
-            ``total_mass_kg``, ``height_m``, ``bodies`` (names).
+            ``total_mass_kg``, ``height_m``, ``bodies`` (names); ``unit`` (how the unit was
+            found, in words), ``unit_name`` (``"cm"``, ``"cmu"``..., ``None`` for another
+            scale), ``unit_scale`` (m per file unit), ``height_warning`` (the warning when the
+            body is outside 1.0-2.3 m, else ``None``).
     """
 
     xml: str
@@ -136,8 +141,9 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
         anatomical
             ranges), ``"full"`` (hinge triplets everywhere, no ranges: any clip replays exactly)
             or ``"ball"`` (ball joints with motors; knees and elbows stay hinges).
-        unit: metres per file unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"`` or a number;
-            guessed from the standing height when ``None``.
+        unit: metres per file unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``, ``"cmu"``
+            (the CMU ASF unit, 1/0.45 inch) or a number; guessed from the body's size when
+            ``None`` (:func:`mjchar.bvh.rigs.units.unit_from_stature`).
         up_axis: ``"x"``, ``"y"`` or ``"z"`` of the file; guessed when ``None``.
         drop: joints to remove with their whole subtree. ``None`` = the defaults (hand joints
             below the wrists, ``*_End``/``Nub`` leaf markers); the word ``"default"`` in the list
@@ -192,7 +198,9 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
                      + ", ".join(f"{n}={rec.joint_roles[n]}" for n in rec.by_structure))
     top = _geometry(skeleton, rec, sel, bodies, B, scale)
     offset = _floor_offset(bodies)
-    height = top + offset[2]  # standing height: top of the skeleton above the floor
+    # standing height: the top of the skeleton (or of the body, e.g. a head capsule above a
+    # head joint with no end site) above the floor
+    height = max(top, _geom_top(bodies)) + offset[2]
     _masses(bodies, opts["total_mass"])
     _joints(skeleton, bodies, joint_model, motion, B)
     gains_table = _load_gains(gains)
@@ -239,7 +247,19 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
                      opts["timestep"], skeleton)
     n_dofs = 6 + sum(1 if jt["type"] == "hinge" else 3 for b in bodies.values()
                      for jt in b.joints if jt["type"] != "free")
+    unit_text = describe_unit(prep)
+    height_warning = None
+    lo, hi = HEIGHT_RANGE_M
+    if not lo <= height <= hi:
+        height_warning = (f"the body is {height:.2f} m tall, outside {lo:.1f}-{hi:.1f} m: if the "
+                          f"unit is wrong ({unit_text}), give it with --unit (m, cm, mm, in, ft, "
+                          "cmu or metres per unit)")
+        warns.append(height_warning)
     summary = {
+        "unit": unit_text,
+        "unit_name": prep.unit.name if prep.unit is not None else unit_name(scale),
+        "unit_scale": float(scale),
+        "height_warning": height_warning,
         "n_bodies": len(bodies),
         "n_dofs": n_dofs,
         "n_actuators": len(actuators),
@@ -277,8 +297,9 @@ def _check_options(total_mass, joint_model, unit, up_axis, timestep) -> dict:
         total_mass = float(total_mass)
     except (TypeError, ValueError):
         raise ConversionError(f"total mass must be a number of kg, got {total_mass!r}") from None
-    if not (math.isfinite(total_mass) and total_mass > 0):
-        raise ConversionError(f"total mass must be a positive number of kg, got {total_mass}")
+    if not (math.isfinite(total_mass) and 0 < total_mass <= MAX_MASS_KG):
+        raise ConversionError(f"total mass must be a positive number of kg up to "
+                              f"{MAX_MASS_KG:g}, got {total_mass:g}")
     if unit is not None:
         if isinstance(unit, str):
             try:

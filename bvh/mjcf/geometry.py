@@ -53,8 +53,10 @@ def _geometry(sk: Skeleton, rec: Recognition, sel: dict, bodies: dict[int, _Body
         out = [p for p in out if np.linalg.norm(p - b.pos) > 0.005 * s]
         if out:
             return out
-        # no kept children: the dropped children stand for the segment (e.g. fingers for a hand)
-        gone = [c for c in sk.children(b.j) if c in sel["removed"]]
+        # no kept children: the dropped children stand for the segment (e.g. fingers for a hand;
+        # not a face for a head, whose capsule then rises from the joint)
+        gone = [c for c in sk.children(b.j) if c in sel["removed"]
+                and rec.joint_roles[sk.names[c]] != "face"]
         if gone:
             m = np.mean(rest[gone], axis=0)
             if np.linalg.norm(m - b.pos) > 0.005 * s:
@@ -92,7 +94,7 @@ def _geometry(sk: Skeleton, rec: Recognition, sel: dict, bodies: dict[int, _Body
             length = float(np.linalg.norm(d))
             u = d / length
             rr = r
-            if b.base in ("unknown", "end", "hand"):  # thin helpers stay thin
+            if b.base in ("unknown", "end", "hand", "face", "toes", "twist"):  # helpers: thin
                 rr = min(r, 0.25 * length + 0.005 * s)
             if b.base == "head":
                 a = b.pos + u * min(0.5 * length, rr)
@@ -212,6 +214,13 @@ def _toe(b: _Body, subtree_points, ends: list[np.ndarray], sole: float, s: float
     center = np.array([c[0], c[1], 0.5 * (top + sole)])
     b.geoms.append(_Geom("box", f"{b.name}_geom", center=center, half=half, yaw=yaw))
     b.sites[f"{b.side}_toe"] = np.array([center[0], center[1], sole])
+
+
+def _geom_top(bodies: dict[int, _Body]) -> float:
+    """The highest point of any geom (m, before the floor offset); -inf without geoms."""
+    tops = [float(max(g.a[2], g.b[2]) + g.radius) if g.kind == "capsule"
+            else float(g.center[2] + g.half[2]) for b in bodies.values() for g in b.geoms]
+    return max(tops, default=-np.inf)
 
 
 def _floor_offset(bodies: dict[int, _Body]) -> np.ndarray:

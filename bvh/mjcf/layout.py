@@ -17,7 +17,7 @@ import numpy as np
 
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf.info import ConversionError
-from mjchar.bvh.rigs.naming import Recognition
+from mjchar.bvh.rigs.naming import DETAIL_ROLES, Recognition
 from mjchar.bvh.rigs.units import AXIS_VECTORS
 
 
@@ -111,19 +111,39 @@ def _expand(names: list[str] | None, defaults: list[int], sk: Skeleton, what: st
 
 
 def default_drop(sk: Skeleton, rec: Recognition) -> list[int]:
-    """Joints dropped by default: hand joints below the wrists and leaf end markers."""
+    """Joints dropped by default: hand joints below the wrists, leaf end markers, the face
+    below the head, toe phalanges and other toes beside the toe joint, twist helpers without
+    children."""
     return [j for j in range(1, sk.n_joints)
-            if rec.joint_roles[sk.names[j]] in ("hand", "end")]
+            if rec.joint_roles[sk.names[j]] in DETAIL_ROLES
+            or (rec.joint_roles[sk.names[j]] == "twist" and not sk.children(j))]
+
+
+#: roles whose joints, when they are all the children of a joint of unknown role, make that
+#: joint a helper of the body's structure (CMU's ``LHipJoint`` above ``LeftUpLeg``, a
+#: ``buttock``, Daz's ``pelvis`` above both thighs)
+_STRUCTURE_ROLES = ("hip", "clavicle", "shoulder", "spine", "neck", "head")
 
 
 def default_fuse(sk: Skeleton, rec: Recognition, scale: float, joint_model: str) -> list[int]:
-    """Zero-length joints (offset < 2 mm) of unknown role; none in the ``full`` model."""
+    """Joints of unknown role that are zero-length (offset < 2 mm) or helpers of the body's
+    structure (children that are all hips, clavicles, shoulders or trunk joints: CMU's
+    ``LHipJoint``, a ``buttock``, Daz's ``pelvis`` above both thighs), and twist helpers
+    inside a limb (they turn about their bone, which keeps the limb's joints in place); none in
+    the ``full`` model."""
     if joint_model == "full":
         return []
     lengths = sk.bone_lengths() * scale
-    return [j for j in range(1, sk.n_joints)
-            if lengths[j] < 0.002 and rec.joint_roles[sk.names[j]] == "unknown"
-            and sk.children(j)]
+    out = []
+    for j in range(1, sk.n_joints):
+        kids = sk.children(j)
+        role = rec.joint_roles[sk.names[j]]
+        if not kids or role not in ("unknown", "twist"):
+            continue
+        helper = all(rec.base_role(sk.names[k]) in _STRUCTURE_ROLES for k in kids)
+        if role == "twist" or lengths[j] < 0.002 or helper:
+            out.append(j)
+    return out
 
 
 def _select(sk: Skeleton, rec: Recognition, joint_model: str, drop, fuse, scale: float,

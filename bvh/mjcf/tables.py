@@ -36,7 +36,8 @@ ROLE_GROUP = {
     "neck": "head_neck", "head": "head_neck",
     "shoulder": "upper_arm", "elbow": "forearm", "wrist": "hand", "hand": "hand",
     "hip": "thigh", "knee": "shank", "ankle": "foot", "toe": "foot",
-    "unknown": None, "end": None,
+    "face": "head_neck", "toes": "foot",
+    "unknown": None, "end": None, "twist": None,
 }
 
 #: fixed shares of the trunk group (% of body mass): the lower trunk (pelvis, de Leva's LPT)
@@ -52,6 +53,7 @@ RADIUS = {
     "pelvis": 0.085, "spine": 0.09, "neck": 0.05, "head": 0.095, "clavicle": 0.05,
     "shoulder": 0.045, "elbow": 0.037, "wrist": 0.032, "hand": 0.012,
     "hip": 0.07, "knee": 0.05, "ankle": 0.045, "toe": 0.045, "unknown": 0.035, "end": 0.03,
+    "face": 0.01, "toes": 0.01, "twist": 0.035,
 }
 
 #: spine segments are two capsules side by side: lateral offset and radius, times the spine radius
@@ -70,7 +72,7 @@ EULER_ORDER = {
     "pelvis": "yxz", "spine": "yxz", "neck": "yxz", "head": "yxz",
     "hip": "yxz", "knee": "yxz", "ankle": "yxz", "toe": "yxz",
     "clavicle": "zyx", "shoulder": "zyx", "elbow": "zyx", "wrist": "zyx", "hand": "zyx",
-    "unknown": "zyx", "end": "zyx",
+    "unknown": "zyx", "end": "zyx", "face": "zyx", "toes": "yxz", "twist": "zyx",
 }
 
 #: anatomical ranges (degrees, left side) per axis for the ``hinge`` joint model; knees and
@@ -94,6 +96,9 @@ RANGE_DEG = {
     "toe": {"x": (-20, 20), "y": (-80, 50), "z": (-20, 20)},
     "unknown": {"x": (-170, 170), "y": (-170, 170), "z": (-170, 170)},
     "end": {"x": (-170, 170), "y": (-170, 170), "z": (-170, 170)},
+    "face": {"x": (-90, 90), "y": (-90, 90), "z": (-90, 90)},
+    "toes": {"x": (-20, 20), "y": (-80, 50), "z": (-20, 20)},
+    "twist": {"x": (-170, 170), "y": (-170, 170), "z": (-170, 170)},
 }
 
 #: range (degrees) of the single flexion hinge of knees and elbows, flexion positive
@@ -128,6 +133,7 @@ ARMATURE = {
     "pelvis": 0.05, "spine": 0.05, "hip": 0.05, "knee": 0.05,
     "neck": 0.03, "head": 0.03, "clavicle": 0.03, "shoulder": 0.03, "elbow": 0.03,
     "ankle": 0.03, "wrist": 0.02, "toe": 0.02, "hand": 0.01, "unknown": 0.03, "end": 0.01,
+    "face": 0.01, "toes": 0.01, "twist": 0.03,
 }
 
 #: passive joint damping (N m s/rad) per role: physiological joint viscosity, small next to the
@@ -137,6 +143,7 @@ DAMPING = {
     "pelvis": 1.0, "spine": 1.0, "hip": 1.0, "knee": 1.0,
     "neck": 0.5, "head": 0.5, "clavicle": 0.5, "shoulder": 0.5, "elbow": 0.5, "ankle": 0.5,
     "wrist": 0.2, "toe": 0.2, "hand": 0.1, "unknown": 0.5, "end": 0.1,
+    "face": 0.1, "toes": 0.1, "twist": 0.5,
 }
 
 #: default simulation time step (s): native PD (position actuators, implicitfast) is stable here

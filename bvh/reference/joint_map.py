@@ -52,9 +52,11 @@ def _build_slots(model: mujoco.MjModel, info, skeleton) -> list[_Slot]:
     names = list(info.joints)
     missing = [n for n in names if n not in skeleton.names]
     if missing:
+        shown = ", ".join(missing[:3]) + (", ..." if len(missing) > 3 else "")
         raise ReferenceMotionError(
-            f"the motion lacks joints the model was built with: {', '.join(missing)} (the motion's "
-            f"skeleton has {', '.join(skeleton.names)})")
+            f"the motion lacks {len(missing)} of the {len(names)} joints the model was built with "
+            f"({shown}): it is not on the model's skeleton; convert the clip "
+            f"(mjchar convert CLIP -o model.xml) and use that model (--model model.xml)")
     body_of = {n: _name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[n].body, "body")
                for n in names}
     bvh_of_body = {b: skeleton.index(n) for n, b in body_of.items()}

@@ -100,7 +100,8 @@ def _model_geometry_positions(model: mujoco.MjModel, slots: list[_Slot], fk) -> 
 
 
 def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
-                alg: _QposAlgebra, qpos: np.ndarray, fk) -> tuple[np.ndarray, np.ndarray]:
+                alg: _QposAlgebra, qpos: np.ndarray, fk,
+                progress=None) -> tuple[np.ndarray, np.ndarray]:
     """Damped-least-squares correction of the limbs around reduced (1-2 hinge) bodies.
 
     Per frame, Gauss-Newton with Levenberg damping on
@@ -124,6 +125,8 @@ def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
         qpos: ``(F, nq)`` projected qpos per frame (the regulariser pulls toward it).
         fk: forward kinematics of the clip in metres and MuJoCo axes (positions ``(F, J, 3)``,
             orientations ``(F, J, 4)``).
+        progress: called as ``progress(frames_done, frames)`` as the frames are corrected
+            (the slow part of following a long clip), or ``None``.
 
     Returns:
         ``(qpos (F, nq), iterations (F,) int)``: corrected qpos and the iterations per frame.
@@ -171,6 +174,8 @@ def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
     reg = np.where(np.isin(dofs, swivel), _IK_REG, 0.0)
     lm = np.diag(reg + _IK_DAMPING ** 2)
     for f in range(len(qpos)):
+        if progress is not None and f % 25 == 0:
+            progress(f, len(qpos))
         q_ref = qpos[f]
         q = alg.integrate(q_ref, prev_delta) if f else q_ref.copy()
         for it in range(_IK_MAX_ITER + 1):

@@ -130,6 +130,8 @@ class ReferenceMotion:
             :func:`mjchar.bvh.reference.foot_points.contact_grounding`), ``"clip"`` (one vertical
             shift for the whole clip: its lowest foot point at ``z = 0``) or ``"frame"`` (each frame
             shifted so its own lowest foot point is at ``z = 0``, flight included).
+        progress: called as ``progress(frames_done, frames)`` during the IK correction (a long
+            clip takes seconds), or ``None``.
 
     Attributes:
         model, info: the model and its metadata.
@@ -148,7 +150,8 @@ class ReferenceMotion:
     """
 
     def __init__(self, model: mujoco.MjModel, motion: Motion, *, info=None,
-                 cyclic: bool | None = None, project: bool = True, floor: str = "contact"):
+                 cyclic: bool | None = None, project: bool = True, floor: str = "contact",
+                 progress=None):
         if not isinstance(model, mujoco.MjModel):
             raise ReferenceMotionError(
                 f"model must be a mujoco.MjModel, got {type(model).__name__}")
@@ -181,7 +184,7 @@ class ReferenceMotion:
         self.ik_iterations = np.zeros(self.n_frames, dtype=int)
         if project and self.projected_joints:
             qpos, self.ik_iterations = _project_ik(self.model, self._data, self._slots,
-                                                   self._alg, qpos, fk)
+                                                   self._alg, qpos, fk, progress)
 
         # floor placement: lowest foot point over the clip (or of every frame) at z = 0
         if floor not in FLOOR_MODES:
@@ -550,7 +553,7 @@ class ReferenceMotion:
         }
 
 
-def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
+def replay_errors(model_or_converted, motion, *, project: bool = True, progress=None) -> dict:
     """Replay ``motion`` kinematically in a converted model and measure how far it lands.
 
     Args:
@@ -558,6 +561,7 @@ def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
             ``ConvertedModel`` (compiled here; its ``info`` is used).
         motion: a :class:`~mjchar.bvh.io.motion.Motion` in file units/axes, or a BVH path.
         project: IK correction for reduced (hinge) joints, as in :class:`ReferenceMotion`.
+        progress: ``progress(frames_done, frames)`` during that correction, or ``None``.
 
     Runs ``mj_kinematics`` on every frame's qpos (:class:`ReferenceMotion`, not looped) and
     compares body positions with the clip's joint positions from ``bvh.forward_kinematics``,
@@ -577,5 +581,6 @@ def replay_errors(model_or_converted, motion, *, project: bool = True) -> dict:
     else:
         raise ReferenceMotionError(f"expected a mujoco.MjModel or a ConvertedModel, got "
                                    f"{type(model_or_converted).__name__}")
-    ref = ReferenceMotion(model, motion, info=info, cyclic=False, project=project)
+    ref = ReferenceMotion(model, motion, info=info, cyclic=False, project=project,
+                          progress=progress)
     return ref.replay_errors()

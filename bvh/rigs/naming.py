@@ -1,43 +1,59 @@
 """Joint role recognition: which BVH joint is the left knee, the pelvis, a finger...
 
-Rigs in the wild name the same joint differently (``lKnee``, ``LeftLeg``, ``mixamorig:LeftLeg``,
-``L_Knee``, ``knee.L``), and some names are misleading: ``LeftShoulder`` is the clavicle in CMU and
-Mixamo rigs but ``lShoulder`` is the upper-arm joint in the GAMES-105 rig; CMU's ``LHipJoint`` is a
-zero-length helper while ``LeftUpLeg`` is the hip. Names alone therefore only find *anchors* (the
-knees and elbows, whose names are unambiguous); the rest of each limb follows from the hierarchy:
+Rigs in the wild name the same joint differently (``lKnee``, ``LeftLeg``, ``mixamorig7:LeftLeg``,
+``L_Knee``, ``knee.L``, ``rknee``, ``lShin``), and some names are misleading: ``LeftShoulder`` is
+the clavicle in CMU and Mixamo rigs, ``RightShoulder`` the upper arm in Xsens MVN's own export
+and ``lShoulder`` in the GAMES-105 rig; CMU's ``LHipJoint`` is a zero-length helper while
+``LeftUpLeg`` is the hip. Names alone therefore only find *anchors* (the knees and elbows, whose
+names are unambiguous; words in :mod:`~mjchar.bvh.rigs.words`); the rest of each limb follows
+from the hierarchy:
 
 - leg: ``hip`` = parent of the knee, ``ankle`` = the knee's child, ``toe`` = the ankle's child;
+  the ankle's other children and the toe's are ``"toes"`` (phalanges, other toes);
 - arm: ``shoulder`` = parent of the elbow, ``clavicle`` = the shoulder's parent when it is on the
   same side, ``wrist`` = the elbow's child; everything below the wrist is the hand (fingers);
-- trunk: ``pelvis`` = the joint where both legs branch off, ``head`` = the joint named head,
-  ``neck`` = neck-named joints on the way to it, ``spine`` = the other joints between the pelvis
-  and the head or clavicles.
+  twist helpers (``lForearmTwist``) are walked over;
+- trunk: ``pelvis`` = the joint where both legs and the trunk branch off, ``head`` = the joint
+  named head, ``neck`` = neck-named joints on the way to it, ``spine`` = the other joints
+  between the pelvis and the head or clavicles; everything below the head is ``"face"`` (jaw,
+  eyes, tongue).
 
-A skeleton whose knees have no recognisable names still gets legs from its shape (the two limb
-chains reaching nearest the floor, left and right from where the feet point), and one whose
-elbows have none gets arms from its shape (the chains branching sideways from the upper spine);
-those joints are reported in :attr:`Recognition.by_structure`. A user role map (``roles=``,
-read from a TOML roles file by :mod:`mjchar.bvh.mjcf.roles`) anchors and overrides. Of the rest,
-finger-named joints are ``"hand"``, end-marker leaves (``*_End``, ``*Nub``, ``*_Site``) ``"end"``,
-everything else ``"unknown"``.
-
-Sides: a name is left-sided when a token ``l``/``left`` starts or ends it (``lKnee``,
-``LeftLeg``, ``Knee_L``, ``knee.l``), right-sided likewise with ``r``/``right``.
+Where names fail, :mod:`~mjchar.bvh.rigs.structure` finds the legs, the arms and the head from the
+skeleton's geometry and the clip's motion (mirror-image limb chains, the sides from where the
+feet point); those joints are reported in :attr:`Recognition.by_structure`. Names win: the shape
+only fills the limbs the names did not give, and never takes a joint a name gave another limb.
+A user role map (``roles=``, read from a TOML roles file by :mod:`mjchar.bvh.mjcf.roles`) anchors
+and overrides. Of the rest, finger-named joints are ``"hand"``, end-marker leaves (``*_End``,
+``*Nub``, ``*_Site``) ``"end"``, twist helpers ``"twist"``, everything else ``"unknown"``.
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mjchar.bvh.io.skeleton import Skeleton
+from mjchar.bvh.rigs import structure
+from mjchar.bvh.rigs.structure import Clip
+from mjchar.bvh.rigs.words import (
+    core,
+    is_elbow,
+    is_end,
+    is_finger,
+    is_head,
+    is_knee,
+    is_twist,
+    side_of,
+    tokens,
+)
 
-_FINGER_WORDS = ("finger", "thumb", "index", "middle", "ring", "pinky", "pinkie", "little")
-_KNEE_WORDS = ("knee", "shin", "calf", "crus", "lowerleg", "lowleg", "leg")
-_NOT_KNEE_WORDS = ("upleg", "upperleg", "thigh")
-_ELBOW_WORDS = ("elbow", "forearm", "lowerarm", "lowarm")
+__all__ = ["Recognition", "recognise", "tokens", "side_of", "is_finger", "is_end", "is_twist",
+           "Clip"]
+
+#: roles of joints dropped by default (no body): fingers, end markers, the face, toe phalanges,
+#: twist helpers without children
+DETAIL_ROLES = ("hand", "end", "face", "toes")
 
 
 @dataclass
@@ -49,12 +65,13 @@ class Recognition:
             for every joint.
         roles: role -> joint name for single roles (``"pelvis"``, ``"head"``, ``"left_hip"``...),
             role -> list of joint names for ``"spine"`` and ``"neck"`` (root to head order).
-        by_structure: joints whose role came from the hierarchy's shape, not a name.
+        by_structure: joints whose role came from the skeleton's geometry, not a name.
         unrecognised: joints with role ``"unknown"``.
         left_axis: unit vector ``(3,)`` in file axes pointing to the character's left, estimated
-            from left/right joint pairs (``None`` when no pair exists).
+            from left/right joint pairs of the rest pose (``None`` when no pair exists).
         problem: why the legs could not be told apart (two leg chains found by shape whose sides
             the geometry cannot decide), or ``None``.
+        given: joints whose role the user's role map gave.
     """
 
     joint_roles: dict[str, str]
@@ -63,6 +80,7 @@ class Recognition:
     unrecognised: list[str] = field(default_factory=list)
     left_axis: np.ndarray | None = None
     problem: str | None = None
+    given: list[str] = field(default_factory=list)
 
     def base_role(self, joint: str) -> str:
         """The role without its side: ``"left_knee"`` -> ``"knee"``."""
@@ -74,76 +92,28 @@ class Recognition:
         role = self.joint_roles[joint]
         return role.split("_", 1)[0] if role.startswith(("left_", "right_")) else None
 
-
-def tokens(name: str) -> list[str]:
-    """Lower-case words of a joint name: namespace dropped, camelCase and separators split.
-
-    ``"mixamorig:LeftUpLeg"`` -> ``["left", "up", "leg"]``; ``"lTorso_Clavicle"`` ->
-    ``["l", "torso", "clavicle"]``; ``"RHipJoint"`` -> ``["r", "hip", "joint"]``.
-    """
-    name = re.split(r"[:|]", name)[-1]
-    name = re.sub(r"([a-z0-9])([A-Z])", r"\1 \2", name)  # lTorso -> l Torso
-    name = re.sub(r"([A-Z])([A-Z][a-z])", r"\1 \2", name)  # LThumb -> L Thumb
-    name = re.sub(r"([A-Za-z])(\d)", r"\1 \2", name)
-    return [t for t in re.split(r"[^A-Za-z0-9]+", name.lower()) if t]
-
-
-def side_of(name: str) -> str | None:
-    """``"left"``/``"right"``/``None``: a standalone ``l``/``left`` (``r``/``right``) token."""
-    toks = tokens(name)
-    if not toks:
-        return None
-    left = "l" in toks or "left" in toks
-    right = "r" in toks or "right" in toks
-    if left and not right:
-        return "left"
-    if right and not left:
-        return "right"
-    return None
-
-
-def _core(name: str) -> str:
-    """Name tokens without side tokens or digits, joined: ``"LeftUpLeg"`` -> ``"upleg"``."""
-    toks = tokens(name)
-    toks = [t for t in toks if t not in ("l", "r", "left", "right") and not t.isdigit()]
-    return "".join(toks)
-
-
-def is_finger(name: str) -> bool:
-    """True for finger/thumb joint names (``LeftHandIndex1``, ``LThumb``, ``lFinger2``)."""
-    core = _core(name)
-    return any(w in core for w in _FINGER_WORDS)
-
-
-def is_end(name: str) -> bool:
-    """True for end-marker joint names (``HeadTop_End``, ``LeftToe_End``, ``Bip01 L Toe0Nub``)."""
-    toks = tokens(name)
-    return bool(toks) and (toks[-1] in ("end", "nub", "site") or name.lower().endswith("nub"))
-
-
-def _is_knee(name: str) -> bool:
-    core = _core(name)
-    if any(w in core for w in _NOT_KNEE_WORDS) or {"up", "upper"} & set(tokens(name)):
-        return False
-    return any(w in core for w in _KNEE_WORDS) and not is_end(name)
-
-
-def _is_elbow(name: str) -> bool:
-    core = _core(name)
-    return any(w in core for w in _ELBOW_WORDS) and not is_end(name)
+    def source(self, joint: str) -> str:
+        """Where ``joint``'s role came from: ``"given"`` (the role map), ``"shape"`` (the
+        skeleton's geometry and motion) or ``"name"`` (its name, or the hierarchy around a
+        named knee or elbow)."""
+        if joint in self.given:
+            return "given"
+        return "shape" if joint in self.by_structure else "name"
 
 
 def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
-              roles: dict[str, object] | None = None) -> Recognition:
-    """Assign a role to every joint of ``skeleton`` (names first, hierarchy shape as fallback).
+              roles: dict[str, object] | None = None, clip: Clip | None = None) -> Recognition:
+    """Assign a role to every joint of ``skeleton`` (names first, geometry where they fail).
 
     Args:
         skeleton: the skeleton (any units and axes).
-        up: ``(3,)`` unit up vector in file axes, used by the shape fallback for legs and the
-            head; guessed from the rest pose when ``None``.
+        up: ``(3,)`` unit up vector in file axes, used by the geometry (sides, the head);
+            guessed from the rest pose when ``None``.
         roles: a user mapping role -> joint name (``"spine"``/``"neck"``: a list of names), as
-            read from a roles file (:mod:`bvh.role_map`); given knees and elbows anchor their
-            limbs, and every given role overrides what recognition finds.
+            read from a roles file (:mod:`mjchar.bvh.mjcf.roles`); given knees and elbows anchor
+            their limbs, and every given role overrides what recognition finds.
+        clip: the motion's joint positions (:class:`~mjchar.bvh.rigs.structure.Clip`); the
+            geometry reads the sides and end markers from it instead of the rest pose.
 
     Returns:
         A :class:`Recognition`. Never raises: missing roles are simply absent from ``roles``.
@@ -153,12 +123,6 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
     names = sk.names
     rest = sk.rest_positions()
     children = [sk.children(j) for j in range(n)]
-    if up is None:
-        from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis
-        up = AXIS_VECTORS[guess_up_axis(sk)] if n > 1 else np.array([0.0, 1.0, 0.0])
-    up = np.asarray(up, dtype=float)
-    height = _height(sk, up)
-
     role: dict[int, str] = {}
     by_structure: list[int] = []
 
@@ -171,7 +135,8 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
         return sorted(out)
 
     def main_child(j: int, prefer=None) -> int | None:
-        """The child continuing a limb chain: prefer a named one, skip end/finger markers."""
+        """The child continuing a limb chain: prefer a named one, skip end/finger markers,
+        walk over twist helpers."""
         cands = [c for c in children[j] if not is_end(names[c]) and not is_finger(names[c])]
         if not cands:
             return None
@@ -180,30 +145,70 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
             if named:
                 cands = named
         # the child whose subtree reaches farthest continues the chain
-        return max(cands, key=lambda c: _reach(sk, rest, descendants, c))
+        c = max(cands, key=lambda c: _reach(sk, rest, descendants, c))
+        if is_twist(names[c]) and children[c]:
+            role.setdefault(c, "twist")
+            return main_child(c, prefer) or c
+        return c
 
-    # -- legs: knees by name, then the chain around them ----------------------------------------
+    def upper(j: int) -> int:
+        """The joint above ``j``, walking over twist helpers."""
+        p = int(sk.parents[j])
+        while p > 0 and is_twist(names[p]):
+            role.setdefault(p, "twist")
+            p = int(sk.parents[p])
+        return p
+
     user = {r: v for r, v in (roles or {}).items()}
+    # -- anchors by name (or given) ----------------------------------------------------------------
     knees: dict[str, int] = {}
+    elbows: dict[int, str] = {}
     for s in ("left", "right"):
         if isinstance(user.get(f"{s}_knee"), str) and user[f"{s}_knee"] in names:
             knees[s] = names.index(user[f"{s}_knee"])
-    for j in range(n):
-        if j and _is_knee(names[j]):
-            s = side_of(names[j])
-            if s and s not in knees:
-                knees[s] = j
+        if isinstance(user.get(f"{s}_elbow"), str) and user[f"{s}_elbow"] in names:
+            elbows[names.index(user[f"{s}_elbow"])] = s
+    for j in range(1, n):
+        s = side_of(names[j])
+        if s is None:
+            continue
+        if is_knee(names[j]) and s not in knees:
+            knees[s] = j
+        elif is_elbow(names[j]) and j not in elbows and s not in elbows.values() \
+                and j not in knees.values():
+            elbows[j] = s
+
+    def limb_joints(anchors) -> set[int]:
+        out = set()
+        for a in anchors:
+            out |= {a, int(sk.parents[a])}
+            out |= set(descendants(a))
+        return out
+
+    # -- legs: the named knees, else the geometry --------------------------------------------------
     problem = None
+    left_geo = None
+    legs_by_shape = False
+    legs_pair = structure.find_limbs(sk, limb_joints(elbows))[0] if len(knees) < 2 else None
+    if up is None:  # along the legs (over the clip), else the rest pose's tallest extent
+        from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis
+        if len(knees) == 2:
+            legs3 = [(upper(k), k, main_child(k) or k) for k in knees.values()]
+        else:
+            legs3 = structure.pair_legs(legs_pair) if legs_pair is not None else []
+        ax = structure.up_axis(sk, legs3, clip) if legs3 else None
+        up = AXIS_VECTORS[ax or guess_up_axis(sk)] if n > 1 else np.array([0.0, 1.0, 0.0])
+    up = np.asarray(up, dtype=float)
+    height = _height(sk, up)
     if len(knees) < 2:
-        shaped, problem = _legs_by_shape(sk, rest, up, height, children)
-        knees = shaped or knees
-        by_structure_legs = True
-    else:
-        by_structure_legs = False
+        if legs_pair is not None:
+            shaped, left_geo, problem = structure.side_legs(
+                sk, legs_pair, up, clip, lambda a: main_child(a))
+            if shaped:
+                knees, legs_by_shape = shaped, True
     for s, k in knees.items():
-        chain = {}
-        chain["knee"] = k
-        hip = int(sk.parents[k])
+        chain = {"knee": k}
+        hip = upper(k)
         if hip > 0:
             chain["hip"] = hip
         ankle = main_child(k, prefer=lambda nm: any(w in _core(nm) for w in ("ankle", "foot")))
@@ -213,59 +218,63 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
             if toe is not None:
                 chain["toe"] = toe
         for r, j in chain.items():
-            if j not in role:
+            if j not in role or role[j] == "twist":
                 role[j] = f"{s}_{r}"
-                if by_structure_legs:
+                if legs_by_shape:
                     by_structure.append(j)
 
-    # -- arms: elbows by name (or given), else by shape --------------------------------------------
-    elbows: dict[int, str] = {}
-    for s in ("left", "right"):
-        if isinstance(user.get(f"{s}_elbow"), str) and user[f"{s}_elbow"] in names:
-            elbows[names.index(user[f"{s}_elbow"])] = s
-    for j in range(1, n):
-        if j in role or j in elbows or not _is_elbow(names[j]):
-            continue
-        s = side_of(names[j])
-        if s is None or s in elbows.values():
-            continue
-        elbows[j] = s
-    arms_by_shape = False
-    if not elbows and len(knees) == 2:
-        elbows = _arms_by_shape(sk, rest, up, role, children, descendants)
-        arms_by_shape = bool(elbows)
+    # -- arms: the named elbows, else the geometry (never a joint a name gave a leg) ------------
+    arms_by_shape: set[int] = set()
+    if len(elbows) < 2 and len(knees) == 2:
+        leg_joints = set(role) | limb_joints(knees.values())
+        cands = [p for p in structure.mirror_pairs(sk)
+                 if not (set(p.paths[0]) | set(p.paths[1])) & leg_joints]
+        arms_pair = cands[0] if cands else None
+        if arms_pair is not None:
+            left = left_geo if left_geo is not None else _leg_lefts(sk, role, up, clip)
+            if left is not None:
+                for j, s in structure.side_arms(sk, arms_pair, left, clip).items():
+                    if j not in elbows and s not in elbows.values():
+                        elbows[j] = s
+                        arms_by_shape.add(j)
     for j, s in elbows.items():
         if j in role:
             continue
         role[j] = f"{s}_elbow"
-        if arms_by_shape:
+        if j in arms_by_shape:
             by_structure.append(j)
-        sh = int(sk.parents[j])
+        sh = upper(j)
         if sh > 0 and sh not in role:
             role[sh] = f"{s}_shoulder"
+            if j in arms_by_shape:
+                by_structure.append(sh)
             cl = int(sk.parents[sh])
-            same_side = side_of(names[cl]) == s or (arms_by_shape and len(children[cl]) == 1)
+            same_side = side_of(names[cl]) == s or (j in arms_by_shape and len(children[cl]) == 1)
             if cl > 0 and cl not in role and same_side:
                 role[cl] = f"{s}_clavicle"
+                if j in arms_by_shape:
+                    by_structure.append(cl)
         wr = main_child(j, prefer=lambda nm: any(w in _core(nm) for w in ("wrist", "hand")))
         if wr is not None and wr not in role:
             role[wr] = f"{s}_wrist"
+            if j in arms_by_shape:
+                by_structure.append(wr)
             for d in descendants(wr):
                 role.setdefault(d, "hand")
 
     # -- trunk -------------------------------------------------------------------------------------
     hips = [h for h in (_find(role, "left_hip"), _find(role, "right_hip")) if h is not None]
-    if len(hips) == 2:
-        pelvis = _common_ancestor(sk, hips[0], hips[1])
-    else:
-        pelvis = 0
-    role.setdefault(pelvis, "pelvis")
+    pelvis = _common_ancestor(sk, hips[0], hips[1]) if len(hips) == 2 else 0
     head = None
     for j in range(1, n):
-        if "head" in _core(names[j]) and not is_end(names[j]) and j not in role and \
-                side_of(names[j]) is None:
+        if j not in role and is_head(names[j]):
             head = j
             break
+    neck_path: list[int] = []
+    if head is None and (legs_by_shape or arms_by_shape) and len(hips) == 2:
+        head, neck_path = _head_by_structure(sk, role, pelvis, children, descendants, clip)
+        if head is not None:
+            by_structure.append(head)
     if head is None:  # shape fallback: the highest non-limb joint with no named role
         cands = [j for j in range(1, n) if j not in role and not is_end(names[j])
                  and side_of(names[j]) is None]
@@ -276,16 +285,37 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
                 by_structure.append(top)
     if head is not None:
         role[head] = "head"
+        if pelvis not in sk.chain(head):  # a hip/pelvis split (Daz: hip -> pelvis, abdomen)
+            pelvis = _common_ancestor(sk, pelvis, head)
+        for d in descendants(head):
+            role.setdefault(d, "end" if is_end(names[d]) and not children[d] else "face")
+    for j in neck_path:
+        role.setdefault(j, "neck")
+        by_structure.append(j)
+    role.setdefault(pelvis, "pelvis")
     trunk_ends = [j for j in (head, _find(role, "left_clavicle"), _find(role, "right_clavicle"),
                               _find(role, "left_shoulder"), _find(role, "right_shoulder"))
                   if j is not None]
+    if legs_by_shape:
+        by_structure.append(pelvis)
     for e in trunk_ends:
         for a in sk.chain(e)[:-1]:
             if a in role or a == pelvis or not _is_below(sk, pelvis, a):
                 continue
             role[a] = "neck" if "neck" in _core(names[a]) else "spine"
+            if e in by_structure:  # found around a joint the shape gave
+                by_structure.append(a)
 
-    # -- leftovers: fingers, end markers, unknown -------------------------------------------------
+    # -- feet: toe phalanges and other toes --------------------------------------------------------
+    for s in ("left", "right"):
+        a, t = _find(role, f"{s}_ankle"), _find(role, f"{s}_toe")
+        if a is None:
+            continue
+        for d in descendants(a):
+            if d != t and d not in role:
+                role[d] = "end" if is_end(names[d]) and not children[d] else "toes"
+
+    # -- leftovers: fingers, end markers, twist helpers, unknown ----------------------------------
     for j in range(n):
         if j in role:
             continue
@@ -293,30 +323,69 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
             role[j] = "hand"
         elif is_end(names[j]) and not children[j]:
             role[j] = "end"
+        elif is_twist(names[j]):
+            role[j] = "twist"
         else:
             role[j] = "unknown"
 
-    _apply_user_roles(role, user, names)
+    given = _apply_user_roles(role, user, names)
     joint_roles = {names[j]: role[j] for j in range(n)}
-    roles: dict[str, object] = {}
+    out_roles: dict[str, object] = {}
     for j in range(n):
         r = role[j]
         if r in ("spine", "neck"):
-            roles.setdefault(r, []).append(names[j])
-        elif r not in ("hand", "end", "unknown"):
-            roles[r] = names[j]
+            out_roles.setdefault(r, []).append(names[j])
+        elif r not in ("hand", "end", "unknown", "face", "toes", "twist"):
+            out_roles[r] = names[j]
+    shape = {j for j in by_structure if role[j] not in ("unknown", "hand", "end", "twist")}
     return Recognition(
         joint_roles=joint_roles,
-        roles=roles,
-        by_structure=[names[j] for j in sorted(set(by_structure))],
+        roles=out_roles,
+        by_structure=[names[j] for j in sorted(shape) if j not in given],
         unrecognised=[names[j] for j in range(n) if role[j] == "unknown"],
         left_axis=_left_axis(rest, role, up),
         problem=problem,
+        given=[names[j] for j in sorted(given)],
     )
 
 
-def _apply_user_roles(role: dict[int, str], user: dict, names: list[str]) -> None:
-    """Given roles win: each given joint takes its role, which no other joint keeps."""
+def _core(name: str) -> str:
+    return core(name)
+
+
+def _leg_lefts(sk: Skeleton, role: dict[int, str], up: np.ndarray,
+               clip: Clip | None) -> np.ndarray | None:
+    """The character's left per frame from its recognised hips (``None`` without both)."""
+    lh, rh = _find(role, "left_hip"), _find(role, "right_hip")
+    if lh is None or rh is None:
+        return None
+    return structure.hips_left(sk, lh, rh, clip)
+
+
+def _head_by_structure(sk, role, pelvis, children, descendants, clip):
+    """``(head, neck joints)`` from the geometry: up the chain from the arms' branch point (or
+    the pelvis when there are no arms) that reaches farthest."""
+    arm_roots = [j for j in (_find(role, f"{s}_{r}") for s in ("left", "right")
+                             for r in ("clavicle", "shoulder")) if j is not None]
+    avoid = set()
+    for j, r in role.items():
+        if r.startswith(("left_", "right_")):
+            avoid.add(j)
+    top = pelvis
+    if arm_roots:
+        top = int(sk.parents[arm_roots[0]])
+        for a in arm_roots[1:]:
+            top = _common_ancestor(sk, top, int(sk.parents[a]))
+        if top == pelvis or pelvis not in sk.chain(top):
+            top = pelvis
+    path = structure.head_by_structure(sk, top, avoid, clip)
+    if not path:
+        return None, []
+    return path[-1], path[:-1] if top != pelvis else []
+def _apply_user_roles(role: dict[int, str], user: dict, names: list[str]) -> set[int]:
+    """Given roles win: each given joint takes its role, which no other joint keeps. Returns
+    the given joints."""
+    out: set[int] = set()
     for r, v in user.items():
         given = [v] if isinstance(v, str) else list(v)
         idx = [names.index(x) for x in given if x in names]
@@ -328,6 +397,8 @@ def _apply_user_roles(role: dict[int, str], user: dict, names: list[str]) -> Non
                 role[j] = "unknown"
         for j in idx:
             role[j] = r
+            out.add(j)
+    return out
 
 
 def _find(role: dict[int, str], r: str) -> int | None:
@@ -368,110 +439,6 @@ def _reach(sk: Skeleton, rest: np.ndarray, descendants, j: int) -> float:
     if not pts:
         return 0.0
     return float(np.max(np.linalg.norm(np.asarray(pts) - rest[j], axis=1)))
-
-
-def _legs_by_shape(sk: Skeleton, rest: np.ndarray, up: np.ndarray, height: float,
-                   children: list[list[int]]) -> tuple[dict[str, int], str | None]:
-    """Knees of the two chains that reach nearest the floor, by shape alone.
-
-    A leg ends at a leaf at most 25% of the standing height above the lowest point; the two
-    legs are the lowest such leaf and the lowest one whose chain parts from it highest up (at
-    the pelvis, not inside a foot). The knee is the chain joint nearest 28% of the height above
-    the floor. Left and right come from the geometry: forward is where the feet point (leaf
-    ahead of knee), left = up x forward; without a foot direction the file's +X is left (Y-up
-    files facing +Z and Z-up files facing -Y both have their left at +X).
-
-    Returns ``(knees, problem)``: ``{}`` when there are not two legs; ``problem`` says why two
-    leg chains cannot be told apart (hips at the same lateral place), else ``None``.
-    """
-    if sk.n_joints < 4 or height <= 0:
-        return {}, None
-    pts = rest if not sk.n_end_sites else np.concatenate([rest, sk.rest_end_sites()])
-    floor = float((pts @ up).min())
-    leaves = [j for j in range(sk.n_joints) if not children[j]]
-    low = sorted((j for j in leaves if float(rest[j] @ up) - floor < 0.25 * height),
-                 key=lambda j: float(rest[j] @ up))
-    if len(low) < 2:
-        return {}, None
-    a = low[0]
-    ca = sk.chain(a)
-
-    def split(b: int) -> int:  # length of the common part of the chains
-        cb = sk.chain(b)
-        k = 0
-        while k < min(len(ca), len(cb)) and ca[k] == cb[k]:
-            k += 1
-        return k
-
-    b = min(low[1:], key=lambda j: (split(j), float(rest[j] @ up)))
-    k = split(b)
-    legs = [ca[k:], sk.chain(b)[k:]]
-    if any(len(c) < 3 for c in legs):
-        return {}, None
-    target = floor + 0.28 * height
-    knees = [min(c[1:-1], key=lambda j: abs(float(rest[j] @ up) - target)) for c in legs]
-    fwd = sum((rest[c[-1]] - rest[kn]) for c, kn in zip(legs, knees, strict=True))
-    fwd = fwd - (fwd @ up) * up
-    if np.linalg.norm(fwd) > 0.03 * height:
-        left = np.cross(up, fwd / np.linalg.norm(fwd))
-    else:
-        left = np.array([1.0, 0.0, 0.0]) - up * up[0]
-        left /= max(np.linalg.norm(left), 1e-12)
-    sep = float((rest[legs[0][0]] - rest[legs[1][0]]) @ left)
-    if abs(sep) < 0.02 * height:
-        sep = float((rest[knees[0]] - rest[knees[1]]) @ left)
-    if abs(sep) < 0.02 * height:
-        return {}, (f"two leg chains ({sk.names[legs[0][0]]}, {sk.names[legs[1][0]]}) but their "
-                    "hips and knees are not apart sideways, so left and right cannot be told "
-                    "apart")
-    return ({"left": knees[0], "right": knees[1]} if sep > 0
-            else {"left": knees[1], "right": knees[0]}), None
-
-
-def _arms_by_shape(sk: Skeleton, rest: np.ndarray, up: np.ndarray, role: dict[int, str],
-                   children: list[list[int]], descendants) -> dict[int, str]:
-    """Elbows of the two chains branching sideways from the upper spine, by shape alone.
-
-    The spine is the path from the pelvis (where the legs part) to the highest joint outside
-    the legs; an arm is a chain hanging from a spine joint, off that path, whose farthest point
-    lies at least 15% of the height to one side (left from the hips). The elbow is the chain's
-    second-to-last joint (last = wrist). Returns ``{elbow index: side}``."""
-    hips = {r: j for j, r in role.items() if r in ("left_hip", "right_hip")}
-    if len(hips) != 2:
-        return {}
-    lh, rh = hips["left_hip"], hips["right_hip"]
-    left = rest[lh] - rest[rh]
-    left = left - (left @ up) * up
-    if np.linalg.norm(left) < 1e-9:
-        return {}
-    left /= np.linalg.norm(left)
-    pelvis = _common_ancestor(sk, lh, rh)
-    legs = set(descendants(lh)) | set(descendants(rh)) | {lh, rh}
-    others = [j for j in descendants(pelvis) if j not in legs]
-    if not others:
-        return {}
-    top = max(others, key=lambda j: float(rest[j] @ up))
-    path = sk.chain(top)
-    path = path[path.index(pelvis):]
-    pts_all = rest if not sk.n_end_sites else np.concatenate([rest, sk.rest_end_sites()])
-    height = float((pts_all @ up).max() - (pts_all @ up).min())
-    best: dict[str, tuple[float, list[int]]] = {}
-    for p in path[1:]:
-        for c in children[p]:
-            if c in path or c in legs:
-                continue
-            chain = [c]
-            while children[chain[-1]]:
-                chain.append(max(children[chain[-1]],
-                                 key=lambda k: float(abs((rest[k] - rest[p]) @ left))))
-            lat = float((rest[chain[-1]] - rest[p]) @ left)
-            side = "left" if lat > 0 else "right"
-            if abs(lat) > 0.15 * height and len(chain) >= 3 and \
-                    abs(lat) > best.get(side, (0.0, []))[0]:
-                best[side] = (abs(lat), chain)
-    if len(best) != 2:
-        return {}
-    return {chain[-2]: side for side, (_, chain) in best.items()}
 
 
 def _left_axis(rest: np.ndarray, role: dict[int, str], up: np.ndarray) -> np.ndarray | None:

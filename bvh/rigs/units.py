@@ -2,9 +2,20 @@
 
 A BVH file does not say its units or which axis is up; these guesses use the rest pose of a
 human-like skeleton (standing height, head above feet).
+
+**Units from anatomy** (:func:`unit_from_stature`): the body's stature in file units (measured by
+the converter on its canonical standing rest, cross-checked with the leg bones) gives the
+*anatomical* scale, the metres per unit that would make it :data:`TYPICAL_HEIGHT_M` tall. It is
+snapped to the known unit (:data:`KNOWN_UNITS`: m, cm, mm, in, ft and the CMU ASF unit of
+1/0.45 inch) that puts the body inside :data:`HEIGHT_RANGE_M` (the one nearest the typical
+height in log scale when two do); when none does, the anatomical scale itself is used and the
+guess says so. Neighbouring known units are at least a factor 2.22 apart (CMU/inch), more than
+the range's 2.3/1.0 only at its very ends, so a body of 1.04-2.2 m is never in doubt.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -13,13 +24,22 @@ from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, quat_rotate, to_rotation
 
+#: metres per unit of the CMU motion-capture ASF files: lengths are in units of 1/0.45 inch
+CMU_UNIT = 0.0254 / 0.45
 #: metres per unit for the unit names accepted by :func:`unit_scale`
-UNIT_SCALES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}
+UNIT_SCALES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254, "ft": 0.3048,
+               "foot": 0.3048, "feet": 0.3048, "cmu": CMU_UNIT}
+#: the units a body's anatomical scale snaps to (name -> metres per unit)
+KNOWN_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048, "cmu": CMU_UNIT}
+#: metres: the stature the anatomical scale gives a body, and the range a known unit must put
+#: it in to be chosen (outside it the converter warns)
+TYPICAL_HEIGHT_M = 1.7
+HEIGHT_RANGE_M = (1.0, 2.3)
 AXIS_VECTORS = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}
 
 
 def unit_scale(unit: str) -> float:
-    """Metres per ``unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``)."""
+    """Metres per ``unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``, ``"cmu"``)."""
     try:
         return UNIT_SCALES[unit.lower()]
     except KeyError:
@@ -59,30 +79,67 @@ def guess_up_axis(skeleton: Skeleton) -> str:
 
 
 def guess_unit_scale(skeleton: Skeleton) -> float:
-    """Metres per file unit guessed from the standing height of the rest pose.
-
-    Heights near 1.7 are metres, near 170 centimetres, near 67 inches, near 1700 millimetres.
-    """
+    """Metres per file unit guessed from the standing height of the rest pose
+    (:func:`unit_from_stature`): heights near 1.7 are metres, near 170 centimetres, near 67
+    inches, near 30 CMU ASF units, near 1700 millimetres."""
     pts = _extent_points(skeleton)
     ax = "xyz".index(guess_up_axis(skeleton))
     height = float(pts[:, ax].max() - pts[:, ax].min())
     if height <= 0:
         raise SkeletonError("cannot guess units: the skeleton has no height (all joints coincide)")
-    return unit_for_height(height)
+    return unit_from_stature(height).scale
 
 
-#: units a height can be guessed in (metres per unit), and the height they are judged against
-GUESSED_UNITS = {"m": 1.0, "cm": 0.01, "in": 0.0254, "mm": 0.001, "dm": 0.1}
-TYPICAL_HEIGHT_M = 1.6
+@dataclass(frozen=True)
+class UnitGuess:
+    """A unit guessed from a body's size.
+
+    Attributes:
+        name: the known unit snapped to (a key of :data:`KNOWN_UNITS`), or ``None`` when none
+            puts the body in :data:`HEIGHT_RANGE_M` (``scale`` is then ``anatomical``).
+        scale: metres per file unit.
+        anatomical: metres per file unit making the body :data:`TYPICAL_HEIGHT_M` tall.
+        stature: the body's stature in file units.
+    """
+
+    name: str | None
+    scale: float
+    anatomical: float
+    stature: float
+
+    @property
+    def height_m(self) -> float:
+        """The stature in metres at :attr:`scale`."""
+        return self.stature * self.scale
+
+
+def unit_from_stature(stature: float) -> UnitGuess:
+    """The unit of a body ``stature`` file units tall: the known unit putting it inside
+    :data:`HEIGHT_RANGE_M` (nearest :data:`TYPICAL_HEIGHT_M` in log scale when two do), else
+    the anatomical scale (module docstring)."""
+    stature = float(stature)
+    if not (np.isfinite(stature) and stature > 0):
+        raise SkeletonError("cannot guess units: the skeleton has no height (all joints coincide)")
+    lo, hi = HEIGHT_RANGE_M
+    fits = [u for u, s in KNOWN_UNITS.items() if lo <= stature * s <= hi]
+    anatomical = TYPICAL_HEIGHT_M / stature
+    if not fits:
+        return UnitGuess(None, anatomical, anatomical, stature)
+    name = min(fits, key=lambda u: abs(np.log(stature * KNOWN_UNITS[u] / TYPICAL_HEIGHT_M)))
+    return UnitGuess(name, KNOWN_UNITS[name], anatomical, stature)
+
+
+def unit_name(scale: float) -> str | None:
+    """The known unit of ``scale`` metres per unit (``0.0254`` -> ``"in"``), or ``None``."""
+    for name, s in KNOWN_UNITS.items():
+        if abs(scale - s) <= 1e-9 * s:
+            return name
+    return None
 
 
 def unit_for_height(height: float) -> float:
-    """Metres per unit of the unit (m, cm, in, mm, dm) that makes a figure ``height`` file units
-    tall nearest :data:`TYPICAL_HEIGHT_M` in log scale. Figures of 1.2-2.1 m are told apart in
-    every unit: the nearest wrong unit is a factor of 2.54 (cm/in) away."""
-    name = min(GUESSED_UNITS,
-               key=lambda u: abs(np.log(height * GUESSED_UNITS[u] / TYPICAL_HEIGHT_M)))
-    return GUESSED_UNITS[name]
+    """Metres per unit for a figure ``height`` file units tall (:func:`unit_from_stature`)."""
+    return unit_from_stature(height).scale
 
 
 def up_axis_rotation(from_up: str, to_up: str = "z") -> np.ndarray:
@@ -126,4 +183,5 @@ def to_metres(motion: Motion, unit: str | float | None = None, up: str | None = 
 
 
 __all__ = ["unit_scale", "guess_up_axis", "guess_unit_scale", "up_axis_rotation",
-           "transform_motion", "to_metres", "unit_for_height", "from_rotation", "to_rotation"]
+           "transform_motion", "to_metres", "unit_for_height", "unit_from_stature", "unit_name",
+           "UnitGuess", "KNOWN_UNITS", "CMU_UNIT", "from_rotation", "to_rotation"]

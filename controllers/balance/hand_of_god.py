@@ -83,7 +83,9 @@ class HandOfGod:
         if lift:
             self.tracker.set_target(LiftedTarget(self.tracker.target, lift), character)
         self.tracker.set_root_gains(character, self.kp, self.kd, self.kp_rot, self.kd_rot)
-        self._r = character.root_dofs
+        r = character.root_dofs  # (the root's six dofs: a slice when contiguous, as they are)
+        contiguous = np.array_equal(r, np.arange(r[0], r[0] + len(r)))
+        self._r = slice(int(r[0]), int(r[0]) + len(r)) if contiguous else r
         self.last_force = np.zeros(3)
         self.last_torque = np.zeros(3)
 

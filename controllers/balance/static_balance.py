@@ -117,6 +117,7 @@ class StaticBalance:
         self._leg_mask = np.zeros((2, character.nv))
         for i, (dofs, _) in enumerate(self._legs):
             self._leg_mask[i, dofs] = 1.0
+        self._jac = (np.zeros((3, character.nv)), np.zeros((3, character.nv)))
         self._leg_qpos = np.concatenate([character.joint_qpos(character.role(f"{s}_{p}"))
                                          for s in ("left", "right")
                                          for p in ("hip", "knee", "ankle")])
@@ -154,13 +155,17 @@ class StaticBalance:
         """``(nv,)`` joint torques realising the COM force ``f`` ``(3,)`` N on the stance legs:
         ``-J_x^T f`` per stance leg (``x`` the COM attached to that foot), on its hip, knee and
         ankle dofs only, ``f`` shared equally between the legs in contact (both if none is)."""
+        return self._leg_torques(character, f, character.state.com())
+
+    def _leg_torques(self, character: Character, f: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """:meth:`virtual_force_torques` with the centre of mass ``c`` ``(3,)`` already read."""
         contacts = character.contacts.feet()
         stance = [i for i in (0, 1) if contacts[i]] or [0, 1]
         share = np.asarray(f, dtype=float) / len(stance)
-        c = character.state.com()
         tau = np.zeros(character.nv)
+        jac = self._jac
         for i in stance:
-            jacp, _ = character.dynamics.point_jacobian(self._legs[i][1], c)
+            jacp, _ = character.dynamics.point_jacobian(self._legs[i][1], c, out=jac)
             tau -= (share @ jacp) * self._leg_mask[i]
         return tau
 
@@ -176,10 +181,11 @@ class StaticBalance:
                 self._dz_key = key
         self.com_target = np.array([*self._support, self._com_z + dz])
         state = character.state
-        f = self.kp * (self.com_target - state.com()) - self.kd * state.com_velocity()
+        c = state.com()
+        f = self.kp * (self.com_target - c) - self.kd * state.com_velocity()
         self.last_force = f
         a = self.pd.act(character, t)
-        tau = self.virtual_force_torques(character, f)
+        tau = self._leg_torques(character, f, c)
         return Action(torque=tau if a.torque is None else a.torque + tau, target=a.target)
 
 

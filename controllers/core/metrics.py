@@ -143,9 +143,10 @@ class FallDetector:
         h = character.state.root_height
         if h < self.fall_height:
             return f"root height {h:.3f} m below {self.fall_height:.3f} m"
-        bodies = character.contacts.non_foot()
-        if bodies:
-            return f"{', '.join(bodies)} touched the ground"
+        if character.contacts.any_non_foot():
+            bodies = character.contacts.non_foot()
+            if bodies:
+                return f"{', '.join(bodies)} touched the ground"
         return None
 
 
@@ -153,7 +154,8 @@ class Recorder:
     """Collects what a run's :class:`Result` needs, one :meth:`record` per control step.
 
     Joint and root positions are sampled at most ``sample_rate`` times per second (tracking
-    errors are computed against the reference once, at the end).
+    errors are computed against the reference once, at the end); without a reference there are
+    no tracking errors, and ``joint_positions`` stays empty.
     """
 
     def __init__(self, character: Character, reference=None, sample_rate: float = 120.0):
@@ -166,29 +168,47 @@ class Recorder:
         self.root_torque: list[float] = []
         self.start_root = character.state.root_position
         self.root = self.start_root.copy()
-        self.start_feet = np.array([p[:2] for p in character.contacts.foot_sites()])
+        self.start_feet = self._feet_xy(character)
+        self._feet = (character.site_id("left_foot"), character.site_id("right_foot"))
         self.foot_travel = 0.0
         self.start_com_z = float(character.state.com()[2])
         self.com_min_z = self.start_com_z
         self._sample(character)
 
+    @staticmethod
+    def _feet_xy(character: Character) -> np.ndarray:
+        """``(2, 2)`` horizontal positions (m) of the left and right sole sites."""
+        left, right = character.contacts.foot_sites()
+        return np.array([left[:2], right[:2]])
+
     def _sample(self, character: Character) -> None:
         self.times.append(character.time)
-        self.joint_positions.append(character.state.joint_positions())
+        if self.reference is not None:
+            self.joint_positions.append(character.state.joint_positions())
         self._next_sample = character.time + self.sample_dt - 1e-9
 
     def record(self, character: Character) -> None:
         """Record the step just taken (root wrench of the last action, positions when due)."""
-        w = character.actuation.root_wrench
-        self.root_force.append(float(np.linalg.norm(w[:3])))
-        self.root_torque.append(float(np.linalg.norm(w[3:])))
+        if character.actuation.root_wrench_applied:
+            w = character.actuation.root_wrench
+            self.root_force.append(float(np.linalg.norm(w[:3])))
+            self.root_torque.append(float(np.linalg.norm(w[3:])))
+        else:  # no wrench: the norms of zero vectors
+            self.root_force.append(0.0)
+            self.root_torque.append(0.0)
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
-            feet = np.array([p[:2] for p in character.contacts.foot_sites()])
-            self.foot_travel = max(self.foot_travel,
-                                   float(np.linalg.norm(feet - self.start_feet, axis=1).max()))
-            self.com_min_z = min(self.com_min_z, float(character.state.com()[2]))
+            sites, (left, right) = character.state.site_positions, self._feet
+            (lx, ly), (rx, ry) = sites[left, :2].tolist(), sites[right, :2].tolist()
+            (sx, sy), (tx, ty) = self.start_feet.tolist()
+            # the largest of the two feet's horizontal displacements (on Python floats: the
+            # same operations as np.linalg.norm(feet - start_feet, axis=1).max())
+            lx, ly, rx, ry = lx - sx, ly - sy, rx - tx, ry - ty
+            travel = max(math.sqrt(lx * lx + ly * ly), math.sqrt(rx * rx + ry * ry))
+            self.foot_travel = max(self.foot_travel, travel)
+            self.com_min_z = min(self.com_min_z,
+                                 float(character.state.subtree_coms[character.root_body, 2]))
 
     def tracking_errors(self, joint_body_index: int = 0) -> tuple[float | None, float | None]:
         """``(mean joint error, mean root error)`` in m against the reference (``None`` without).

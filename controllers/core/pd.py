@@ -40,6 +40,15 @@ from .character import Character
 from .registry import ControllerSpec, register
 
 
+def _selector(idx: np.ndarray) -> slice | np.ndarray:
+    """Integer indices as a slice when they are a contiguous ascending run (a view to read,
+    not a gathered copy), else as they are."""
+    idx = np.asarray(idx, dtype=int)
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
+
+
 class _PDTracker:
     """Shared set-up: a target and gains bound to a character at :meth:`reset`."""
 
@@ -127,11 +136,16 @@ class StablePDController(_PDTracker):
         qd = character.state.qvel
         q_pred = dyn.integrate(character.state.qpos, qd, dt)
         e = dyn.difference(q_pred, q_bar)                 # -(q + dt qdot - q_bar)
-        rhs = kp * e + kd * (qd_bar - qd) - dyn.bias_forces()
+        p_term = kp * e
+        v_err = qd_bar - qd
+        rhs = p_term + kd * v_err - dyn.bias_forces()
         if self.external:
             rhs += dyn.passive_forces() + dyn.constraint_forces()
         qdd = dyn.solve_mass(rhs, kd * dt)                # (M + kd dt)^-1 rhs, sparse LDL
-        return kp * e + kd * (qd_bar - qd - dt * qdd)
+        v_err -= dt * qdd
+        v_err *= kd
+        p_term += v_err
+        return p_term                                     # kp e + kd (qd_bar - qd - dt qdd)
 
     def act(self, character: Character, t: float) -> Action:
         """``Action(torque=...)`` with the stable-PD torques."""
@@ -159,8 +173,9 @@ class NativePDController(_PDTracker):
         kp = self.gains.kp[character.actuator_dof]
         kd = self.gains.kd[character.actuator_dof]
         self._lead = np.divide(kd, kp, out=np.zeros_like(kd), where=kp > 0)
-        self._qadr = character.actuator_qpos
-        self._dof = character.actuator_dof
+        self._qadr = _selector(character.actuator_qpos)
+        self._dof = _selector(character.actuator_dof)
+        self._root_gains_of = None  # the Gains object _root_gains was read from
 
     def act(self, character: Character, t: float) -> Action:
         """``Action(target=u)`` (plus the explicit root wrench when the root has gains)."""
@@ -168,7 +183,10 @@ class NativePDController(_PDTracker):
         q_bar, qd_bar = self.target(t)
         u = q_bar[self._qadr] + self._lead * qd_bar[self._dof]
         r = character.root_dofs
-        if not self.gains.kp[r].any() and not self.gains.kd[r].any():
+        if self._root_gains_of is not self.gains:  # gains replaced (set_root_gains): re-read
+            self._root_gains = bool(self.gains.kp[r].any() or self.gains.kd[r].any())
+            self._root_gains_of = self.gains
+        if not self._root_gains:
             return Action(target=u)
         tau = np.zeros(character.nv)  # root gains (hand of god): explicit PD on the root rows
         e = character.dynamics.difference(character.state.qpos, q_bar)[r]

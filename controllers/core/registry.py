@@ -86,6 +86,10 @@ class ControllerSpec:
             which can follow the clip's floating stance feet as recorded (grounding the clip
             made hand-of-god's swing toes scuff and catch on 5 of 10 zoo rigs: 2.1 -> 5.8 cm on
             the Unreal rig).
+        tunables: with the ``params`` option, what ``--param`` takes:
+            ``tunables(**options) -> [Tunable]`` (:class:`~mjchar.controllers.core.param_fields.
+            Tunable`: name, declaration, default, meaning; ``mjchar params`` prints them;
+            ``options`` such as ``gait`` choose which defaults are shown).
     """
 
     name: str
@@ -105,6 +109,7 @@ class ControllerSpec:
     speed_leg_length: float | None = None
     speed_every_body: tuple[float, float] | None = None
     floor: str = "contact"
+    tunables: Callable[..., list] | None = None
 
     def scenarios(self) -> tuple[str, ...]:
         """The registered scenarios it runs (those asking for one of its :attr:`abilities`), in
@@ -168,6 +173,9 @@ class ControllerSpec:
                       f"{self.speed_every_body}")
         if self.timestep is not None and not self.timestep > 0:
             raise bad(f"the time step must be positive, got {self.timestep}")
+        if ("params" in self.options) != (self.tunables is not None):
+            raise bad("a controller taking params declares them (tunables=...), and only one "
+                      "taking params does")
 
 
 _SPECS: dict[str, ControllerSpec] = {}

@@ -36,6 +36,7 @@ from mjchar.bvh.errors import MjcharError
 
 from . import registry
 from .character import Character
+from .limits import control_dt_problem, timestep_problem
 from .scenarios import registry as scenario_registry
 from .scenarios.registry import Run
 from .scenarios.shared import standing_pose
@@ -97,6 +98,12 @@ class RunSpec:
                     valid = ", ".join(cspec.options) or "none"
                     raise RunError(f"{cspec.name} takes no option {key!r}; its options: "
                                    f"{valid}")
+        for what, problem in (
+                ("timestep", self.timestep is not None and timestep_problem(self.timestep)),
+                ("control_dt", self.control_dt is not None
+                 and control_dt_problem(self.control_dt, self.timestep))):
+            if problem:
+                raise RunError(f"{what} {problem}")
         try:
             scenario_registry.check_options(sspec, self.scenario_options)
         except MjcharError as e:
@@ -109,14 +116,18 @@ class RunSpec:
         """Whether this run loads a clip (:func:`follows_clip`)."""
         return follows_clip(self.controller_spec, self.scenario_spec)
 
-    def build(self, *, frame_callback: Callable | None = None) -> Run:
-        """The character, its clip and the controller, ready for the scenario's runner."""
+    def build(self, *, frame_callback: Callable | None = None, progress=None) -> Run:
+        """The character, its clip and the controller, ready for the scenario's runner;
+        ``progress`` (a :class:`~mjchar.controllers.core.progress.Progress`) shows the clip's
+        preparation and then the run's simulated time."""
         self.check()
+        check_model_file(self.model)
         character = Character(self.model, timestep=self.timestep)
-        reference = load_reference(self, character) if self.follows_clip() else None
+        reference = (load_reference(self, character, progress) if self.follows_clip()
+                     else None)
         controller = self.make_controller(character, reference)
         return Run(character, controller, reference, self, frame_callback, self.control_dt,
-                   self.seed)
+                   self.seed, progress)
 
     def make_controller(self, character: Character, reference=None, *, target=None):
         """A fresh controller on ``character`` (its time step applied): trackers follow
@@ -201,19 +212,52 @@ def motion_source(motion) -> Path | Any:
     return motion
 
 
-def load_reference(spec: RunSpec, character: Character):
-    """The clip of ``spec`` as a ReferenceMotion in ``character``'s model."""
+def check_model_file(model) -> None:
+    """A one-line :class:`RunError` when ``model`` is a path to a file that is not an MJCF model
+    (a BVH clip given as the model, or any other file), before MuJoCo's parser sees it; other
+    values (``None``, an ``MjModel``, a missing file) are left to the Character."""
+    if not isinstance(model, str | os.PathLike) or not os.path.isfile(model):
+        return
+    path = os.fspath(model)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096).decode("utf-8-sig", errors="replace").lstrip()
+    except OSError as e:
+        raise RunError(f"{path}: cannot read the model: {e.strerror or e}") from None
+    stem = os.path.splitext(path)[0]
+    if path.lower().endswith(".bvh") or head[:9].upper() == "HIERARCHY":
+        raise RunError(f"{path} is a BVH clip, not an MJCF model: convert it (mjchar convert "
+                       f"{path} -o {stem}.xml) and pass --model {stem}.xml")
+    if "<mujoco" not in head:
+        raise RunError(f"{path} is not an MJCF model (no <mujoco> element at its start): give "
+                       f"a model written by mjchar convert (or the bundled one: no --model)")
+
+
+def load_reference(spec: RunSpec, character: Character, progress=None):
+    """The clip of ``spec`` as a ReferenceMotion in ``character``'s model (a clip on another
+    skeleton: a one-line :class:`RunError` naming it and the fix)."""
     from mjchar.bvh.editing.clips import make_cyclic
+    from mjchar.bvh.errors import ReferenceMotionError
     from mjchar.bvh.io import load
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     source = motion_source(spec.motion)
     motion = load(source) if isinstance(source, Path) else source
+    if motion.n_frames == 0:
+        raise RunError(f"{source}: the clip has no frames (a skeleton without motion): give a "
+                       f"clip to follow")
     if spec.loop:
         motion = make_cyclic(motion)
-    return ReferenceMotion(character.model, motion, info=character.info,
-                           floor=spec.floor or spec.controller_spec.floor,
-                           cyclic=True if spec.loop else None)
+    try:
+        counter = (progress.counter("preparing the clip", "frames")
+                   if hasattr(progress, "counter") else None)
+        return ReferenceMotion(character.model, motion, info=character.info,
+                               floor=spec.floor or spec.controller_spec.floor,
+                               cyclic=True if spec.loop else None, progress=counter)
+    except ReferenceMotionError as e:
+        if isinstance(source, Path) and "lacks" in str(e):
+            raise RunError(f"{source}: {str(e).replace('CLIP', str(source))}") from None
+        raise
 
 
 def run(controller: str, scenario: str | None = None, *, model=None, motion=None,

@@ -56,8 +56,8 @@ from __future__ import annotations
 
 import math
 import os
-import time
-from dataclasses import dataclass, field, fields
+import time as _time
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
@@ -65,6 +65,20 @@ from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
+from ..core.param_fields import (
+    REFUSED,
+    Spec,
+    Tunable,
+    check_fields,
+    choice,
+    field_docs,
+    flag,
+    integer,
+    mapping,
+    number,
+    time,
+    tunables,
+)
 from ..core.registry import ControllerSpec, register
 from .executors import LocalExecutor
 from .planning import (
@@ -80,6 +94,7 @@ from .planning import (
 from .rollout import RolloutRequest
 from .tracking import (
     FALL_COST,
+    ROLE_WIDTHS,
     CostWeights,
     PoseReference,
     TrackingCost,
@@ -100,6 +115,11 @@ UPDATES = ("sampling", "mppi", "cem")
 MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "head": 0.0}
 
 
+#: the cost weights' accepted values (the :class:`CostWeights` fields, each >= 0)
+_WEIGHTS = Spec("none", kind="mapping", low=0.0, high=1e6,
+                choices=tuple(f.name for f in fields(CostWeights)))
+
+
 @dataclass
 class MpcOptions:
     """Sampling MPC settings (see the module docstring).
@@ -117,119 +137,85 @@ class MpcOptions:
             step here makes the rollouts exact.
         plan_solver: the planning model's solver settings, one of :data:`PLAN_SOLVERS`
             (:func:`planning_model`).
-        near, keep, tail_timestep: the horizon in two parts. Every candidate is rolled out
-            over the first ``near`` seconds (a whole number of controls; 0 or the horizon: no
-            split); only the ``keep`` fraction cheapest so far (fallen candidates last) is
-            rolled on over the tail, the others (terminated early) take no part in the update;
-            the tail runs on a planning model at the time step ``tail_timestep`` (``None``:
-            the planning model's own; ``control_dt`` must be a whole number of it).
-        update: ``"sampling"``, ``"mppi"`` or ``"cem"``.
+        near: seconds of the horizon every candidate is rolled out over before the cheapest
+            go on (a whole number of controls; 0 or the horizon: no split, the default).
+            Only the ``keep`` fraction cheapest so far (fallen candidates last) is rolled on
+            over the tail; the others (terminated early) take no part in the update.
+        keep: the fraction of candidates rolled on over the tail after ``near``.
+        tail_timestep: the time step of the planning model the tail after ``near`` runs on
+            (``None``: the planning model's own; ``control_dt`` must be a whole number of it).
+        update: the plan update: ``"sampling"`` (predictive sampling), ``"mppi"`` or ``"cem"``.
         noise: standard deviation of the knot perturbations, in units of the role widths.
-        widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`);
-            width_scale: factor on them.
+        widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`).
+        width_scale: factor on every role width.
         temperature: MPPI's ``lambda`` as a fraction of ``median(c) - min(c)``.
-        elites: CEM's elite fraction; cem_rate: how fast CEM's sigma follows the elites.
+        elites: CEM's elite fraction.
+        cem_rate: how fast CEM's sigma follows the elites.
         smoothness: weight of the control-smoothness term.
         antithetic: draw the perturbations in pairs ``+eps, -eps`` (variance reduction).
         max_boost: largest factor on the noise when the cost rises above its running mean
             (time constant ``boost_time`` s), e.g. after a push; 1 turns it off.
+        boost_time: the time constant (s) of the cost's running mean the noise boost compares
+            with.
         weights: the tracking cost weights (:class:`CostWeights`).
         smoothing: seconds of Gaussian smoothing of the inverse-dynamics targets.
         stance_height: a foot carries the body in the base targets' inverse dynamics when its
             lowest point is within this fraction of the root height of the floor (and it is
             slow); ``None``: :data:`MPC_STANCE_HEIGHT` on a contact-floor reference, else the
             raw-mocap :data:`~mjchar.bvh.reference.foot_points.CONTACT_HEIGHT`.
-        seed: random seed; threads: rollout threads (``None``: every core).
+        seed: random seed.
+        threads: rollout threads (``None``: every core).
     """
 
-    samples: int = 48
-    horizon: float = 0.7
-    knots: int = 3
-    replan: float = 0.04
-    control_dt: float = 0.02
-    plan_timestep: float | None = None
-    plan_solver: str = "fast"
-    near: float = 0.0
-    keep: float = 1.0
-    tail_timestep: float | None = None
-    update: str = "mppi"
-    noise: float = 0.5
-    widths: dict = field(default_factory=lambda: dict(MPC_WIDTHS))
-    width_scale: float = 1.0
-    temperature: float = 0.1
-    elites: float = 0.25
-    cem_rate: float = 0.5
-    smoothness: float = 1.0
-    antithetic: bool = False
-    max_boost: float = 2.0
-    boost_time: float = 1.0
+    samples: int = integer(48, ge=2, le=4096)
+    horizon: float = time(0.7, gt=0, le=5)
+    knots: int = integer(3, ge=2, le=100)
+    replan: float = time(0.04, gt=0, le=5)
+    control_dt: float = time(0.02, gt=0, le=0.1)
+    plan_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
+    plan_solver: str = choice("fast", PLAN_SOLVERS)
+    near: float = time(0.0, ge=0, le=5)
+    keep: float = number(1.0, gt=0, le=1)
+    tail_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
+    update: str = choice("mppi", UPDATES)
+    noise: float = number(0.5, gt=0, le=10)
+    widths: dict = mapping(lambda: dict(MPC_WIDTHS), ge=0, le=math.pi, keys=tuple(ROLE_WIDTHS),
+                           unit="rad")
+    width_scale: float = number(1.0, gt=0, le=100)
+    temperature: float = number(0.1, gt=0, le=100)
+    elites: float = number(0.25, gt=0, le=1)
+    cem_rate: float = number(0.5, gt=0, le=1)
+    smoothness: float = number(1.0, ge=0)
+    antithetic: bool = flag(False)
+    max_boost: float = number(2.0, ge=1, le=100)
+    boost_time: float = time(1.0, gt=0)
     weights: CostWeights = field(default_factory=CostWeights)
-    smoothing: float = 0.03
-    stance_height: float | None = None
-    seed: int = 0
-    threads: int | None = None
+    smoothing: float = time(0.03, ge=0, le=1)
+    stance_height: float | None = number(None, gt=0, le=1, optional=True)
+    seed: int = integer(0, ge=0, le=2**32 - 1)
+    threads: int | None = integer(None, ge=1, le=1024, optional=True)
 
     def check(self, timestep: float | None = None) -> None:
         """Raise :class:`MpcError` for impossible settings (``timestep``: the physics step the
-        controls must be a whole number of)."""
-        for k, lo in (("samples", 2), ("knots", 2), ("seed", 0)):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < lo:
-                raise MpcError(f"{k} must be an integer >= {lo}, got {v!r}")
-        if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(
-                self.threads, int | np.integer) or self.threads < 1):
-            raise MpcError(f"threads must be a positive integer or None, got {self.threads!r}")
-        for k in ("horizon", "replan", "control_dt", "noise", "temperature", "elites",
-                  "cem_rate", "width_scale", "boost_time"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
-                                           and v > 0):
-                raise MpcError(f"{k} must be a positive number, got {v!r}")
-        if self.stance_height is not None and (
-                isinstance(self.stance_height, bool)
-                or not isinstance(self.stance_height, int | float)
-                or not math.isfinite(self.stance_height) or self.stance_height <= 0):
-            raise MpcError(f"stance_height must be a positive fraction of the root height or "
-                           f"None, got {self.stance_height!r}")
-        for k in ("smoothness", "smoothing"):
-            v = getattr(self, k)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise MpcError(f"{k} must be a non-negative number, got {v!r}")
-        if self.plan_solver not in PLAN_SOLVERS:
-            raise MpcError(f"plan_solver must be one of {', '.join(PLAN_SOLVERS)}, got "
-                           f"{self.plan_solver!r}")
-        for k in ("near", "keep"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
-                                           and v >= 0):
-                raise MpcError(f"{k} must be a non-negative number, got {v!r}")
-        if not 0 < self.keep <= 1:
-            raise MpcError(f"keep must be a fraction in (0, 1], got {self.keep!r}")
-        if self.near > 0 and not whole_multiple(self.near, self.control_dt):
-            raise MpcError(f"near ({self.near} s) must be a whole number of controls of "
-                           f"{self.control_dt} s")
-        if self.update not in UPDATES:
-            raise MpcError(f"update must be one of {', '.join(UPDATES)}, got {self.update!r}")
-        if not (isinstance(self.max_boost, int | float) and self.max_boost >= 1):
-            raise MpcError(f"max_boost must be a number >= 1, got {self.max_boost!r}")
-        if self.elites > 1 or self.cem_rate > 1:
-            raise MpcError("elites and cem_rate must be in (0, 1]")
-        if not isinstance(self.antithetic, bool | np.bool_):
-            raise MpcError(f"antithetic must be True or False, got {self.antithetic!r}")
+        controls must be a whole number of). Each option is checked against its declaration
+        (type and range, one line naming it), then the options against each other."""
+        for k, v in check_fields(self, MpcError, "MPC option", skip=("weights",)).items():
+            setattr(self, k, v)
         if not isinstance(self.weights, CostWeights):
-            raise MpcError("weights must be a CostWeights")
+            raise MpcError("weights must be a CostWeights (or an object of weights)")
+        if _WEIGHTS.coerce(asdict(self.weights)) is REFUSED:
+            raise MpcError(f"MPC option weights must be {_WEIGHTS.accepted()}, got "
+                           f"{asdict(self.weights)}")
         for k in ("horizon", "replan"):
             if not whole_multiple(getattr(self, k), self.control_dt):
                 raise MpcError(f"{k} ({getattr(self, k)} s) must be a whole number of controls "
                                f"of {self.control_dt} s")
+        if self.near > 0 and not whole_multiple(self.near, self.control_dt):
+            raise MpcError(f"near ({self.near} s) must be a whole number of controls of "
+                           f"{self.control_dt} s")
         for k in ("plan_timestep", "tail_timestep"):
             v = getattr(self, k)
-            if v is None:
-                continue
-            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
-                                           and v > 0):
-                raise MpcError(f"{k} must be a positive number or None, got {v!r}")
-            if not whole_multiple(self.control_dt, v):
+            if v is not None and not whole_multiple(self.control_dt, v):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"{k} {v} s planning steps")
         if self.replan > self.horizon + 1e-9:
@@ -238,6 +224,16 @@ class MpcOptions:
             if not whole_multiple(self.control_dt, timestep):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"{timestep} s physics steps")
+
+    @staticmethod
+    def tunables() -> list[Tunable]:
+        """Every option ``--param`` takes, with its default (``mjchar params mpc``)."""
+        rows = tunables(MpcOptions())
+        default = asdict(CostWeights())
+        meaning = field_docs(MpcOptions)["weights"]
+        return rows[:rows.index(next(t for t in rows if t.name == "smoothing"))] + [
+            Tunable("weights", _WEIGHTS, default, meaning)] + rows[
+            rows.index(next(t for t in rows if t.name == "smoothing")):]
 
     @classmethod
     def from_kwargs(cls, **kw) -> MpcOptions:
@@ -350,8 +346,6 @@ class MpcController:
     Args:
         target: what to track (``None``: the character's standing pose at :meth:`reset`).
         options: :class:`MpcOptions`.
-        progress: a tqdm bar of the simulated time on the terminal (``None``: only when stderr
-            is a terminal; ``False``: never).
 
     Attributes:
         stats: replanning steps, rollouts and planning-model physics steps simulated, seconds
@@ -362,15 +356,13 @@ class MpcController:
     name = "mpc"
     actuation = "native"
 
-    def __init__(self, target=None, options: MpcOptions | None = None, progress=None):
+    def __init__(self, target=None, options: MpcOptions | None = None):
         self.options = options or MpcOptions()
         self.options.check()
         self.target = target
-        self.progress = progress
         self._executor: LocalExecutor | None = None
         self._rmodel = None
         self._rm_key = None
-        self._bar = None
         self._bound = False
         self.last_plan: Plan | None = None
 
@@ -434,19 +426,13 @@ class MpcController:
         self._nstate = self._rmodel.nstate
         self.stats = {"replans": 0, "rollouts": 0, "physics_steps": 0, "planning_s": 0.0,
                       "costs": []}
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
         self._bound = True
 
     def close(self) -> None:
-        """Release the rollout threads and the progress bar."""
+        """Release the rollout threads."""
         if self._executor is not None:
             self._executor.close()
             self._executor = None
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
 
     # -- control -----------------------------------------------------------------------------
     def act(self, character: Character, t: float) -> Action:
@@ -489,7 +475,7 @@ class MpcController:
         """
         if not self._bound:
             raise ControllerError("mpc: plan() called before reset()")
-        o, w0 = self.options, time.perf_counter()
+        o, w0 = self.options, _time.perf_counter()
         state = np.asarray(state, dtype=np.float64)
         if state.shape != (self._nstate,):
             raise MpcError(f"state must be a ({self._nstate},) full-physics state "
@@ -514,7 +500,7 @@ class MpcController:
         X, sigma, best = self._update(Xs, c, X, sigma)
         offsets = self.spline.offsets(X)
         t0 = grid.origin + n0 * o.control_dt
-        seconds = time.perf_counter() - w0
+        seconds = _time.perf_counter() - w0
         p = Plan(time=t0, control_dt=o.control_dt, targets=base + offsets, base=base.copy(),
                  knots=X, sigma=sigma, cost=best, rollouts=N, physics_steps=steps,
                  seconds=seconds)
@@ -525,7 +511,6 @@ class MpcController:
         st["physics_steps"] += steps  # of the planning model
         st["costs"].append(best)
         st["planning_s"] += seconds
-        self._show(t0, best)
         return p
 
     # -- the planning step's parts -------------------------------------------------------------
@@ -653,27 +638,15 @@ class MpcController:
                         0.2 * o.noise, 2.0 * o.noise)
         return mean, sigma, best
 
-    def _show(self, t: float, best: float) -> None:
-        if self.progress is False:
-            return
-        if self._bar is None:
-            from tqdm import tqdm
-
-            self._bar = tqdm(desc="MPC", disable=None if self.progress is None else False,
-                             bar_format="{desc}: {n:.2f} sim s [{elapsed}, {postfix}]",
-                             leave=False)
-        self._bar.n = t + self.options.replan
-        self._bar.set_postfix_str(f"cost {best:.2f}", refresh=True)
-
 
 def make_mpc(character: Character | None = None, target=None, **options) -> MpcController:
     """An :class:`MpcController` tracking ``target`` (a ReferenceMotion or a pose); ``options``
-    are :class:`MpcOptions` fields (``progress`` is the controller's own)."""
-    progress = options.pop("progress", None)
-    return MpcController(target, MpcOptions.from_kwargs(**options), progress=progress)
+    are :class:`MpcOptions` fields."""
+    return MpcController(target, MpcOptions.from_kwargs(**options))
 
 
 register(ControllerSpec(
     name="mpc", label="sampling MPC tracker (closed loop)", kind="balance", factory=make_mpc,
     abilities=("track", "stand"), default_scenario="track",
-    options=("params",), bench=("track",), expected=("track",)))
+    options=("params",), bench=("track",), expected=("track",),
+    tunables=MpcOptions.tunables))

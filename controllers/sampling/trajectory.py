@@ -56,6 +56,7 @@ from mjchar.bvh.io.files import write_bytes
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
+from ..core.limits import MAX_DURATION_S, control_dt_problem, timestep_problem
 from ..core.metrics import Result
 from ..core.registry import ControllerSpec, make_controller, register
 
@@ -206,9 +207,20 @@ class Trajectory:
             raise TrajectoryError(f"{where}: targets must be (T, nu) with T >= 1, got {t.shape}")
         if not np.isfinite(t).all():
             raise TrajectoryError(f"{where}: targets contain NaN or Inf")
-        if not (math.isfinite(self.control_dt) and self.control_dt > 0
-                and math.isfinite(self.timestep) and self.timestep > 0):
-            raise TrajectoryError(f"{where}: control_dt and timestep must be positive seconds")
+        problem = timestep_problem(self.timestep)
+        if problem:
+            raise TrajectoryError(f"{where}: its timestep {problem}")
+        problem = control_dt_problem(self.control_dt, self.timestep)
+        if problem:
+            raise TrajectoryError(f"{where}: its control_dt {problem}")
+        if self.duration > MAX_DURATION_S:
+            raise TrajectoryError(f"{where}: {t.shape[0]} controls of {self.control_dt:g} s "
+                                  f"last {self.duration:g} s, longer than a run may "
+                                  f"({MAX_DURATION_S:g} s)")
+        for name in ("initial_qpos", "initial_qvel", "reference_qpos"):
+            a = getattr(self, name)
+            if a is not None and not np.isfinite(a).all():
+                raise TrajectoryError(f"{where}: {name} contains NaN or Inf")
         k = self.control_dt / self.timestep
         if abs(k - round(k)) > 1e-6 or round(k) < 1:
             raise TrajectoryError(f"{where}: control_dt {self.control_dt} s is not a whole number "
@@ -321,7 +333,15 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise TrajectoryError(f"{p}: damaged trajectory, missing {', '.join(missing)}")
-    version = int(data["version"])
+    try:
+        version = int(data["version"])
+        control_dt, timestep = float(data["control_dt"]), float(data["timestep"])
+        arrays = {k: np.asarray(data[k], dtype=float) for k in
+                  ("targets", "initial_qpos", "initial_qvel", "reference_qpos")}
+        resets = np.asarray(data["warmstart_resets"], dtype=np.int64).reshape(-1)
+    except (TypeError, ValueError) as e:
+        raise TrajectoryError(f"{p}: damaged trajectory, a field is not numbers of the right "
+                              f"shape ({e})") from None
     if version > FORMAT_VERSION:
         raise TrajectoryError(f"{p}: trajectory format version {version} is newer than this "
                               f"mjchar reads ({FORMAT_VERSION})")
@@ -329,13 +349,11 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
         meta = json.loads(str(data["metadata"]))
     except ValueError:
         raise TrajectoryError(f"{p}: damaged trajectory, metadata is not JSON") from None
-    ref = np.asarray(data["reference_qpos"], dtype=float)
+    ref = arrays["reference_qpos"]
     traj = Trajectory(
-        targets=np.asarray(data["targets"], dtype=float),
-        control_dt=float(data["control_dt"]), timestep=float(data["timestep"]),
-        initial_qpos=np.asarray(data["initial_qpos"], dtype=float),
-        initial_qvel=np.asarray(data["initial_qvel"], dtype=float),
-        warmstart_resets=np.asarray(data["warmstart_resets"], dtype=np.int64).reshape(-1),
+        targets=arrays["targets"], control_dt=control_dt, timestep=timestep,
+        initial_qpos=arrays["initial_qpos"], initial_qvel=arrays["initial_qvel"],
+        warmstart_resets=resets,
         model_name=str(data["model_name"]), model_hash=str(data["model_hash"]),
         actuator_names=tuple(str(s) for s in np.asarray(data["actuator_names"]).reshape(-1)),
         source_motion=str(data["source_motion"]),
@@ -458,9 +476,10 @@ class ReplayController:
 
     def play(self, character: Character, *, duration: float | None = None,
              stop_on_fall: bool = True, frame_callback=None, reference=None,
-             push=None) -> Result:
+             push=None, hold_last: bool = False, progress=None) -> Result:
         """Play the trajectory open-loop on ``character`` from its initial state and report the
         usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
+        from ..core.scenarios.locomotion import clip_duration
         from ..core.scenarios.shared import simulate, with_push
 
         tr = self.trajectory
@@ -468,7 +487,10 @@ class ReplayController:
         if reference is None and tr.reference_qpos is not None:
             reference = StoredReference(character.model, tr.reference_qpos, tr.control_dt,
                                         character.joint_bodies)
-        duration = tr.duration if duration is None else float(duration)
+        if hold_last and duration is not None:
+            duration = float(duration)  # past the end: the last target held (simulate checks)
+        else:
+            duration = clip_duration(tr, duration, "trajectory")
         stats = {"min_root": math.inf, "clear": 0.0}
 
         def watch(ch: Character) -> None:
@@ -483,7 +505,7 @@ class ReplayController:
         result = simulate(character, self, duration=duration, scenario="replay",
                           qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
                           control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
-                          **with_push(push, {"frame_callback": watch}))
+                          progress=progress, **with_push(push, {"frame_callback": watch}))
         if push is not None:
             result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
         extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
@@ -501,14 +523,19 @@ class ReplayController:
 
 def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
            duration: float | None = None, stop_on_fall: bool = True,
-           frame_callback=None, reference=None, push=None) -> Result:
+           frame_callback=None, reference=None, push=None, hold_last: bool = False) -> Result:
     """Play a saved trajectory open-loop from its initial state and report the usual metrics.
 
     Args:
         trajectory: a :class:`Trajectory` or the path of a saved one.
         model: the model to play it on (default: the bundled humanoid); must match the
             trajectory's fingerprint.
-        duration: seconds to simulate (default: the trajectory's; longer holds the last target).
+        duration: seconds to simulate (default: the trajectory's, which is also the most:
+            a trajectory ends with its last control, a longer run is refused unless
+            ``hold_last``).
+        hold_last: hold the last target past the end (e.g. a jump that must land and stand).
+        progress: a :class:`~mjchar.controllers.core.progress.Progress` shown the simulated time
+            (``play`` only; ``None``: quiet).
         stop_on_fall: end the run at a fall (as the scenarios do).
         frame_callback: called after every control step (video capture).
         reference: a ReferenceMotion to measure tracking against (default: the stored
@@ -525,7 +552,8 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
     character = Character(model)
     controller = make_controller("replay", character, trajectory=trajectory)
     return controller.play(character, duration=duration, stop_on_fall=stop_on_fall,
-                           frame_callback=frame_callback, reference=reference, push=push)
+                           frame_callback=frame_callback, reference=reference, push=push,
+                           hold_last=hold_last)
 
 
 def make_replay(character: Character | None = None, target=None, *,

@@ -42,6 +42,7 @@ import numpy as np
 from mjchar.bvh.errors import MjcharError
 
 from ..core.character import Character
+from ..core.limits import MAX_CONTROL_DT_S, MAX_DURATION_S
 from .executors import Executor, LocalExecutor
 from .rollout import RolloutModel, RolloutRequest, RolloutResult
 from .tracking import (
@@ -149,6 +150,9 @@ class TrackingObjective:
 
 
 #: the jump's parameter groups: role kind and hinge axis (the same offset on both sides)
+#: the longest CMA-ES window, s: one search over more than this many seconds of controls is
+#: beyond what the optimiser can do (and a jump is one window)
+MAX_WINDOW_S = 10.0
 JUMP_GROUPS = (("hip", "y"), ("knee", "y"), ("ankle", "y"), ("toe", "y"), ("spine", "y"))
 
 
@@ -300,15 +304,22 @@ class TrajoptOptions:
         if abs(k - round(k)) > 1e-6:
             raise TrajoptError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"{timestep} s physics steps")
+        if self.window > MAX_WINDOW_S:
+            raise TrajoptError(f"window must be at most {MAX_WINDOW_S:g} s (one CMA-ES search), "
+                               f"got {self.window:g}")
+        if self.control_dt > MAX_CONTROL_DT_S:
+            raise TrajoptError(f"control_dt must be at most {MAX_CONTROL_DT_S:g} s, got "
+                               f"{self.control_dt:g}")
         for k in ("knot_dt", "commit"):
             c = getattr(self, k) / self.control_dt
-            if abs(c - round(c)) > 1e-6:
+            if abs(c - round(c)) > 1e-6 or round(c) < 1:
                 raise TrajoptError(f"{k} must be a whole number of controls of "
                                    f"{self.control_dt} s")
         if self.commit > self.window:
             raise TrajoptError(f"commit ({self.commit} s) cannot exceed window ({self.window} s)")
-        if self.duration is not None and not (self.duration > 0):
-            raise TrajoptError(f"duration must be positive seconds, got {self.duration!r}")
+        if self.duration is not None and not (0 < self.duration <= MAX_DURATION_S):
+            raise TrajoptError(f"duration must be positive seconds, at most "
+                               f"{MAX_DURATION_S:g}, got {self.duration!r}")
 
 
 @dataclass
@@ -547,6 +558,9 @@ def optimise_jump(*, model=None, duration: float = 2.2, options: TrajoptOptions 
     initial knots from :data:`JUMP_KEYS`.
     """
     o = options or TrajoptOptions(**JUMP_OPTIONS)
+    if not (isinstance(duration, int | float) and 0 < duration <= MAX_WINDOW_S):
+        raise TrajoptError(f"a jump is optimised in one window: its duration must be positive "
+                           f"and at most {MAX_WINDOW_S:g} s, got {duration!r}")
     ch, rm = _setup(model)
     o.window = max(o.window, duration)
     o.commit = o.window

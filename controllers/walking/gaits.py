@@ -23,17 +23,45 @@ with ``d``/``v`` the centre of mass's horizontal offset from the stance ankle an
 the heading frame (sagittal: forward; coronal: towards the swing leg's side).
 
 Gains are ``(kp, kd)`` in N m/rad and N m s/rad.
+
+Every number is declared with its dimension and plausible range
+(:mod:`~mjchar.controllers.core.param_fields`: joint angles within half a turn, durations up to
+10 s, feedback gains within +-20, PD gains up to 1e5 N m/rad and 1e4 N m s/rad...), so a gait
+or an override (``mjchar run simbicon --param torso_pitch=0.3``) with a wrong type, NaN or an
+absurd value is one :class:`GaitError` line naming the parameter and what it accepts;
+``mjchar params simbicon`` lists them.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field
 
 from mjchar.bvh.errors import MjcharError
 
-from .similarity import similarity_factors
+from ..core.param_fields import (
+    REFUSED,
+    Spec,
+    Tunable,
+    angle,
+    check_fields,
+    flag,
+    force,
+    length,
+    number,
+    per_length,
+    phase,
+    rate,
+    rebuilt,
+    spec_of,
+    speed,
+    suggest,
+    time,
+    tunables,
+)
+from ..core.similarity import similarity_factors
 
 #: standard gravity (m/s^2), for Froude numbers and body scaling
 GRAVITY = 9.81
@@ -45,7 +73,56 @@ ANCHOR_FIELDS = ("torso_pitch", "spine_pitch", "arm_swing", "max_twist", "contac
 
 
 class GaitError(MjcharError):
-    """A gait was asked for by an unknown name, or given a parameter it does not have."""
+    """A gait was asked for by an unknown name, or given a parameter it does not have or a
+    value the parameter does not accept."""
+
+
+#: a joint angle target: within half a turn either way (rad)
+HALF_TURN = math.pi
+#: the balance feedback gains' range (rad/m, rad s/m)
+FEEDBACK_LIMIT = 20.0
+#: the PD gain groups a gait may set (``gains``, ``gain_<group>`` overrides) and what they drive
+GAIN_GROUPS = {
+    "torso": "pelvis pitch and roll in the world frame",
+    "torso_yaw": "pelvis yaw in the world frame (default: torso's)",
+    "stance_twist": "the stance hip's twist (heading control)",
+    "swing_hip": "the swing hip in the world frame",
+    "swing_ankle_world": "the swing foot's pitch in the heading frame (swing_ankle_world)",
+    "hip": "the hips in joint space",
+    "knee": "the knees",
+    "ankle": "the ankles",
+    "toe": "the toes",
+    "spine": "the spine joints",
+    "head": "the neck and head",
+    "arm": "the shoulders, elbows and wrists",
+    "other": "every other joint",
+    "stance_ankle_roll": "the stance ankle's roll hinge (default: ankle's)",
+    "stance_ankle_twist": "the stance ankle's twist hinge (default: ankle's)",
+    "swing_ankle_level": "the swing ankle's roll, levelling the sole in the swing state",
+}
+#: a gain pair's ``kp`` and ``kd`` (the magnitudes :mod:`param_fields` caps)
+_KP = Spec("torque_gain", "N m/rad", low=0.0, high=1e5)
+_KD = Spec("damping_gain", "N m s/rad", low=0.0, high=1e4)
+
+
+def _angle(default=dataclasses.MISSING, **kw):
+    return angle(default, ge=kw.pop("ge", -HALF_TURN), le=kw.pop("le", HALF_TURN), **kw)
+
+
+def _gain_pair(group: str, value, what: str) -> tuple[float, float]:
+    """``value`` as a ``(kp, kd)`` pair of floats, or a one-line :class:`GaitError`."""
+    if group not in GAIN_GROUPS:
+        near = suggest(group, GAIN_GROUPS)
+        hint = f" (did you mean {', '.join(near)}?)" if near else ""
+        raise GaitError(f"{what}: unknown gain group {group!r}{hint}; groups: "
+                        f"{', '.join(GAIN_GROUPS)}")
+    pair = value if isinstance(value, list | tuple) and len(value) == 2 else None
+    kp = REFUSED if pair is None else _KP.coerce(pair[0])
+    kd = REFUSED if pair is None else _KD.coerce(pair[1])
+    if kp is REFUSED or kd is REFUSED:
+        raise GaitError(f"{what} must be [kp, kd]: kp {_KP.accepted()}, kd {_KD.accepted()}; "
+                        f"got {value!r}")
+    return kp, kd
 
 
 @dataclass(frozen=True)
@@ -53,7 +130,7 @@ class StateParams:
     """Targets and feedback of one FSM state (written for either stance leg).
 
     Attributes:
-        duration: s; the state's length when timed (states 0/2); for the swing states (1/3) the
+        duration: the state's length (s) when timed (states 0/2); for the swing states (1/3) the
             nominal length that the phase is measured against.
         ends_on_contact: end when the swing foot lands (phase > ``contact_phase`` and its normal
             force > ``contact_force``) or after ``timeout``; else after ``duration``.
@@ -66,22 +143,26 @@ class StateParams:
         stance_ankle: stance-ankle dorsiflexion (rad).
         cd, cv: sagittal feedback gains (rad/m, rad s/m).
         cd_coronal, cv_coronal: coronal feedback gains (rad/m, rad s/m).
-        timeout: s; a contact-ended state ends after this long even without contact.
+        timeout: a contact-ended state ends after this long (s) even without contact.
     """
 
-    duration: float
-    ends_on_contact: bool
-    swing_hip: float
-    swing_hip_coronal: float
-    swing_knee: float
-    swing_ankle: float
-    stance_knee: float
-    stance_ankle: float
-    cd: float
-    cv: float
-    cd_coronal: float
-    cv_coronal: float
-    timeout: float = 1.0
+    duration: float = time(gt=0)
+    ends_on_contact: bool = flag()
+    swing_hip: float = _angle()
+    swing_hip_coronal: float = _angle()
+    swing_knee: float = _angle()
+    swing_ankle: float = _angle()
+    stance_knee: float = _angle()
+    stance_ankle: float = _angle()
+    cd: float = per_length(ge=-FEEDBACK_LIMIT, le=FEEDBACK_LIMIT, unit="rad/m")
+    cv: float = rate(ge=-FEEDBACK_LIMIT, le=FEEDBACK_LIMIT, unit="rad s/m")
+    cd_coronal: float = per_length(ge=-FEEDBACK_LIMIT, le=FEEDBACK_LIMIT, unit="rad/m")
+    cv_coronal: float = rate(ge=-FEEDBACK_LIMIT, le=FEEDBACK_LIMIT, unit="rad s/m")
+    timeout: float = time(1.0, gt=0)
+
+    def __post_init__(self) -> None:
+        for k, v in check_fields(self, GaitError, "gait state parameter").items():
+            object.__setattr__(self, k, v)
 
 
 @dataclass(frozen=True)
@@ -95,14 +176,14 @@ class Gait:
         spine_pitch: flexion of each spine joint relative to its parent (rad; ``+`` forward).
         shoulder_down: arms lowered from a T-pose (rad, ``+`` down; a rest pose whose arms
             already hang part of the way down, an A-pose, is lowered by the rest).
-        elbow_flexion: rad.
+        elbow_flexion: elbow flexion (rad).
         arm_swing: shoulder flexion (rad) of the arm opposite the swing leg (the other arm
             extends as much): arms swing against the legs, which cancels part of the legs' yaw.
         swing_ankle_world: control the swing foot in the desired-heading frame (``swing_ankle`` =
             its pitch, toes up) instead of relative to the shank.
         contact_phase, contact_force: the swing-foot contact test of states 1/3 (phase > this
             fraction of ``duration`` and normal force > this many N).
-        max_twist: rad; bound on the stance hip's twist target (the heading control).
+        max_twist: bound (rad) on the stance hip's twist target (the heading control).
         gains: ``(kp, kd)`` per group: ``torso`` (world-frame pelvis pitch and roll),
             ``stance_twist`` (the stance hip's twist, heading control), ``swing_hip`` (world
             frame), ``knee``, ``ankle``, ``toe``, ``spine``, ``head``, ``arm``, and the stance
@@ -152,29 +233,45 @@ class Gait:
 
     name: str
     states: tuple[StateParams, StateParams]
-    torso_pitch: float = 0.0
-    spine_pitch: float = 0.0
-    shoulder_down: float = 1.3
-    elbow_flexion: float = 0.2
-    arm_swing: float = 0.0
-    swing_ankle_world: bool = False
-    contact_phase: float = 0.5
-    contact_force: float = 20.0
-    max_twist: float = 0.5
+    torso_pitch: float = _angle(0.0)
+    spine_pitch: float = _angle(0.0)
+    shoulder_down: float = _angle(1.3)
+    elbow_flexion: float = _angle(0.2)
+    arm_swing: float = _angle(0.0)
+    swing_ankle_world: bool = flag(False)
+    contact_phase: float = phase(0.5, ge=0)
+    contact_force: float = force(20.0, ge=0)
+    max_twist: float = _angle(0.5, ge=0)
     gains: dict = field(default_factory=dict)
-    start_speed: float = 0.0
-    speed_target: float | None = None
-    speed_gain: float = 0.0
-    speed_limit: float = 0.3
-    body_leg_length: float | None = None
-    body_mass: float | None = None
-    froude: float | None = None
+    start_speed: float = speed(0.0)
+    speed_target: float | None = speed(None, ge=0, optional=True)
+    speed_gain: float = rate(0.0, ge=0, le=10, unit="rad per m/s")
+    speed_limit: float = _angle(0.3, ge=0)
+    body_leg_length: float | None = length(None, gt=0, optional=True)
+    body_mass: float | None = number(None, gt=0, le=1e4, optional=True, unit="kg")
+    froude: float | None = number(None, ge=0, le=5, optional=True)
     speed_anchors: tuple = ()
-    speed_acceleration: float = 0.02
-    swing_gravity: float = 0.0
-    stance_support: float = 0.0
-    velocity_force: float = 0.0
-    velocity_force_coronal: float = 0.0
+    speed_acceleration: float = number(0.02, ge=0, le=10, unit="g")
+    swing_gravity: float = number(0.0, ge=0, le=2)
+    stance_support: float = number(0.0, ge=0, le=2)
+    velocity_force: float = number(0.0, ge=0, le=10)
+    velocity_force_coronal: float = number(0.0, ge=0, le=10)
+
+    def __post_init__(self) -> None:
+        what = f"gait {self.name!r}:" if isinstance(self.name, str) else "gait:"
+        if not isinstance(self.name, str):
+            raise GaitError(f"a gait's name must be text, got {self.name!r}")
+        if not (isinstance(self.states, tuple) and len(self.states) == 2
+                and all(isinstance(s, StateParams) for s in self.states)):
+            raise GaitError(f"{what} states must be 2 StateParams (0/2 and 1/3)")
+        if not isinstance(self.gains, dict):
+            raise GaitError(f"{what} gains must be an object of group: [kp, kd]")
+        gains = {g: _gain_pair(g, v, f"{what} gain_{g}") for g, v in self.gains.items()}
+        changes = check_fields(self, GaitError, what)
+        if gains != self.gains or any(type(v) is not tuple for v in self.gains.values()):
+            changes["gains"] = gains
+        for k, v in changes.items():
+            object.__setattr__(self, k, v)
 
     # -- data in and out ----------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -195,7 +292,9 @@ class Gait:
             raise GaitError(f"gait states: {e}") from None
         if len(states) != 2:
             raise GaitError(f"a gait has 2 states (0/2 and 1/3), got {len(states)}")
-        gains = {k: (float(v[0]), float(v[1])) for k, v in d.pop("gains", {}).items()}
+        gains = d.pop("gains", {})
+        if not isinstance(gains, dict):
+            raise GaitError(f"gait gains must be an object of group: [kp, kd], got {gains!r}")
         try:
             anchors = tuple((float(f), dict(o)) for f, o in d.pop("speed_anchors", ()))
         except (TypeError, ValueError) as e:
@@ -219,33 +318,37 @@ class Gait:
         ``gain_<group>``
         = ``(kp, kd)``; and ``feedback=False`` (all ``cd``/``cv`` zero).
         """
-        gait_fields = {f.name for f in dataclasses.fields(Gait)}
-        state_fields = {f.name for f in dataclasses.fields(StateParams)}
         top: dict = {}
         per_state: list[dict] = [{}, {}]
         gains = dict(self.gains)
         for key, value in overrides.items():
             if key == "feedback":
+                if not isinstance(value, bool):
+                    raise GaitError(f"gait parameter feedback must be true or false, got "
+                                    f"{value!r}")
                 if not value:
                     for ps in per_state:
                         ps.update(cd=0.0, cv=0.0, cd_coronal=0.0, cv_coronal=0.0)
             elif key.startswith("gain_"):
-                kp, kd = value
-                gains[key[5:]] = (float(kp), float(kd))
-            elif key in state_fields:
+                gains[key[5:]] = _gain_pair(key[5:], value, f"gait parameter {key}")
+            elif key in _STATE_SPECS:
+                value = _accepted(key, _STATE_SPECS[key], value)
                 for ps in per_state:
                     ps[key] = value
-            elif key[:7] in ("state0_", "state1_") and key[7:] in state_fields:
-                per_state[int(key[5])][key[7:]] = value
-            elif key in gait_fields and key not in ("states", "gains"):
-                top[key] = value
+            elif key[:7] in ("state0_", "state1_") and key[7:] in _STATE_SPECS:
+                per_state[int(key[5])][key[7:]] = _accepted(key, _STATE_SPECS[key[7:]], value)
+            elif key in _GAIT_SPECS:
+                top[key] = _accepted(key, _GAIT_SPECS[key], value)
             else:
+                valid = [*_GAIT_SPECS, *_STATE_SPECS,
+                         *(f"state{i}_{k}" for i in (0, 1) for k in _STATE_SPECS),
+                         *(f"gain_{g}" for g in GAIN_GROUPS), "feedback"]
+                near = suggest(key, valid)
+                hint = f" (did you mean {', '.join(near)}?)" if near else ""
                 raise GaitError(
-                    f"unknown gait parameter {key!r}; use a Gait field "
-                    f"({', '.join(sorted(gait_fields - {'states', 'gains'}))}), a state "
-                    f"field ({', '.join(sorted(state_fields))}), state0_/state1_<field>, "
-                    f"gain_<group> or feedback"
-                )
+                    f"unknown gait parameter {key!r}{hint}; use a Gait field, a state field "
+                    f"(both states), state0_/state1_<field>, gain_<group> or feedback "
+                    f"(`mjchar params simbicon` lists them)")
         states = tuple(
             dataclasses.replace(s, **ps) for s, ps in zip(self.states, per_state, strict=True)
         )
@@ -301,12 +404,13 @@ class Gait:
         f = similarity_factors(ratio_l, ratio_m)
         t, k = f["time"], f["torque_gain"]
 
+        # not checked again (param_fields.rebuilt): the ranges are the tuned body's
         def state(p: StateParams) -> StateParams:
-            return dataclasses.replace(
+            return rebuilt(
                 p, duration=p.duration * t, timeout=p.timeout * t, cd=p.cd / ratio_l,
                 cv=p.cv / t, cd_coronal=p.cd_coronal / ratio_l, cv_coronal=p.cv_coronal / t)
 
-        return dataclasses.replace(
+        return rebuilt(
             self,
             states=tuple(state(p) for p in self.states),
             gains={g: (kp * k, kd * k * t) for g, (kp, kd) in self.gains.items()},
@@ -318,6 +422,36 @@ class Gait:
             body_mass=mass,
             speed_anchors=(),  # in the gait's own body's units: apply for_speed first
         )
+
+
+#: the declared numbers of a gait and of a state, by name (what overrides may set)
+_GAIT_SPECS = {f.name: spec_of(f) for f in dataclasses.fields(Gait) if "param" in f.metadata}
+_STATE_SPECS = {f.name: spec_of(f) for f in dataclasses.fields(StateParams)}
+
+
+def _accepted(key: str, spec: Spec, value):
+    """``value`` as the parameter ``key`` stores it, or a one-line :class:`GaitError`."""
+    stored = spec.coerce(value)
+    if stored is REFUSED:
+        raise GaitError(f"gait parameter {key} must be {spec.accepted()}, got {value!r}")
+    return stored
+
+
+def gait_tunables(gait: Gait) -> list[Tunable]:
+    """Every ``--param`` of a SIMBICON gait with its default in ``gait``: the gait's numbers,
+    each state's (``state0_<field>``: the lift-off states 0/2, ``state1_<field>``: the swing
+    states 1/3; a bare state field sets both), the gain groups (``gain_<group>``) and
+    ``feedback``."""
+    rows = tunables(gait)
+    for i, what in ((0, "lift-off states 0/2"), (1, "swing states 1/3")):
+        rows += [t._replace(meaning=f"{what}: {t.meaning}")
+                 for t in tunables(gait.states[i], prefix=f"state{i}_")]
+    pair = Spec("none", "N m/rad, N m s/rad", size=2, low=0.0, high=1e5)
+    rows += [Tunable(f"gain_{g}", pair, gait.gains.get(g), f"(kp, kd) of {meaning}")
+             for g, meaning in GAIN_GROUPS.items()]
+    rows.append(Tunable("feedback", Spec("none", kind="flag"), True,
+                        "false zeroes every balance feedback gain (cd, cv, coronal too)"))
+    return rows
 
 
 def _interp(x: float, xs: list[float], ys: list[float]) -> float:

@@ -105,7 +105,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 
 from ..balance.static_balance import StaticBalance
@@ -114,7 +113,7 @@ from ..core.character import Character
 from ..core.geometry import point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
-from .leg import Leg, inverse3, rotation_error, wrap_angle, yaw_of
+from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle, yaw_of
 from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
 
 _LEFT, _RIGHT = 0, 1
@@ -173,12 +172,14 @@ class IPMController:
         """Switch to torque actuation, index the legs and the pelvis, and pick the first mode
         from the commands at time 0."""
         ch = character
-        ch.set_actuation("torque")
-        m = ch.model
-        self._legs = (Leg(ch, "left"), Leg(ch, "right"))
+        ch.actuation.set_mode("torque")
+        rest = ch.poses.kinematics(ch.poses.rest())
+        self._rest_axes = rest.joint_axes  # the joints' world axes at rest
+        self._legs = (Leg(ch, "left", rest), Leg(ch, "right", rest))
         self._pelvis = ch.root_body
         self.leg_length = self._legs[0].l1 + self._legs[0].l2 + float(-self._legs[0].site_offset[2])
-        self.params = self.body_params.for_body(self.leg_length, ch.mass)
+        self.mass = ch.dynamics.mass
+        self.params = self.body_params.for_body(self.leg_length, self.mass)
         sw = self.params.swing
         self.trajectory = SwingTrajectory(sw.heights, sw.descent_speed, blend=sw.blend)
         self._trajectory = self.trajectory
@@ -186,57 +187,46 @@ class IPMController:
         # pressure can go once the heel is up in push-off (the forward ankle limit without toes)
         # (horizontal, in the rest pose: a rig's foot frame need not be level)
         fwd = self.params.stance.ankle_limit[0] if self.params.stance.ankle_limit else 0.0
-        rest = mujoco.MjData(m)
-        mujoco.mj_kinematics(m, rest)
         self._ball = {lg.side: float(np.linalg.norm(
-            (rest.xpos[ch.body_id(lg.toe_name)] - rest.xpos[lg.foot])[:2]))
+            (rest.body_positions[ch.body_id(lg.toe_name)] - rest.body_positions[lg.foot])[:2]))
             if lg.toe_name else fwd for lg in self._legs}
         self._human = self._foot = self._back = self._push_w = 0.0
-        # joints acting directly on the pelvis other than the hips (the spine)
-        leg_jnts = {int(j) for lg in self._legs for j in lg.hip_jnt}
-        pelvis_jnts = [j for j in range(m.njnt) if m.jnt_bodyid[j] != self._pelvis
-                       and m.body_parentid[m.jnt_bodyid[j]] == self._pelvis
-                       and j not in leg_jnts and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
-        by_body: dict[int, list[int]] = {}
-        for j in pelvis_jnts:
-            by_body.setdefault(int(m.jnt_bodyid[j]), []).append(j)
-        self._pelvis_children = []
-        for js in by_body.values():
-            if len(js) != 3:
-                continue  # only 3-dof joints are mapped to a world torque
-            self._pelvis_children.append((np.array(js), np.array([m.jnt_dofadr[j] for j in js])))
+        # hinges acting directly on the pelvis other than the hips (the spine), (joints, dofs)
+        # per body; only 3-dof joints are mapped to a world torque
+        thighs = {lg.thigh for lg in self._legs}
+        self._pelvis_children = [(ch.dof_joint[dofs], dofs) for dofs
+                                 in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
         # per-dof data for gravity compensation and PD
-        act = ch.actuated.copy()
-        self._act = np.flatnonzero(act)
-        self._dof_body = m.dof_bodyid.copy()
-        self._dof_jnt = m.dof_jntid.copy()
-        self._dof_qpos = m.jnt_qposadr[self._dof_jnt]
-        self._subtree_mass = m.body_subtreemass.copy()
+        self._act = np.flatnonzero(ch.actuated)
+        self._dof_body = ch.dof_body
+        self._dof_jnt = ch.dof_joint
+        self._dof_mass = np.array([ch.dynamics.subtree_mass(b) for b in ch.dof_body])
         legs = np.concatenate([lg.all for lg in self._legs])
         upper = np.setdiff1d(self._act, legs)
         toes = np.concatenate([lg.toe for lg in self._legs])
         self._upper = np.concatenate([upper, toes]).astype(int)
-        kp, kd = ch.default_gains()
+        if not ch.hinge_dofs[self._upper].all():
+            raise IPMError("IPM needs hinge joints in the upper body too (convert with "
+                           "joint_model='hinge')")
+        self._upper_q = ch.dof_qpos[self._upper]
+        kp, kd = ch.actuation.default_gains()
         s = self.params.upper.gain_scale
         self._upper_kp = kp[self._upper] * s
         self._upper_kd = kd[self._upper] * s
-        self._limits = ch.torque_limits()
+        self._limits = ch.actuation.torque_limits()
         self.upper_pose = self._upper_body_pose(ch)
-        self._q_upper = self.upper_pose[self._dof_qpos[self._upper]]
-        self.mass = ch.mass
-        rest = ch.on_floor(ch.model.qpos0)
-        scratch = mujoco.MjData(ch.model)
-        scratch.qpos[:] = rest
-        mujoco.mj_kinematics(ch.model, scratch)
-        self._root_above_soles = float(rest[ch.root_qpos[2]] - np.mean(
-            [scratch.site_xpos[lg.site][2] for lg in self._legs]))
-        self.stand_width = float(np.linalg.norm(ch.data.xanchor[self._legs[0].hip_jnt[0]]
-                                                - ch.data.xanchor[self._legs[1].hip_jnt[0]]))
+        self._q_upper = self.upper_pose[self._upper_q]
+        standing = ch.poses.standing()
+        soles = ch.poses.kinematics(standing).site_positions
+        self._root_above_soles = float(standing[ch.root_qpos[2]] - np.mean(
+            [soles[lg.site][2] for lg in self._legs]))
+        anchors = ch.state.joint_anchors
+        self.stand_width = float(np.linalg.norm(anchors[self._legs[0].hip_jnt[0]]
+                                                - anchors[self._legs[1].hip_jnt[0]]))
         self._stopping = False
         self._turning = False
         # commands and state
-        R = ch.data.xmat[self._pelvis].reshape(3, 3)
-        self._start_yaw = yaw_of(R)
+        self._start_yaw = yaw_of(ch.state.body_rotations[self._pelvis])
         self.heading_target = self._start_yaw
         self.speed_target = 0.0
         self.speed_bias = 0.0
@@ -259,21 +249,19 @@ class IPMController:
 
     def _upper_body_pose(self, ch: Character) -> np.ndarray:
         """``(nq,)`` the rest pose with the arms hanging (shoulders turned by IK)."""
-        q = ch.model.qpos0.copy()
+        q = ch.poses.rest()
         for side, sgn in (("left", 1.0), ("right", -1.0)):
             sh = ch.role(f"{side}_shoulder", required=False)
             hand = ch.role(f"{side}_wrist", required=False)
             if sh is None or hand is None:
                 continue
-            scratch = mujoco.MjData(ch.model)
-            scratch.qpos[:] = q
-            mujoco.mj_kinematics(ch.model, scratch)
-            p_sh = scratch.xpos[ch.body_id(sh)]
-            p_hand = scratch.xpos[ch.body_id(hand)]
+            x = ch.poses.kinematics(q).body_positions
+            p_sh = x[ch.body_id(sh)]
+            p_hand = x[ch.body_id(hand)]
             arm = float(np.linalg.norm(p_hand - p_sh))
             a = self.params.upper.arm_abduction
             target = p_sh + arm * np.array([0.0, sgn * math.sin(a), -math.cos(a)])
-            q = ch.solve_ik(q, [(hand, target, None)], ch.joint_dofs(sh))
+            q = ch.poses.solve_ik(q, [(hand, target, None)], ch.joint_dofs(sh))
         return q
 
     # -- commands -----------------------------------------------------------------------------
@@ -315,7 +303,7 @@ class IPMController:
         pelvis's); evaluated once per control step."""
         if self._walk_cache[0] == t:
             return self._walk_cache[1]
-        R = ch.data.xmat[self._pelvis].reshape(3, 3)
+        R = ch.state.body_rotations[self._pelvis]
         turn = abs(wrap_angle(self.desired_heading(t) - yaw_of(R)))
         walk = (abs(self.desired_speed(t)) > 0.05 or abs(float(self.lateral_speed(t) or 0)) > 0.05
                 or turn > self.params.standing.heading_tolerance)
@@ -348,8 +336,8 @@ class IPMController:
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
         self._prev_swing = None
-        self._step_com0 = ch.com()
-        self._knee0 = min(float(ch.qpos[self._legs[1 - swing].knee_q]),
+        self._step_com0 = ch.state.com()
+        self._knee0 = min(float(ch.state.qpos[self._legs[1 - swing].knee_q]),
                           self.params.stance.knee_ramp_max)
         self.step_switches.append(t)
         # SIMBICON-style FSM log (state 0: a left-stance step starts, 2: a right-stance step), so
@@ -366,40 +354,40 @@ class IPMController:
     def _standing_pose(self, ch: Character) -> np.ndarray:
         """``(nq,)`` a standing pose for the feet where they are: upper body as
         :attr:`upper_pose`, pelvis upright at the current heading, legs by IK."""
-        q = ch.qpos.copy()
-        up = self._dof_qpos[self._upper]
+        s = ch.state
+        q = s.qpos.copy()
+        up = self._upper_q
         q[up] = self.upper_pose[up]
-        yaw = yaw_of(ch.data.xmat[self._pelvis].reshape(3, 3))
+        yaw = yaw_of(s.body_rotations[self._pelvis])
         q[ch.root_qpos[3:7]] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
         # pelvis over the middle of the feet (COM offset kept) at standing height
-        soles = np.array([ch.data.site_xpos[lg.site] for lg in self._legs])
-        q[ch.root_qpos[:2]] += soles[:, :2].mean(axis=0) - ch.com()[:2]
+        soles = np.array([s.site_positions[lg.site] for lg in self._legs])
+        q[ch.root_qpos[:2]] += soles[:, :2].mean(axis=0) - s.com()[:2]
         q[ch.root_qpos[2]] = min(q[ch.root_qpos[2]], soles[:, 2].mean() + self._root_above_soles)
         # knees bent like the stance knee while walking (no sudden drop when a step starts):
         # seed hip and ankle pitch with half the flexion each, lower the pelvis, then IK
         k = self.params.stance.knee
-        m = ch.model
         drop = 0.0
         for lg in self._legs:
             q[lg.knee_q] = k
             for dof in (lg.hip[0], lg.ankle[0]):  # first hinge = pitch for y-first orders
-                j = m.dof_jntid[dof]
-                if abs(m.jnt_axis[j] @ m.jnt_axis[m.dof_jntid[lg.knee_dof]]) > 0.99:
-                    q[m.jnt_qposadr[j]] = -0.5 * k
+                if abs(self._rest_axes[ch.dof_joint[dof]]
+                       @ self._rest_axes[ch.dof_joint[lg.knee_dof]]) > 0.99:
+                    q[ch.dof_qpos[dof]] = -0.5 * k
             drop = max(drop, lg.l1 + lg.l2 - math.hypot(
                 lg.l1 * math.cos(0.5 * k) + lg.l2 * math.cos(0.5 * k), 0.0))
         q[ch.root_qpos[2]] -= drop
         # feet flat on the floor where they are (a foot still on its heel or toes is laid flat)
         touch = {}
-        for gc in ch.ground_contacts():
+        for gc in ch.contacts.ground():
             touch[gc.body] = min(touch.get(gc.body, math.inf), float(gc.position[2]))
         targets = []
         for lg in self._legs:
-            fy = yaw_of(ch.data.xmat[lg.foot].reshape(3, 3))
+            fy = yaw_of(s.body_rotations[lg.foot])
             ground = min(touch.get(lg.ankle_name, math.inf), touch.get(lg.toe_name, math.inf),
-                         float(ch.data.site_xpos[lg.site][2]))
+                         float(s.site_positions[lg.site][2]))
             R = rotation_z(fy)
-            ankle = ch.data.site_xpos[lg.site].copy() - R @ lg.site_offset
+            ankle = s.site_positions[lg.site].copy() - R @ lg.site_offset
             ankle[2] = ground - lg.site_offset[2]
             targets.append((lg.foot, ankle,
                             np.array([math.cos(fy / 2), 0.0, 0.0, math.sin(fy / 2)])))
@@ -409,19 +397,17 @@ class IPMController:
         # wound-up angles (a hip at 48 rad) that the PD then spins the leg towards
         q[ch.root_qpos[2]] -= self._reach_drop(ch, q, [a for _, a, _ in targets], k)
         dofs = np.concatenate([lg.leg for lg in self._legs])
-        return ch.solve_ik(q, targets, dofs)
+        return ch.poses.solve_ik(q, targets, dofs)
 
     def _reach_drop(self, ch: Character, q: np.ndarray, ankles: list, knee: float) -> float:
         """How far (m) to lower the pelvis of pose ``q`` so each leg reaches its ankle target
         (``ankles``, world, left then right) with the knee bent ``knee`` rad: the reach is
         ``|l1 + l2 e^(i knee)|``, hip joint to ankle joint (0 when both already reach)."""
-        scratch = mujoco.MjData(ch.model)
-        scratch.qpos[:] = q
-        mujoco.mj_kinematics(ch.model, scratch)
+        anchors = ch.poses.kinematics(q).joint_anchors
         drop = 0.0
         for lg, ankle in zip(self._legs, ankles, strict=True):
             reach = math.sqrt(lg.l1 ** 2 + lg.l2 ** 2 + 2 * lg.l1 * lg.l2 * math.cos(knee))
-            d = scratch.xanchor[lg.hip_jnt[0]] - ankle
+            d = anchors[lg.hip_jnt[0]] - ankle
             horizontal = float(d[0] ** 2 + d[1] ** 2)
             if horizontal >= reach ** 2:
                 continue  # out of reach sideways: lowering does not help
@@ -430,14 +416,14 @@ class IPMController:
 
     def _foot_offset(self, ch: Character, side: int) -> np.ndarray:
         """``(2,)`` (sagittal, coronal) offset of a foot sole from the COM, heading frame."""
-        c = ch.com()
-        p = ch.data.site_xpos[self._legs[side].site]
+        c = ch.state.com()
+        p = ch.state.site_positions[self._legs[side].site]
         f, l = self._heading_axes(ch)
         d = p[:2] - c[:2]
         return np.array([d @ f[:2], d @ l[:2]])
 
     def _heading_axes(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
-        yaw = yaw_of(ch.data.xmat[self._pelvis].reshape(3, 3))
+        yaw = yaw_of(ch.state.body_rotations[self._pelvis])
         c, s = math.cos(yaw), math.sin(yaw)
         return np.array([c, s, 0.0]), np.array([-s, c, 0.0])
 
@@ -490,7 +476,7 @@ class IPMController:
                 return self._stand.act(ch, t)
         # step mode: end the step on swing-foot contact
         self.phase = (t - self._t0) / self._T
-        contacts = ch.foot_contacts()
+        contacts = ch.contacts.feet()
         if ((self.phase >= timing.min_phase and contacts[self._swing])
                 or self.phase >= timing.max_phase):
             self.steps += 1
@@ -509,7 +495,7 @@ class IPMController:
         if pl.speed_integral <= 0 or t <= self._t0:
             return
         f, _ = self._heading_axes(ch)
-        mean = float((ch.com()[:2] - self._step_com0[:2]) @ f[:2]) / (t - self._t0)
+        mean = float((ch.state.com()[:2] - self._step_com0[:2]) @ f[:2]) / (t - self._t0)
         gain = pl.speed_integral + self._human * (self.params.human.speed_integral
                                                   - pl.speed_integral)
         self.speed_bias += gain * (self.speed_target - mean)
@@ -517,13 +503,13 @@ class IPMController:
 
     def _first_swing(self, ch: Character) -> int:
         """Swing the foot on the side the capture point moves to (left on a tie)."""
-        c = ch.com()
-        v = ch.com_velocity()
-        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        c = ch.state.com()
+        v = ch.state.com_velocity()
+        h = max(c[2] - min(ch.state.site_positions[lg.site][2] for lg in self._legs), 0.3)
         cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
         f, l = self._heading_axes(ch)
-        mid = 0.5 * (ch.data.site_xpos[self._legs[0].site][:2]
-                     + ch.data.site_xpos[self._legs[1].site][:2])
+        soles = ch.state.site_positions
+        mid = 0.5 * (soles[self._legs[0].site][:2] + soles[self._legs[1].site][:2])
         return _LEFT if (cp - mid) @ l[:2] >= 0 else _RIGHT
 
     def _should_step(self, ch: Character, t: float) -> str | None:
@@ -531,11 +517,11 @@ class IPMController:
         settle = self.params.standing.settle_time
         if self._wants_to_walk(ch, t) and t - self.stand_switches[-1] >= settle:
             return "walk"
-        c = ch.com()
-        v = ch.com_velocity()
-        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        c = ch.state.com()
+        v = ch.state.com_velocity()
+        h = max(c[2] - min(ch.state.site_positions[lg.site][2] for lg in self._legs), 0.3)
         cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
-        poly = ch.support_polygon()
+        poly = ch.contacts.support_polygon()
         if len(poly) < 3 or t - self._reset_time < settle:
             return None  # not (yet) standing on the feet: nothing to measure against
         # just after a stop the landing foot's contact patch is still forming: be lenient
@@ -547,16 +533,16 @@ class IPMController:
     def _should_stand(self, ch: Character, t: float) -> bool:
         """At the end of a step: stand when no walk is commanded, the sagittal speed is below
         ``standing.stop_speed``, both feet are down and the capture point is over the feet."""
-        if self._wants_to_walk(ch, t) or not all(ch.foot_contacts()):
+        if self._wants_to_walk(ch, t) or not all(ch.contacts.feet()):
             return False
-        c = ch.com()
-        v = ch.com_velocity()
+        c = ch.state.com()
+        v = ch.state.com_velocity()
         f, _ = self._heading_axes(ch)
         if abs(float(v @ f)) > self.params.standing.stop_speed:
             return False
-        h = max(c[2] - min(ch.data.site_xpos[lg.site][2] for lg in self._legs), 0.3)
+        h = max(c[2] - min(ch.state.site_positions[lg.site][2] for lg in self._legs), 0.3)
         cp = c[:2] + v[:2] * math.sqrt(h / GRAVITY)
-        return point_in_polygon_margin(cp, ch.support_polygon()) >= 0.0
+        return point_in_polygon_margin(cp, ch.contacts.support_polygon()) >= 0.0
 
     def _step_torques(self, ch: Character, t: float) -> np.ndarray:
         """``(nv,)`` stepping torques. Every PD term is split into a part that depends on the
@@ -567,20 +553,20 @@ class IPMController:
         """
         p = self.params
         tr = p.tracking  # the PD gains and switches
-        d = ch.data
+        s = ch.state
         sw = self._legs[self._swing]
         st = self._legs[1 - self._swing]
         nv = ch.nv
         tau = np.zeros(nv)
         D = np.zeros((nv, nv))
-        qvel = d.qvel
-        qpos = d.qpos
+        qvel = s.qvel
+        qpos = s.qpos
 
-        c = ch.com()
-        v = ch.com_velocity()
+        c = s.com()
+        v = s.com_velocity()
         f, l = self._heading_axes(ch)
         vh = np.array([v @ f, v @ l])
-        ground = float(d.site_xpos[st.site][2])
+        ground = float(s.site_positions[st.site][2])
         h = max(c[2] - ground, 0.3)
         vd = self.speed_target
         vcd = float(self.lateral_speed(t) or 0.0)
@@ -589,7 +575,7 @@ class IPMController:
                           and abs(vh[0]) < 2 * p.standing.stop_speed)
 
         # 1. foot placement and 2. swing-foot target
-        stance_lat = float((d.site_xpos[st.site][:2] - c[:2]) @ l[:2])
+        stance_lat = float((s.site_positions[st.site][:2] - c[:2]) @ l[:2])
         offset = self.foot_placement(vh, h, self._swing, vd, stance_lat)
         self.last_offset = offset
         rel = self.trajectory.horizontal(self.phase, self._liftoff, offset)
@@ -605,7 +591,7 @@ class IPMController:
             x = self.phase / p.feet.toe_up_phase
             toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(x))
             R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
-        hip_pos = d.xanchor[sw.hip_jnt[0]]
+        hip_pos = s.joint_anchors[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
         thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
         R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
@@ -623,11 +609,11 @@ class IPMController:
                     w_des *= tr.max_target_rate / n
                 flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
         self._prev_swing = (R_thigh_des, flexion, t)
-        R_thigh = d.xmat[sw.thigh].reshape(3, 3)
-        A_sw = d.xaxis[sw.hip_jnt].T                         # (3, 3) columns = hinge axes
+        R_thigh = s.body_rotations[sw.thigh]
+        A_sw = s.joint_axes[sw.hip_jnt].T                    # (3, 3) columns = hinge axes
         tau[sw.hip] = A_sw.T @ (tr.hip_kp * rotation_error(R_thigh_des, R_thigh)
                                 + tr.hip_kd * w_des)
-        _, jr_thigh = ch.point_jacobian(sw.thigh, d.xpos[sw.thigh])
+        _, jr_thigh = ch.dynamics.point_jacobian(sw.thigh, s.body_positions[sw.thigh])
         D[sw.hip] = tr.hip_kd * (A_sw.T @ jr_thigh)
         tau[sw.knee_dof] = tr.knee_kp * (flexion - qpos[sw.knee_q]) + tr.knee_kd * flex_rate
         knee_target = p.stance.knee
@@ -638,10 +624,10 @@ class IPMController:
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = tr.knee_kd
         for leg, R_des, kp, kd in ((sw, R_sw_foot, tr.swing_ankle_kp, tr.swing_ankle_kd),
                                    (st, None, tr.ankle_kp, tr.ankle_kd)):
-            R_foot = d.xmat[leg.foot].reshape(3, 3)
+            R_foot = s.body_rotations[leg.foot]
             if R_des is None:  # stance foot: flat, keep its own yaw
                 R_des = rotation_z(yaw_of(R_foot))
-            A = d.xaxis[leg.ankle_jnt].T
+            A = s.joint_axes[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd
             if leg is st and self._foot > 0:
@@ -655,11 +641,11 @@ class IPMController:
         if self._foot > 0 and p.feet.push_off > 0 and self.phase > p.feet.push_off_phase:
             x = min((self.phase - p.feet.push_off_phase) / (1.0 - p.feet.push_off_phase), 1.0)
             self._push_w = self._foot * smoothstep(x)
-            R_foot = d.xmat[st.foot].reshape(3, 3)
+            R_foot = s.body_rotations[st.foot]
             moment = p.feet.push_off * self._push_w * self.mass * GRAVITY
-            tau[st.ankle] += d.xaxis[st.ankle_jnt] @ (R_foot[:, 1] * moment)
+            tau[st.ankle] += s.joint_axes[st.ankle_jnt] @ (R_foot[:, 1] * moment)
         up = self._upper
-        tau[up] = self._upper_kp * (self._q_upper - qpos[self._dof_qpos[up]])
+        tau[up] = self._upper_kp * (self._q_upper - qpos[self._upper_q])
         D[up, up] = self._upper_kd
 
         # 4. gravity compensation on everything but the stance leg
@@ -667,10 +653,10 @@ class IPMController:
             gdofs = np.concatenate([up, sw.all])
             b = self._dof_body[gdofs]
             j = self._dof_jnt[gdofs]
-            lever = d.subtree_com[b] - d.xanchor[j]
-            ax = d.xaxis[j]
+            lever = s.subtree_coms[b] - s.joint_anchors[j]
+            ax = s.joint_axes[j]
             # a . (lever x z) = a_x lever_y - a_y lever_x
-            tau[gdofs] += GRAVITY * self._subtree_mass[b] * (ax[:, 0] * lever[:, 1]
+            tau[gdofs] += GRAVITY * self._dof_mass[gdofs] * (ax[:, 0] * lever[:, 1]
                                                              - ax[:, 1] * lever[:, 0])
 
         # pelvis in the world frame; the stance hip takes the difference:
@@ -678,8 +664,8 @@ class IPMController:
         lean = p.upper.lean * vd
         R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
                                                                   lean)
-        R_p = d.xmat[self._pelvis].reshape(3, 3)
-        _, jr_p = ch.point_jacobian(self._pelvis, d.xpos[self._pelvis])
+        R_p = s.body_rotations[self._pelvis]
+        _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis])
         kp_p = np.array([tr.pelvis_kp, tr.pelvis_kp, tr.pelvis_yaw_kp])
         kd_p = np.array([tr.pelvis_kd, tr.pelvis_kd, tr.pelvis_yaw_kd])
         T0 = -(kp_p * rotation_error(R_p_des, R_p)
@@ -689,15 +675,15 @@ class IPMController:
         T0 -= inv @ tau[sw.hip]
         DT -= inv @ D[sw.hip]
         for jnts, dofs in self._pelvis_children:
-            inv = inverse3(d.xaxis[jnts])
+            inv = inverse3(s.joint_axes[jnts])
             T0 -= inv @ tau[dofs]
             DT -= inv @ D[dofs]
-        A_st = d.xaxis[st.hip_jnt]                            # rows = hinge axes
+        A_st = s.joint_axes[st.hip_jnt]                       # rows = hinge axes
         tau[st.hip] = A_st @ T0
         D[st.hip] = A_st @ DT
 
         # 5. virtual COM force through the stance leg
-        dc = (c[:2] - d.site_xpos[st.site][:2]) @ l[:2]
+        dc = (c[:2] - s.site_positions[st.site][:2]) @ l[:2]
         side = 1.0 if self._swing == _LEFT else -1.0
         fs = self.mass * p.force.sagittal * (vd - vh[0])
         fc = self.mass * (p.force.coronal_pos * (side * p.force.coronal_offset - dc)
@@ -706,14 +692,16 @@ class IPMController:
         fc = max(-p.force.max_coronal, min(p.force.max_coronal, fc))
         F = fs * f + fc * l
         self.last_force = F
-        jacp, _ = ch.point_jacobian(st.foot, c)
+        jacp, _ = ch.dynamics.point_jacobian(st.foot, c)
         tau[st.leg] -= jacp[:, st.leg].T @ F
 
         # damping: explicit or implicit (next-step velocity)
         if tr.implicit_damping:
             dt = ch.timestep
-            M = ch.mass_matrix()
-            rhs = tau - D @ qvel - d.qfrc_bias + d.qfrc_passive + d.qfrc_constraint
+            dyn = ch.dynamics
+            M = dyn.mass_matrix()
+            rhs = (tau - D @ qvel - dyn.bias_forces() + dyn.passive_forces()
+                   + dyn.constraint_forces())
             qacc = np.linalg.solve(M + dt * D, rhs)
             tau = tau - D @ (qvel + dt * qacc)
         else:
@@ -721,7 +709,7 @@ class IPMController:
 
         # the stance foot holds only so much yaw moment before it spins on the ground: clamp
         # the vertical component of the stance hip's world torque
-        A_st = d.xaxis[st.hip_jnt]
+        A_st = s.joint_axes[st.hip_jnt]
         T_st = inverse3(A_st) @ tau[st.hip]
         lim = self._yaw_capacity(ch, st) if abs(T_st[2]) > 2.0 else math.inf
         if abs(T_st[2]) > lim:
@@ -738,7 +726,7 @@ class IPMController:
         ~0.1 m, a foot on its toes or heel much less), at most ``stance.yaw_limit``."""
         p = self.params
         names = {st.ankle_name, st.toe_name}
-        pts = np.array([c.position[:2] for c in ch.ground_contacts() if c.body in names])
+        pts = np.array([c.position[:2] for c in ch.contacts.ground() if c.body in names])
         if len(pts) < 2:
             return 0.0
         r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
@@ -747,7 +735,7 @@ class IPMController:
     def _limit_stance_ankle(self, ch: Character, st: Leg, tau: np.ndarray) -> None:
         """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
         without rolling: limits are metres x body weight."""
-        d = ch.data
+        s = ch.state
         p = self.params
         if self._turning:
             fwd, back, roll = p.turning.ankle_limit
@@ -755,9 +743,9 @@ class IPMController:
             fwd, back, roll = p.stance.ankle_limit
             back += self._back * (p.feet.ankle_back - back)
         W = self.mass * GRAVITY
-        A = d.xaxis[st.ankle_jnt].T
+        A = s.joint_axes[st.ankle_jnt].T
         T = inverse3(A.T) @ tau[st.ankle]
-        R_foot = d.xmat[st.foot].reshape(3, 3)
+        R_foot = s.body_rotations[st.foot]
         Tl = R_foot.T @ T
         # the moment on the foot about +y (toes down) shifts the pressure forward
         if self._push_w > 0:  # heel lifting: the pressure may move up to the ball of the foot
@@ -789,7 +777,7 @@ register(ControllerSpec(
     factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
                                                                            **options),
     abilities=("walk", "stand"), default_scenario="walk",
-    options=("speed", "heading", "params"), steps=True,
+    options=("speed", "heading", "params"), steps=True, tunables=IPMParams.tunables,
     # 60 s, no fall, steady speed within 0.15 m/s at 0.3-1.6 m/s on the bundled humanoid (0:
     # stops and stands; docs/ipm.md), the same Froude speeds on other bodies (as its parameters)
     limits=(("speed", 0.0, 1.6),), speed_leg_length=TUNED_LEG_LENGTH,

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.base import ControllerError
-from .param_fields import (
+from ..core.param_fields import (
+    Tunable,
     acceleration,
     angle,
     checked,
@@ -39,9 +40,10 @@ from .param_fields import (
     time,
     torque,
     torque_gain,
+    tunables,
 )
-from .param_fields import flat as _flat
-from .similarity import similarity_factors
+from ..core.param_fields import flat as _flat
+from ..core.similarity import similarity_factors
 
 GRAVITY = 9.81
 
@@ -480,6 +482,12 @@ class IPMParams:
     def flat(self) -> dict[str, object]:
         """``{dotted name: value}`` of every parameter."""
         return _flat(self)
+
+    @staticmethod
+    def tunables() -> list[Tunable]:
+        """Every parameter as ``--param`` takes it (dotted name, declaration, default, meaning
+        from its group's docstring): ``mjchar params ipm``."""
+        return tunables(IPMParams())
 
     def updated(self, overrides: Mapping[str, object]) -> IPMParams:
         """These parameters with ``overrides`` (``{"group.field": value}``; sequences as tuples

@@ -1,6 +1,7 @@
 """A walker's legs and the small rotation algebra the walking controllers share: :class:`Leg`
-(the dofs, bodies, sole site and segment lengths of one leg, read from the model), the rotation
-error between two orientations, a 3 x 3 inverse, heading (yaw) and angle wrapping."""
+(the dofs, bodies, sole site and segment lengths of one leg, read through the Character), the
+hinges of the bodies on the pelvis (:func:`child_hinges`), the rotation error between two
+orientations, a 3 x 3 inverse, heading (yaw) and angle wrapping."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import math
 import mujoco
 import numpy as np
 
-from ..core.character import Character
+from ..core.character import Character, Kinematics
 from .ipm_params import IPMError
 from .swing import frame_from_axes
 
@@ -44,16 +45,31 @@ def inverse3(A: np.ndarray) -> np.ndarray:
                      [co[2], b * g - a * h, a * e - b * d]]) / det
 
 
+def child_hinges(ch: Character, parent: int, skip: set[int]) -> list[np.ndarray]:
+    """Hinge dofs of each body attached to body ``parent`` (id) but those in ``skip`` (ids):
+    one ``(k,)`` array per body, in dof order (on the pelvis with the thighs skipped: the
+    spine's hinges, whose torques react on the pelvis)."""
+    by_body: dict[int, list[int]] = {}
+    for dof in np.flatnonzero(ch.hinge_dofs):
+        b = int(ch.dof_body[dof])
+        if ch.body_parent[b] == parent and b not in skip:
+            by_body.setdefault(b, []).append(int(dof))
+    return [np.array(dofs) for dofs in by_body.values()]
+
+
 def yaw_of(R: np.ndarray) -> float:
     """Heading angle (rad) of a body orientation ``(3, 3)``: its x axis projected on the floor."""
     return math.atan2(R[1, 0], R[0, 0])
 
 
 class Leg:
-    """Indices of one leg (hip, knee, ankle, toe) of a Character."""
+    """Indices and rest geometry of one leg (hip, knee, ankle, toe) of a Character.
 
-    def __init__(self, ch: Character, side: str):
-        m = ch.model
+    ``rest``: the kinematics of the character's rest pose
+    (``ch.poses.kinematics(ch.poses.rest())``; computed when ``None``).
+    """
+
+    def __init__(self, ch: Character, side: str, rest: Kinematics | None = None):
         self.side = side
         self.hip_name = ch.role(f"{side}_hip")
         self.knee_name = ch.role(f"{side}_knee")
@@ -63,30 +79,32 @@ class Leg:
         self.knee = ch.joint_dofs(self.knee_name)
         self.ankle = ch.joint_dofs(self.ankle_name)
         self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
-        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3:
-            raise IPMError(f"IPM needs 3-dof hips and ankles and a hinge knee ({side} leg has "
-                           f"{len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs); convert "
-                           "with joint_model='hinge'")
+        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
+        self.all = np.concatenate([self.leg, self.toe])
+        hinges = ch.hinge_dofs[self.leg].all()
+        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3 or not hinges:
+            raise IPMError(f"IPM needs hips and ankles of 3 hinges and a hinge knee ({side} leg "
+                           f"has {len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs"
+                           f"{'' if hinges else ', not all hinges'}); convert with "
+                           "joint_model='hinge'")
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
         self.site = ch.site_id(f"{side}_foot")
-        if int(m.site_bodyid[self.site]) != self.foot:
+        site_body, self.site_offset = ch.poses.site_offset(self.site)  # in the foot frame
+        if site_body != self.foot:
             raise IPMError(f"site {side}_foot is not on the {side} ankle body")
-        self.site_offset = m.site_pos[self.site].copy()            # in the foot frame
-        self.hip_jnt = m.dof_jntid[self.hip]
-        self.ankle_jnt = m.dof_jntid[self.ankle]
+        self.hip_jnt = ch.dof_joint[self.hip]
+        self.ankle_jnt = ch.dof_joint[self.ankle]
         self.knee_q = ch.joint_qpos(self.knee_name)[0]
         self.knee_dof = int(self.knee[0])
-        self.leg = np.concatenate([self.hip, self.knee, self.ankle])
-        self.all = np.concatenate([self.leg, self.toe])
-        # geometry from the model (bodies world-aligned at rest, contract)
-        qk = m.body_quat[self.shank]
-        knee_in_thigh = m.body_pos[self.shank].copy()
-        ankle_in_shank = m.body_pos[self.foot].copy()
+        # geometry: the bones (model constants) and the knee's hinge axis in the thigh's frame
+        if rest is None:
+            rest = ch.poses.kinematics(ch.poses.rest())
+        knee_in_thigh = ch.poses.body_offset(self.shank)
+        ankle_in_shank = ch.poses.body_offset(self.foot)
         self.l1 = float(np.linalg.norm(knee_in_thigh))
         self.l2 = float(np.linalg.norm(ankle_in_shank))
-        Rk = np.empty(9)
-        mujoco.mju_quat2Mat(Rk, qk)
-        axis_in_thigh = Rk.reshape(3, 3) @ m.jnt_axis[m.dof_jntid[self.knee_dof]]
+        axis_in_thigh = (rest.body_rotations[self.thigh].T
+                         @ rest.joint_axes[ch.dof_joint[self.knee_dof]])
         self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns

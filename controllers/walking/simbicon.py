@@ -37,7 +37,7 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
-from .gaits import BUNDLED_LEG_LENGTH, GRAVITY, Gait, get_gait
+from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
@@ -82,6 +82,14 @@ def _log(R: np.ndarray) -> np.ndarray:
     return v
 
 
+def _selector(idx: np.ndarray) -> slice | np.ndarray:
+    """Integer indices as a slice when they are a contiguous ascending run, else as they are."""
+    idx = np.asarray(idx, dtype=int)
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
+
+
 def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``(3,)`` rotation vector turning unit vector ``u`` onto unit vector ``v`` (shortest arc)."""
     ax = _cross(u, v)
@@ -98,10 +106,25 @@ def _rest_angle(sine: float) -> float:
     return a if abs(a) > 1e-6 else 0.0
 
 
+def _cross3(a: list[float], b: list[float]) -> list[float]:
+    """Cross product of two 3-vectors given as Python floats (the same IEEE operations as
+    numpy's element-wise ones, without numpy's per-element overhead)."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+    return np.array(_cross3(a.tolist(), b.tolist()))
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of ``(k, 3)`` rows and one ``(3,)`` vector, the same element-wise
+    operations (``np.cross`` costs ~10x more at this size)."""
+    out = np.empty_like(a)
+    b0, b1, b2 = b.tolist()
+    out[:, 0] = a[:, 1] * b2 - a[:, 2] * b1
+    out[:, 1] = a[:, 2] * b0 - a[:, 0] * b2
+    out[:, 2] = a[:, 0] * b1 - a[:, 1] * b0
+    return out
 
 
 def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -109,11 +132,12 @@ def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
     when their generalised forces are ``tau`` ``(k,)`` (``axes @ T = tau``; least squares for
     fewer than three hinges)."""
     if len(tau) == 3:  # Cramer's rule: T = sum_i tau_i (a_j x a_k) / det
-        a1, a2, a3 = axes
-        c23, c31, c12 = _cross(a2, a3), _cross(a3, a1), _cross(a1, a2)
-        det = float(a1 @ c23)
+        a1, a2, a3 = axes.tolist()
+        c23, c31, c12 = _cross3(a2, a3), _cross3(a3, a1), _cross3(a1, a2)
+        det = float(axes[0] @ np.array(c23))
         if abs(det) > 1e-9:
-            return (tau[0] * c23 + tau[1] * c31 + tau[2] * c12) / det
+            t0, t1, t2 = tau.tolist()
+            return np.array([(t0 * c23[k] + t1 * c31[k] + t2 * c12[k]) / det for k in range(3)])
     return np.linalg.lstsq(axes, tau, rcond=None)[0]
 
 
@@ -194,6 +218,7 @@ class Simbicon:
         self.speed_offset = 0.0
         self.step_speed: float | None = None
         self._step_start: tuple[float, np.ndarray] | None = None
+        self._targets_world: dict[str, tuple[float, float, np.ndarray]] = {}
         self._ready = False
 
     # -- set-up ---------------------------------------------------------------------------------
@@ -211,6 +236,12 @@ class Simbicon:
         self._step_start = (character.time, character.state.com())
         self._command_time = character.time
         self._limits = character.actuation.torque_limits()[self._act_dof]
+        # the clamps the step applies, as (low, high) per group (read per step, fixed here)
+        lim = self._limits
+        self._neg_limits = -lim
+        for leg in self._legs:
+            leg["hip_limits"] = (-lim[leg["hip_acts"]], lim[leg["hip_acts"]])
+        self._pelvis_limits = [(-lim[a], lim[a]) for _, a in self._pelvis_children]
         self._ready = True
 
     def _hinges(self, character: Character, joint: str) -> dict[str, _Hinge]:
@@ -266,6 +297,9 @@ class Simbicon:
             raise ControllerError("SIMBICON needs one hinge actuator per dof (joint_model='hinge')")
         self._act_dof = ch.actuator_dof.copy()
         self._act_qpos = ch.actuator_qpos.copy()
+        # the same as slices when contiguous (a view to read per step, not a gathered copy)
+        self._act_dof_sel = _selector(self._act_dof)
+        self._act_qpos_sel = _selector(self._act_qpos)
         self._dof2act = np.full(ch.nv, -1)
         self._dof2act[self._act_dof] = np.arange(ch.nu)
         # rest-pose kinematics: hinge axes and body positions with every joint at zero
@@ -521,8 +555,9 @@ class Simbicon:
         g = self.gait
         p = g.states[self.state % 2]
         lim = self._limits
-        q = s.qpos[self._act_qpos]
-        qd = s.qvel[self._act_dof]
+        q = s.qpos[self._act_qpos_sel]
+        qd = s.qvel[self._act_dof_sel]
+        com, com_vel = s.com(), s.com_velocity()  # (read once per step)
         # every joint: local PD towards the state's pose
         tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
 
@@ -548,7 +583,7 @@ class Simbicon:
         H = _rot_z(heading)
 
         # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
-        dd, vv = self._feedback_terms(character, st, H)
+        dd, vv = self._feedback_terms(character, st, H, com, com_vel)
         sag = p.swing_hip + p.cd * dd[0] + p.cv * vv[0] + self.speed_offset
         cor = p.swing_hip_coronal + p.cd_coronal * dd[1] + p.cv_coronal * vv[1]
         self.last_swing_target = np.array([sag, cor])
@@ -560,7 +595,8 @@ class Simbicon:
         kps, kds = self._swing_gains
         tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
         acts = sw["hip_acts"]
-        tau[acts] = s.joint_axes[sw["hip_joints"]] @ tau_w
+        axes_sw = s.joint_axes[sw["hip_joints"]]
+        tau[acts] = axes_sw @ tau_w
         if "z" in sw["hip"]:
             # its twist stays local, towards the twist that points the foot at the desired
             # heading (thigh yaw = pelvis yaw + s q_twist)
@@ -573,19 +609,22 @@ class Simbicon:
             character.dynamics.com_jacobian(sw["hip_body"], out=self._jac)
             tau[sw["leg_acts"]] += (g.swing_gravity * GRAVITY * sw["leg_mass"]
                                     * self._jac[2, sw["leg_dofs"]])
-        tau[acts] = np.minimum(np.maximum(tau[acts], -lim[acts]), lim[acts])
-        tau_sw = _world_torque(s.joint_axes[sw["hip_joints"]], tau[acts])
+        lo, hi = sw["hip_limits"]
+        clamped = np.minimum(np.maximum(tau[acts], lo), hi)
+        tau[acts] = clamped
+        tau_sw = _world_torque(axes_sw, clamped)
 
         # torso (pelvis), world frame: desired heading and forward lean
-        Rpd = _rot_z(self.desired_heading) @ _rot_y(g.torso_pitch)
+        Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
         tau_torso = (self._torso_kp * _log(Rpd @ Rp.T)
                      - self._torso_kd * s.body_angular_velocities[self._pelvis])
 
         # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
         react = np.zeros(3)
-        for js, a in self._pelvis_children:
-            tau[a] = np.minimum(np.maximum(tau[a], -lim[a]), lim[a])
-            react += _world_torque(s.joint_axes[js], tau[a])
+        for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
+            clamped = np.minimum(np.maximum(tau[a], lo), hi)
+            tau[a] = clamped
+            react += _world_torque(s.joint_axes[js], clamped)
         tau_st = -tau_torso - tau_sw - react
         acts = st["hip_acts"]
         if "z" in st["hip"]:
@@ -603,24 +642,37 @@ class Simbicon:
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
 
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
-            tau[st["support_acts"]] += self._virtual_force(character, st, H)
+            tau[st["support_acts"]] += self._virtual_force(character, st, H, com, com_vel)
         if g.swing_ankle_world:
             # swing foot pitched by swing_ankle (toes up) in the desired-heading frame
-            Rfd = _rot_z(self.desired_heading) @ _rot_y(sw["foot_pitch_sign"] * p.swing_ankle)
+            Rfd = self._world_target("foot", self.desired_heading,
+                                     sw["foot_pitch_sign"] * p.swing_ankle)
             Rf = s.body_rotations[sw["ankle_body"]]
             kpa, kda = self._ankle_world_gains
             tau_f = kpa * _log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
             tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
-        return np.minimum(np.maximum(tau, -lim), lim)
+        return np.minimum(np.maximum(tau, self._neg_limits), lim)
 
-    def _virtual_force(self, character: Character, st: dict, H: np.ndarray) -> np.ndarray:
+    def _world_target(self, key: str, yaw: float, pitch: float) -> np.ndarray:
+        """``(3, 3)`` ``R_z(yaw) R_y(pitch)``: a world target orientation (torso, swing foot),
+        kept while its angles stay the same (they change at a new heading or gait)."""
+        cache = self._targets_world
+        hit = cache.get(key)
+        if hit is None or hit[0] != yaw or hit[1] != pitch:
+            hit = (yaw, pitch, _rot_z(yaw) @ _rot_y(pitch))
+            cache[key] = hit
+        return hit[2]
+
+    def _virtual_force(self, character: Character, st: dict, H: np.ndarray,
+                       com: np.ndarray | None = None, com_vel: np.ndarray | None = None
+                       ) -> np.ndarray:
         """Torques of the stance ankle and knee that put a virtual force on the centre of mass
         with the stance foot fixed (``tau_j = -a_j . ((c - x_j) x F)``): a share of the weight
         (``stance_support``) and Coros 2010's velocity tuning (``velocity_force``)."""
         g, s = self.gait, character.state
         weight = self._mass * GRAVITY
         unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
-        v = s.com_velocity()
+        v = s.com_velocity() if com_vel is None else com_vel
         lat = -st["out"][1] * H[:, 1]
         F = np.array([0.0, 0.0, g.stance_support * weight])
         if g.velocity_force and g.speed_target is not None:
@@ -628,23 +680,24 @@ class Simbicon:
         if g.velocity_force_coronal:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
         js = st["support_joints"]
-        r = s.com() - s.joint_anchors[js]
-        return -np.einsum("ij,ij->i", s.joint_axes[js], np.cross(r, F))
+        r = (s.com() if com is None else com) - s.joint_anchors[js]
+        return -np.einsum("ij,ij->i", s.joint_axes[js], _cross_rows(r, F))
 
     def _feedback_terms(
-        self, character: Character, st: dict, H: np.ndarray
+        self, character: Character, st: dict, H: np.ndarray,
+        com: np.ndarray | None = None, com_vel: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         s = character.state
         fwd, lat = H[:, 0], -st["out"][1] * H[:, 1]  # lateral: towards the swing leg's side
-        off = s.com() - s.body_positions[st["ankle_body"]]
-        v = s.com_velocity()
+        off = (s.com() if com is None else com) - s.body_positions[st["ankle_body"]]
+        v = s.com_velocity() if com_vel is None else com_vel
         return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
     def act(self, character: Character, t: float) -> Action:
         """The :class:`~mjchar.controllers.core.base.Action` for simulated time ``t``: joint torques
         only (the root rows are zero: no hand of god)."""
         full = np.zeros(character.nv)
-        full[self._act_dof] = self.torques(character, t)
+        full[self._act_dof_sel] = self.torques(character, t)
         return Action(torque=full)
 
     # -- start states --------------------------------------------------------------------------
@@ -703,6 +756,21 @@ def make_simbicon(
     return Simbicon(gait, **kw, **overrides)
 
 
+def simbicon_tunables(gait: str = "walk") -> list:
+    """What ``--param`` takes (``mjchar params simbicon``), with the defaults of ``gait`` (gain
+    groups the gait leaves out: :data:`DEFAULT_GAINS`, else the model's gains table)."""
+    if not isinstance(gait, str) or gait not in GAITS:
+        raise GaitError(f"unknown gait {gait!r}; choose from {', '.join(GAITS)}")
+    rows = []
+    for t in gait_tunables(GAITS[gait]):
+        group = t.name[5:] if t.name.startswith("gain_") else None
+        if group is not None and t.default is None:
+            t = (t._replace(default=DEFAULT_GAINS[group]) if group in DEFAULT_GAINS
+                 else t._replace(meaning=t.meaning + "; default: the model's gains table"))
+        rows.append(t)
+    return rows
+
+
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
@@ -714,5 +782,5 @@ register(ControllerSpec(
     # skeleton zoo (docs/simbicon.md); no --speed: the gait's own
     limits=(("speed", 0.6, 1.6),), speed_leg_length=BUNDLED_LEG_LENGTH,
     speed_every_body=(0.7, 1.5),
-    timestep=DEFAULT_TIMESTEP, push="walking",
+    timestep=DEFAULT_TIMESTEP, push="walking", tunables=simbicon_tunables,
     bench=("walk", "push-search", "slopes"), expected=("walk",)))

@@ -12,8 +12,11 @@ def number(what: str):
     return _number(what, lambda v: True, "a finite number")
 
 
-def positive(what: str):
-    """A parser of finite numbers > 0 (``what`` names the option in errors)."""
+def positive(what: str, high: float | None = None):
+    """A parser of finite numbers > 0 (``what`` names the option in errors), at most ``high``
+    when given."""
+    if high is not None:
+        return _number(what, lambda v: 0 < v <= high, f"positive and at most {high:g}")
     return _number(what, lambda v: v > 0, "positive")
 
 

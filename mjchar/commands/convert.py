@@ -18,8 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="hinge: hinge triplets, one hinge for knees/elbows, anatomical ranges "
                         "(default); full: hinge triplets everywhere, no ranges, exact replay; "
                         "ball: ball joints with motors")
-    p.add_argument("--unit", help="file unit: m, cm, mm, in, ft or metres per unit "
-                                  "(default: guessed from the height)")
+    p.add_argument("--unit", help="file unit: m, cm, mm, in, ft, cmu (the CMU ASF unit, 1/0.45 "
+                                  "inch) or metres per unit (default: guessed from the body's "
+                                  "size)")
     p.add_argument("--up", choices=["x", "y", "z"], help="up axis of the file (default: guessed)")
     p.add_argument("--drop", help="comma-separated joints to remove with their subtrees; "
                                   "'default' adds the defaults, 'none' drops nothing")
@@ -63,11 +64,21 @@ def run(args: argparse.Namespace) -> int:
     model = converted.compile()
     converted.save(output)
     s = converted.summary
+    if s["height_warning"]:
+        import sys
+
+        print(f"warning: {s['height_warning']}", file=sys.stderr)
     errors = None
     if args.verify:
         from mjchar.bvh.reference.reference_motion import replay_errors
+        from mjchar.controllers.core.progress import Progress
 
-        errors = replay_errors(model, converted.motion)
+        bar = Progress(enabled=False if args.json else None)
+        try:
+            errors = replay_errors(model, converted.motion,
+                                   progress=bar.counter("verify", "frames"))
+        finally:
+            bar.close()
     if args.json:
         out = {
             "output": output,
@@ -78,6 +89,9 @@ def run(args: argparse.Namespace) -> int:
             "n_dofs": int(model.nv),
             "n_actuators": int(model.nu),
             "joint_model": args.joint_model,
+            "unit": s["unit_name"],
+            "unit_scale": s["unit_scale"],
+            "height_m": round(float(s["height_m"]), 6),
             "dropped_joints": converted.info.dropped,
             "fused_joints": s["fused"],
             "warnings": converted.warnings,
@@ -91,11 +105,12 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.input} -> {output}")
     print(f"  {s['n_bodies']} bodies, {model.nv} dofs ({model.nv - 6} joint dofs + free root), "
           f"{model.nu} actuators, joint model {args.joint_model}")
-    print(f"  total mass {model.body_mass.sum():.3f} kg, height {s['height_m']:.3f} m, "
-          f"{info.unit_scale:g} m per unit, up axis {info.up_axis}")
+    print(f"  total mass {model.body_mass.sum():.3f} kg, up axis {info.up_axis}")
+    print(f"  unit: {s['unit']}; height {s['height_m']:.3f} m")
     print(f"  dropped: {', '.join(info.dropped) or 'none'}")
     for w in converted.warnings:
-        print(f"  warning: {w}")
+        if w != s["height_warning"]:  # that one went to stderr
+            print(f"  warning: {w}")
     if errors:
         print(f"  replay ({errors['n_frames']} frames): worst joint error "
               f"{errors['max_mm']:.3f} mm ({errors['max_joint']}), worst end-effector error "

@@ -11,6 +11,7 @@ from .argtypes import integer, non_negative, number, positive
 
 def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers import registry
+    from mjchar.controllers.core.limits import MAX_DURATION_S
 
     walkers = registry.names("walker")
     p = sub.add_parser(
@@ -26,8 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a clip to compare with (repeatable)")
     p.add_argument("--model", metavar="FILE.xml",
                    help="walkers: the converted model (default: the bundled humanoid)")
-    p.add_argument("--duration", type=positive("duration"), metavar="T",
-                   help="walkers: simulated seconds (default 20)")
+    p.add_argument("--duration", type=positive("duration", high=MAX_DURATION_S), metavar="T",
+                   help="walkers: simulated seconds (default 20, at most 3600)")
     p.add_argument("--from", dest="start", type=non_negative("from"), metavar="S",
                    help="start of the analysed window in s (default: 3 for runs, 0 for clips)")
     p.add_argument("--speed", type=number("speed"), metavar="M/S",
@@ -49,6 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _walker_stats(args, spec):
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.gait.analysis import analyse
+    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.recording import MotionRecorder
     from mjchar.controllers.core.runs import RunSpec, execute
 
@@ -67,7 +69,8 @@ def _walker_stats(args, spec):
     # walker's own seeded start
     recorder = MotionRecorder()
     run = RunSpec(spec.name, "walk", model=args.model, seed=args.seed, options=options,
-                  scenario_options={"duration": duration}).build(frame_callback=recorder)
+                  scenario_options={"duration": duration}).build(
+        frame_callback=recorder, progress=None if args.json else Progress())
     result = execute(run)
     character = run.character
     label = " ".join([spec.name] + ([options["gait"]] if "gait" in options else [])

@@ -1,42 +1,91 @@
-"""``mjchar info FILE.bvh``: summarise a BVH file."""
+"""``mjchar info FILE.bvh``: summarise a BVH file and what the converter would build from it."""
 
 from __future__ import annotations
 
 import argparse
 
+#: the order roles are listed in
+ROLE_ORDER = ("pelvis", "spine", "neck", "head") + tuple(
+    f"{s}_{r}" for r in ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
+    for s in ("left", "right"))
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("info", help="summarise a BVH file (joints, frames, units, axes)")
+    p = sub.add_parser(
+        "info", help="summarise a BVH file (joints, frames, units, axes, the joint roles and the "
+                     "body the converter would build)")
     p.add_argument("file", help="BVH file")
+    p.add_argument("--unit", help="file unit, as for mjchar convert (default: guessed)")
+    p.add_argument("--up", choices=["x", "y", "z"], help="up axis of the file (default: guessed)")
+    p.add_argument("--roles", metavar="FILE.toml", help="role map, as for mjchar convert")
     p.set_defaults(func=run)
 
 
+def _role_lines(rec) -> list[str]:
+    """``role  joint (name|shape|given)`` lines, in :data:`ROLE_ORDER`."""
+    out = []
+    for role in ROLE_ORDER:
+        v = rec.roles.get(role)
+        if v is None:
+            continue
+        joints = [v] if isinstance(v, str) else list(v)
+        how = [rec.source(j) for j in joints]
+        if len(set(how)) == 1:
+            text = f"{', '.join(joints)} ({how[0]})"
+        else:
+            text = ", ".join(f"{j} ({h})" for j, h in zip(joints, how, strict=True))
+        out.append(f"    {role.replace('_', ' '):16s}{text}")
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
+    from collections import Counter
+
     import numpy as np
 
     from mjchar import bvh
+    from mjchar.bvh.mjcf import ConversionError, convert
+    from mjchar.bvh.rigs import units
 
     motion = bvh.load(args.file)
     sk = motion.skeleton
-    fk = bvh.forward_kinematics(motion)
-    lo = fk.positions.reshape(-1, 3).min(axis=0)
-    hi = fk.positions.reshape(-1, 3).max(axis=0)
-    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, "
-          f"{motion.n_frames} frames at {motion.fps:.2f} fps ({motion.duration:.2f} s)")
-    from mjchar.bvh.mjcf import ConversionError
-    from mjchar.bvh.mjcf.prepare import prepare
-    from mjchar.bvh.rigs import units
-
-    try:  # the converter's guesses (anatomy, after folding a static root and re-resting)
-        prep = prepare(motion, sk)
-        up, scale = prep.up, prep.scale
-        notes = prep.warnings
+    if motion.n_frames:
+        points = bvh.forward_kinematics(motion).positions.reshape(-1, 3)
+        frames = (f"{motion.n_frames} frames at {motion.fps:.2f} fps "
+                  f"({motion.duration:.2f} s)")
+    else:  # a skeleton without motion (the converter takes it): its rest pose
+        points = sk.rest_positions()
+        frames = "no frames (a skeleton without motion; the bounding box is the rest pose's)"
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, {frames}")
+    try:  # what the converter would build at these options
+        c = convert(motion, unit=args.unit, up_axis=args.up, roles=args.roles)
     except ConversionError as e:
         up, scale = units.guess_up_axis(sk), units.guess_unit_scale(sk)
-        notes = [f"not convertible as is: {e}"]
-    print(f"  up axis (guessed): {up}, metres per unit (guessed): {scale:g}")
-    for n in notes:
-        print(f"  note: {n}")
+        print(f"  up axis (guessed): {up}, metres per unit (guessed): {scale:g}")
+        print(f"  note: not convertible as is: {e}")
+    else:
+        s, rec = c.summary, c.prepared.rec
+        print(f"  up axis: {c.info.up_axis}; unit: {s['unit']}")
+        print(f"  the body it would build: {s['height_m']:.3f} m tall, {s['n_bodies']} bodies, "
+              f"{s['n_dofs']} dofs (mjchar convert, joint model hinge)")
+        if s["height_warning"]:
+            print(f"  warning: {s['height_warning']}")
+        print("  roles (name: from the joint's name or the limb around a named knee or elbow; "
+              "shape: from the skeleton's geometry and the clip's motion; given: the roles "
+              "file):")
+        for line in _role_lines(rec):
+            print(line)
+        detail = Counter(rec.joint_roles[n] for n in c.info.dropped
+                         if n not in s["fused"])
+        if detail:
+            print("  dropped by default: " + ", ".join(f"{k} {v}" for k, v in
+                                                      sorted(detail.items())) + " joints")
+        if s["fused"]:
+            print(f"  fused by default: {', '.join(s['fused'])}")
+        for w in c.warnings:
+            if w != s["height_warning"]:
+                print(f"  note: {w}")
     print(f"  bounding box: {np.round(lo, 3)} .. {np.round(hi, 3)}")
     print("  joints: " + ", ".join(sk.names))
     return 0

@@ -80,8 +80,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         f"{', '.join(s.name for s in registry.specs() if 'params' in s.options)}):"
                         " mpc's MpcOptions (samples=96, horizon=0.5, update=cem), ipm's "
                         "IPMParams (timing.step_time=0.5), simbicon's Gait (torso_pitch=0.2); "
-                        "VALUE is read as JSON, else as text; an unknown NAME lists the valid "
-                        "ones")
+                        "VALUE is read as JSON, else as text; `mjchar params CONTROLLER` lists "
+                        "every NAME with its type, unit, range and default; a wrong type, NaN "
+                        "or a value out of range is an error naming it")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
@@ -124,8 +125,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 #: factory options that have their own flag (``--param`` refuses them)
 _FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
-            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE",
-            "progress": "(set by the command)"}
+            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE"}
 
 
 def _controller_options(spec, args: argparse.Namespace) -> dict:
@@ -182,20 +182,19 @@ def run(args: argparse.Namespace) -> int:
     """Describe, build and execute the run; print the result."""
     import json
     import os
-    import sys
 
     if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
         os.environ.setdefault("MUJOCO_GL", "egl")
 
+    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.recording import MotionRecorder, chain_callbacks
     from mjchar.controllers.core.runs import execute
 
     spec = describe(args)
-    built = spec.build()
+    # a bar on a terminal (the clip's preparation, then simulated time), a protocol's lines
+    built = spec.build(progress=None if args.json else Progress())
     ch = built.character
     check_body(args, ch.dynamics.mass, ch.info.extra.get("height"))
-    if spec.scenario_spec.protocol and not args.json:
-        built.progress = lambda msg: print(msg, file=sys.stderr, flush=True)
     video = None
     if args.render:
         from ..render import VideoRecorder

@@ -11,7 +11,8 @@ from one left alone. :func:`check_applicable` then refuses, in one line (exit st
 typed option that the chosen controller and scenario would not use; :func:`check_ranges`
 refuses values outside what the run supports (durations, time steps, frame rates, push forces
 relative to the body's weight; walking speeds are checked by the run builder against the
-controller's registered limits). Nothing is ever silently ignored.
+controller's registered limits; the time-step and duration bounds are
+:mod:`mjchar.controllers.core.limits`'). Nothing is ever silently ignored.
 """
 
 from __future__ import annotations
@@ -22,11 +23,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mjchar.bvh.errors import MjcharError
+from mjchar.controllers.core.limits import MAX_CONTROL_DT_S, MAX_TIMESTEP_S, MIN_TIMESTEP_S
 
 #: push forces (``--push``, ``--max-force``) above this many body weights are refused
 MAX_PUSH_BODY_WEIGHTS = 10.0
-#: largest physics time step accepted, s (explicit contact dynamics are unstable far above)
-MAX_TIMESTEP_S = 0.01
 #: headings are degrees in [-MAX_HEADING_DEG, MAX_HEADING_DEG]
 MAX_HEADING_DEG = 360.0
 #: frame rates of videos and BVH exports
@@ -171,19 +171,22 @@ def check_ranges(args: argparse.Namespace, cspec, sspec) -> None:
     for o in registry.options():
         value = getattr(args, o.name, None)
         if o.high is not None and value is not None and value > o.high:
-            unit = " s" if o.kind == "seconds" else ""
+            unit = {"seconds": " s", "metres": " m", "newtons": " N"}.get(o.kind, "")
             raise _bad(o.flag, value, f"at most {o.high:g}{unit}")
     if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
         raise _bad("--heading", args.heading, f"give degrees within +-{MAX_HEADING_DEG:g}")
     if args.timestep is not None and args.timestep > MAX_TIMESTEP_S:
         raise _bad("--timestep", args.timestep, f"at most {MAX_TIMESTEP_S:g} s")
+    if args.timestep is not None and args.timestep < MIN_TIMESTEP_S:
+        raise _bad("--timestep", args.timestep, f"at least {MIN_TIMESTEP_S:g} s (a second of "
+                                                f"simulation would take over 1e5 steps)")
     if args.control_dt is not None:
         dt = args.timestep or cspec.timestep
         if dt and args.control_dt < dt - 1e-12:
             raise _bad("--control-dt", args.control_dt,
                        f"shorter than the physics step {dt:g} s")
-        if args.control_dt > 0.1:
-            raise _bad("--control-dt", args.control_dt, "at most 0.1 s")
+        if args.control_dt > MAX_CONTROL_DT_S:
+            raise _bad("--control-dt", args.control_dt, f"at most {MAX_CONTROL_DT_S:g} s")
     for flag, value in (("--fps", args.fps), ("--export-fps", args.export_fps)):
         if value is not None and value > MAX_FPS:
             raise _bad(flag, value, f"at most {MAX_FPS:g} frames per second")

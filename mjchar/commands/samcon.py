@@ -43,13 +43,17 @@ def load_reference(path: str, model, floor: str = "contact"):
     from mjchar import bvh
     from mjchar.bvh.reference.reference_motion import ReferenceMotion, ReferenceMotionError
     from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.runs import check_model_file
 
+    check_model_file(model)
     ch = Character(model)
     motion = bvh.load(path)
     try:
         ref = ReferenceMotion(ch.model, motion, info=ch.info, floor=floor)
     except ReferenceMotionError as e:
-        raise ReferenceMotionError(f"{path}: the model cannot follow this motion: {e}") from None
+        reason = str(e).replace("CLIP", path)
+        raise ReferenceMotionError(f"{path}: the model cannot follow this motion: {reason}") \
+            from None
     return ch, ref
 
 

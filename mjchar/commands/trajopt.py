@@ -84,6 +84,10 @@ def run(args: argparse.Namespace) -> int:
     ref = None
     if task == "track":
         _, ref = load_reference(args.motion, args.model, args.floor)
+    else:
+        from mjchar.controllers.core.runs import check_model_file
+
+        check_model_file(args.model)
     o = TrajoptOptions(seed=args.seed, start=args.start)
     if task == "jump":
         o = TrajoptOptions(**dict(JUMP_OPTIONS, seed=args.seed))

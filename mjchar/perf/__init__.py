@@ -42,9 +42,10 @@ import importlib
 #: ``import mjchar.perf`` stays light and ``python -m mjchar.perf.<module>`` runs its module once)
 _EXPORTS = {
     "PerfError": "errors", "PerfUnavailable": "errors",
-    "Timing": "timing", "Runs": "timing", "timed": "timing", "rounds": "timing",
+    "Timing": "timing", "Runs": "timing", "Laps": "timing", "timed": "timing", "rounds": "timing",
     "load_average": "timing",
     "StepCost": "physics", "raw_step_rate": "physics", "step_cost": "physics",
+    "RunCost": "physics", "run_cost": "physics",
     "stability_envelope": "pd", "ENVELOPE_KPS": "pd", "ENVELOPE_VARIANTS": "pd",
     "ENVELOPE_GRID": "pd", "ENVELOPE_FINER": "pd",
     "rollout_throughput": "rollouts",

@@ -16,8 +16,10 @@ median round is reported, so all rows share the machine's load. Columns:
 - bare mj_step/s (with ``bare=True``): plain ``mujoco.mj_step(m, d, n_substeps)`` calls from the
   physics states the same seeded run visited (every 5th env step, controls as the env set them),
   timed in the same round: the ceiling of the physics column for that state distribution;
-- physics share: physics steps/s over bare mj_step/s (the rest is Python: observation, reward,
-  termination, resets, the wrappers).
+- physics share: the process CPU time bare ``mj_step`` takes for the round's physics steps
+  over the CPU time of the round's env loop, both in this process (the rest is Python:
+  observation, reward, termination, resets, the wrappers). The actions are drawn before the
+  timed loop (the sampler is the policy's cost, not the env's).
 """
 
 from __future__ import annotations
@@ -32,32 +34,59 @@ import numpy as np
 
 from .errors import PerfUnavailable, positive_int
 from .report import DOCS, machine_line, write_block
-from .timing import Timing, timed
+from .timing import PhysicsClock, Timing, timed
 
-__all__ = ["ENV_IDS", "random_env_steps", "visited_states", "bare_step_rate", "env_throughput",
-           "main"]
+__all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
+           "bare_step_rate", "env_throughput", "vector_throughput", "main"]
 
 #: envs compared by :func:`env_throughput` (the last one is the yardstick)
 ENV_IDS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
 
 
-def random_env_steps(env, steps: int, seed: int) -> tuple[float, int]:
-    """``(wall seconds, episodes ended)`` for ``steps`` uniformly random actions in a Gymnasium
-    ``env`` (seeded ``reset`` and action space; resets when an episode ends, timed too)."""
+def random_actions(env, steps: int, seed: int) -> list:
+    """``steps`` uniformly random actions of ``env``'s action space (``action_space.sample()``,
+    seeded): drawn before a timed loop, so that the loop times the env, not the sampler."""
     env.action_space.seed(seed)
+    return [env.action_space.sample() for _ in range(steps)]
+
+
+def _stepping_modules(env) -> tuple:
+    """The modules whose ``mujoco.mj_step*`` calls step ``env``'s physics (the Character's for
+    the mjchar envs, Gymnasium's ``MujocoEnv`` for its own)."""
+    import importlib
+
+    u = env.unwrapped
+    if hasattr(u, "character"):
+        return (importlib.import_module(type(u.character).__module__),)
+    return tuple(importlib.import_module(c.__module__) for c in type(u).__mro__
+                 if c.__module__.startswith("gymnasium.envs.mujoco")
+                 and hasattr(importlib.import_module(c.__module__), "mujoco"))
+
+
+def random_env_steps(env, steps: int, seed: int, *,
+                     physics: PhysicsClock | None = None) -> tuple[Timing, int]:
+    """``(Timing, episodes ended)`` of ``steps`` uniformly random actions in a Gymnasium ``env``
+    (seeded ``reset`` and actions, :func:`random_actions`, drawn before the timed loop; resets
+    when an episode ends, timed too). With ``physics`` (a :class:`PhysicsClock` not yet
+    entered), the time inside MuJoCo's stepping functions during the loop is counted in it."""
+    actions = random_actions(env, steps, seed)
     env.reset(seed=seed)
 
     def run() -> int:
         ended = 0
-        for _ in range(steps):
-            _, _, term, trunc, _ = env.step(env.action_space.sample())
+        for a in actions:
+            _, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 ended += 1
                 env.reset()
         return ended
 
-    ended, t = timed(run)
-    return t.wall_s, ended
+    if physics is None:
+        ended, t = timed(run)
+    else:
+        with physics:
+            ended, t = timed(run)
+    return t, ended
 
 
 def _substeps(env) -> int:
@@ -79,11 +108,11 @@ def visited_states(env, steps: int, seed: int, every: int = 5) -> list[np.ndarra
     same seeded random run as :func:`random_env_steps` (not timed)."""
     m, d = _model_data(env)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
-    env.action_space.seed(seed)
+    actions = random_actions(env, steps, seed)
     env.reset(seed=seed)
     out = []
-    for i in range(steps):
-        _, _, term, trunc, _ = env.step(env.action_space.sample())
+    for i, a in enumerate(actions):
+        _, _, term, trunc, _ = env.step(a)
         if i % every == 0:
             s = np.empty(mujoco.mj_stateSize(m, sig))
             mujoco.mj_getState(m, d, s, sig)
@@ -93,9 +122,9 @@ def visited_states(env, steps: int, seed: int, every: int = 5) -> list[np.ndarra
     return out
 
 
-def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
-    """``mj_step``/s of plain ``mujoco.mj_step(m, d, n_substeps)`` calls from ``states``
-    (controls as the env left them) on a fresh MjData of the env's model (wall clock)."""
+def bare_step_time(env, states: Sequence[np.ndarray]) -> tuple[Timing, int]:
+    """``(Timing, physics steps)`` of plain ``mujoco.mj_step(m, d, n_substeps)`` calls from
+    ``states`` (controls as the env left them) on a fresh MjData of the env's model."""
     m, _ = _model_data(env)
     d = mujoco.MjData(m)
     sig = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -104,7 +133,13 @@ def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
     for s in states:
         mujoco.mj_setState(m, d, s, sig)
         total += timed(mujoco.mj_step, m, d, n)[1]
-    return len(states) * n / total.wall_s
+    return total, len(states) * n
+
+
+def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
+    """``mj_step``/s (wall clock) of :func:`bare_step_time`."""
+    t, n = bare_step_time(env, states)
+    return n / t.wall_s
 
 
 def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repeats: int = 3,
@@ -114,8 +149,14 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
     reported. Physics steps per second = env steps/s x physics steps per env step.
 
     With ``bare``, each round also times bare ``mj_step`` from the states that round visited
-    (:func:`visited_states`, :func:`bare_step_rate`; median over rounds), and each env gets
-    ``"bare_steps_per_s"`` and ``"physics_share"`` (physics steps/s over bare ``mj_step``/s).
+    (:func:`visited_states`, :func:`bare_step_time`), and each env gets ``"bare_steps_per_s"``
+    (wall clock, median over rounds) and ``"physics_share"``: the process CPU time bare
+    ``mj_step`` needs for the round's physics steps over the CPU time of the round's env loop
+    (the share of the env's time that is physics; median over rounds, every round's in
+    ``"physics_shares"``), and ``"time_in_mj_step"``: the CPU time spent inside MuJoCo's stepping
+    functions during the round's env loop over the loop's CPU time (:class:`PhysicsClock`;
+    median, every round's in ``"times_in_mj_step"``). The first credits the env with bare
+    ``mj_step``'s hot-cache speed, so it is the lower of the two.
 
     Returns:
         ``{"steps", "repeats", "envs": {id: {"env_steps_per_s", "physics_steps_per_s",
@@ -140,14 +181,25 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                                       f"{str(e).splitlines()[0] if str(e) else ''})") from None
         rounds: dict[str, list[tuple[float, int]]] = {eid: [] for eid in env_ids}
         bares: dict[str, list[float]] = {eid: [] for eid in env_ids}
+        shares: dict[str, list[float]] = {eid: [] for eid in env_ids}
+        inside: dict[str, list[float]] = {eid: [] for eid in env_ids}
         for r in range(repeats):
             for eid, env in made.items():
-                wall, ended = random_env_steps(env, steps, seed + r)
-                rounds[eid].append((steps / wall, ended))
+                clock = PhysicsClock(*_stepping_modules(env)) if bare else None
+                t, ended = random_env_steps(env, steps, seed + r, physics=clock)
+                rounds[eid].append((steps / t.wall_s, ended))
                 if bare:
-                    bares[eid].append(bare_step_rate(env, visited_states(env, steps, seed + r)))
+                    inside[eid].append(clock.share(t.cpu_s))
+                    bt, bn = bare_step_time(env, visited_states(env, steps, seed + r))
+                    bares[eid].append(bn / bt.wall_s)
+                    # CPU seconds bare mj_step takes for this round's physics steps, over the
+                    # CPU seconds the env loop took (one process, the same clock)
+                    physics_cpu = bt.cpu_s / bn * steps * _substeps(env)
+                    shares[eid].append(physics_cpu / max(t.cpu_s, 1e-12))
                 if log is not None:
-                    log(f"round {r + 1}/{repeats} {eid}: {steps / wall:.0f} env steps/s")
+                    log(f"round {r + 1}/{repeats} {eid}: {steps / t.wall_s:.0f} env steps/s"
+                        + (f", in mj_step {inside[eid][-1]:.0%}, bare-equivalent "
+                           f"{shares[eid][-1]:.0%}" if bare else ""))
         out = {}
         for eid, env in made.items():
             rates = sorted(rounds[eid])
@@ -163,8 +215,10 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
                         "act_dim": int(np.prod(env.action_space.shape))}
             if bare:
                 b = statistics.median(bares[eid])
-                out[eid].update(bare_steps_per_s=b, physics_share=rate * sub / b,
-                                nv=int(_model_data(env)[0].nv))
+                out[eid].update(bare_steps_per_s=b, physics_share=statistics.median(shares[eid]),
+                                physics_shares=shares[eid],
+                                time_in_mj_step=statistics.median(inside[eid]),
+                                times_in_mj_step=inside[eid], nv=int(_model_data(env)[0].nv))
     finally:
         for env in made.values():
             env.close()
@@ -175,25 +229,89 @@ def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repea
     return {"steps": steps, "repeats": repeats, "envs": out, "reference": ref, "ratios": ratios}
 
 
-def table(res: dict) -> str:
+def vector_throughput(env_ids: Sequence[str] = (ENV_IDS[0], ENV_IDS[-1]), *,
+                      num_envs: int = 2, steps: int = 1000, repeats: int = 3, seed: int = 0,
+                      log=None) -> dict:
+    """Env steps per second of each env id run as one process and as a
+    ``gymnasium.vector.AsyncVectorEnv`` of ``num_envs`` worker processes with shared memory
+    (``gym.make_vec(id, num_envs, vectorization_mode="async", vector_kwargs={"shared_memory":
+    True})``; episodes reset inside the workers, Gymnasium's autoreset), with uniform random
+    actions drawn before the timed loop; the cases take turns in ``repeats`` rounds, the median
+    round is reported (wall clock: the workers' time is not this process's CPU time).
+
+    Returns:
+        ``{"num_envs", "steps", "repeats", "cores", "envs": {id: {"single_steps_per_s",
+        "vector_steps_per_s", "speedup"}}}``; a vector env's steps count every worker's.
+    """
+    import os
+
+    steps, repeats = positive_int(steps, "steps"), positive_int(repeats, "repeats")
+    num_envs = positive_int(num_envs, "num_envs")
+    try:
+        import gymnasium as gym
+    except Exception as e:
+        raise PerfUnavailable(f"gymnasium does not import ({type(e).__name__}: {e})") from None
+    singles, vectors = {}, {}
+    try:
+        for eid in env_ids:
+            try:
+                singles[eid] = gym.make(eid)
+                vectors[eid] = gym.make_vec(eid, num_envs=num_envs, vectorization_mode="async",
+                                            vector_kwargs={"shared_memory": True})
+            except Exception as e:
+                raise PerfUnavailable(f"gymnasium.make_vec({eid!r}) failed ({type(e).__name__}:"
+                                      f" {str(e).splitlines()[0] if str(e) else ''})") from None
+        rates: dict[str, dict[str, list[float]]] = {eid: {"single": [], "vector": []}
+                                                    for eid in env_ids}
+        for r in range(repeats):
+            for eid in env_ids:
+                t, _ = random_env_steps(singles[eid], steps, seed + r)
+                rates[eid]["single"].append(steps / t.wall_s)
+                venv = vectors[eid]
+                venv.action_space.seed(seed + r)
+                acts = [venv.action_space.sample() for _ in range(steps // num_envs)]
+                venv.reset(seed=seed + r)
+                t = timed(lambda venv=venv, acts=acts: [venv.step(a) for a in acts] and None)[1]
+                rates[eid]["vector"].append(len(acts) * num_envs / t.wall_s)
+                if log is not None:
+                    log(f"round {r + 1}/{repeats} {eid}: {rates[eid]['single'][-1]:.0f} env "
+                        f"steps/s in one process, {rates[eid]['vector'][-1]:.0f} with "
+                        f"{num_envs} workers")
+    finally:
+        for env in (*singles.values(), *vectors.values()):
+            env.close()
+    out = {}
+    for eid in env_ids:
+        one = statistics.median(rates[eid]["single"])
+        vec = statistics.median(rates[eid]["vector"])
+        out[eid] = {"single_steps_per_s": one, "vector_steps_per_s": vec, "speedup": vec / one,
+                    "single_rounds": rates[eid]["single"], "vector_rounds": rates[eid]["vector"]}
+    return {"num_envs": num_envs, "steps": steps, "repeats": repeats, "cores": os.cpu_count(),
+            "envs": out}
+
+
+def table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of docs/envs.md from ``env_throughput(..., bare=True)``."""
     import gymnasium as gym
 
     lines = [
-        f"Measured by `python -m mjchar.perf.envs` on {machine_line(Gymnasium=gym.__version__)}"
-        f"; random actions, {res['steps']} env steps per round, median of {res['repeats']} "
-        f"interleaved rounds, one process.",
+        f"Measured by `{command}` on {machine_line(Gymnasium=gym.__version__)}"
+        f"; random actions drawn before the timed loop, {res['steps']} env steps per round, "
+        f"median of {res['repeats']} interleaved rounds, one process; shares on the process CPU "
+        f"clock (spread: smallest and largest round).",
         "",
         "| env | obs / act | nv | physics dt | physics steps per env step | env steps/s | "
-        "physics steps/s | bare mj_step/s | physics share | episodes per round |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "physics steps/s | time in mj_step | spread | bare-equivalent share | "
+        "episodes per round |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for eid, r in res["envs"].items():
         lines.append(
             f"| {eid} | {r['obs_dim']} / {r['act_dim']} | {r['nv']} | "
             f"{r['timestep_s'] * 1000:.2f} ms | {r['physics_steps_per_env_step']} | "
             f"{r['env_steps_per_s']:.0f} | {r['physics_steps_per_s']:.0f} | "
-            f"{r['bare_steps_per_s']:.0f} | {r['physics_share']:.0%} | "
+            f"{r['time_in_mj_step']:.0%} | {min(r['times_in_mj_step']):.0%}-"
+            f"{max(r['times_in_mj_step']):.0%} | {r['physics_share']:.0%} | "
             f"{r['episodes_per_round']} |")
     first, ref = res["envs"][ENV_IDS[0]], res["envs"][res["reference"]]
     ratio = res["ratios"][ENV_IDS[0]]
@@ -202,6 +320,23 @@ def table(res: dict) -> str:
               f"{ratio['env_steps']:.2f}x the env steps per second (it simulates "
               f"{first['physics_steps_per_env_step']} steps per action against "
               f"{ref['physics_steps_per_env_step']})."]
+    return "\n".join(lines)
+
+
+def vector_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
+    """The Markdown table of :func:`vector_throughput`."""
+    n = res["num_envs"]
+    lines = [f"Measured by `{command}` on {machine_line()}; random actions, "
+             f"{res['steps']} env steps per case and round, median of {res['repeats']} "
+             f"interleaved rounds (wall clock; spread: slowest and fastest round).", "",
+             f"| env | env steps/s, one process | spread | env steps/s, AsyncVectorEnv x {n} "
+             f"(shared memory, {res['cores']} cores) | spread | speed-up |",
+             "|---|---|---|---|---|---|"]
+    for eid, r in res["envs"].items():
+        lines.append(f"| {eid} | {r['single_steps_per_s']:.0f} | "
+                     f"{min(r['single_rounds']):.0f}-{max(r['single_rounds']):.0f} | "
+                     f"{r['vector_steps_per_s']:.0f} | {min(r['vector_rounds']):.0f}-"
+                     f"{max(r['vector_rounds']):.0f} | {r['speedup']:.2f} |")
     return "\n".join(lines)
 
 
@@ -217,13 +352,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         res = env_throughput(steps=a.steps, repeats=a.repeats, bare=True,
                              log=lambda s: print(s, file=sys.stderr, flush=True))
+        vec = vector_throughput(steps=a.steps, repeats=a.repeats,
+                                log=lambda s: print(s, file=sys.stderr, flush=True))
     except PerfUnavailable as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    body = table(res)
-    print(body)
+    body, vbody = table(res), vector_table(vec)
+    print(body + "\n\n" + vbody)
     if a.write:
-        print(f"updated {write_block(DOCS / 'envs.md', 'envs', body)}", file=sys.stderr)
+        write_block(DOCS / "envs.md", "envs", body)
+        print(f"updated {write_block(DOCS / 'envs.md', 'envs-vector', vbody)}", file=sys.stderr)
     return 0
 
 

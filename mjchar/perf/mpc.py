@@ -103,7 +103,7 @@ class ErrorTrace:
 def run_mpc(ref, duration=None, options=None, **kw):
     """``(ScenarioResult, Timing, controller stats)`` of the MPC tracking ``ref``."""
     ch = Character()
-    c = make_mpc(ch, ref, progress=False, **(options or {}))
+    c = make_mpc(ch, ref, **(options or {}))
     r, t = timed(S.track, ch, c, ref, duration=duration, **kw)
     c.close()
     return r, t, c.stats
@@ -163,7 +163,7 @@ def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
         duration = push.end + SETTLE
         trace = ErrorTrace(ref)
         if controller == "mpc":
-            c = make_mpc(ch, ref, progress=False, **options)
+            c = make_mpc(ch, ref, **options)
         else:
             c = make_controller(controller, ch, ref)
         r = S.track(ch, c, ref, duration=duration, push=push, frame_callback=trace)
@@ -284,14 +284,16 @@ def _short(r: dict) -> dict:
 
 def nominal_steps(options: dict, timestep: float = 0.002) -> float:
     """Planning-model steps per simulated second the options take at most (every candidate
-    over the whole horizon; ``screen`` cuts the measured figure below this)."""
-    o = MpcOptions(**options)
+    over the whole horizon, or with ``near`` every candidate over the near part and the
+    ``keep`` fraction over the tail at ``tail_timestep``; candidates that diverge in the near
+    part cut the measured figure below this)."""
+    o = MpcOptions.from_kwargs(**options)
     plan_dt = plan_timestep(o, timestep)
-    full = o.samples * o.horizon / o.replan / plan_dt
-    if 0 < o.screen < o.horizon and o.keep < 1:
+    if 0 < o.near < o.horizon:
+        tail_dt = plan_dt if o.tail_timestep is None else float(o.tail_timestep)
         kept = min(o.samples, max(2, int(np.ceil(o.keep * o.samples))))
-        full = (o.samples * o.screen + kept * (o.horizon - o.screen)) / o.replan / plan_dt
-    return full
+        return (o.samples * o.near / plan_dt + kept * (o.horizon - o.near) / tail_dt) / o.replan
+    return o.samples * o.horizon / o.replan / plan_dt
 
 
 def determinism(options: dict) -> dict:
@@ -299,7 +301,7 @@ def determinism(options: dict) -> dict:
     rows = {}
     for key, o in (("a", {}), ("b", {}), ("threads1", {"threads": 1})):
         ch = Character()
-        c = make_mpc(ch, ref, progress=False, **{**options, **o})
+        c = make_mpc(ch, ref, **{**options, **o})
         q = []
         S.track(ch, c, ref, duration=1.0,
                 frame_callback=lambda ch, q=q: q.append(ch.state.qpos.copy()))

@@ -6,6 +6,9 @@ figure of the project is a ratio to.
 - :func:`step_cost`: a controller's cost per physics step (``act`` + ``Character.step``) over
   a bare ``mj_step`` on a pristine copy of the same model at the same time step, in interleaved
   blocks timed with the process CPU clock (load from other processes affects both alike).
+- :func:`run_cost`: what ``mjchar run`` costs per physics step (the controller, the Character's
+  step and the scenario loop's own bookkeeping: metrics, fall test) over bare ``mj_step`` from
+  the states that run visited, on the same model and time step, in the same process.
 """
 
 from __future__ import annotations
@@ -21,10 +24,10 @@ import numpy as np
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.errors import SimulationDiverged
 
-from .errors import positive_int
-from .timing import Timing, rounds, timed
+from .errors import PerfError, positive_int
+from .timing import Laps, Timing, rounds, timed
 
-__all__ = ["StepCost", "hold_ctrl", "raw_step_rate", "step_cost"]
+__all__ = ["RunCost", "StepCost", "hold_ctrl", "raw_step_rate", "run_cost", "step_cost"]
 
 
 def hold_ctrl(m: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
@@ -174,3 +177,116 @@ def step_cost(character: Character, make_controller: Callable[[], object], *,
         raw_us.append(raw_s / done * 1e6)
     return StepCost(statistics.median(ratios), statistics.median(ctl_us),
                     statistics.median(raw_us), dt, steps, repeats, resets)
+
+
+@dataclass
+class RunCost:
+    """What a run costs per physics step relative to bare ``mj_step`` (:func:`run_cost`).
+
+    Attributes:
+        controller, scenario: the run.
+        ratio: median over repeats of (run CPU s per physics step) / (bare ``mj_step`` CPU s
+            per physics step); ratios: every repeat's (their spread is the noise).
+        run_us: median CPU us per physics step of the run's loop.
+        bare_us: median CPU us per physics step of bare ``mj_step`` from the visited states.
+        timestep_s, control_dt_s: physics and control steps of the run (s).
+        steps: physics steps of one run; fell: whether the run ended in a fall.
+    """
+
+    controller: str
+    scenario: str
+    ratio: float
+    ratios: list[float]
+    run_us: float
+    bare_us: float
+    timestep_s: float
+    control_dt_s: float
+    steps: int
+    fell: bool
+
+    def to_dict(self) -> dict:
+        return {"controller": self.controller, "scenario": self.scenario, "ratio": self.ratio,
+                "ratios": list(self.ratios), "run_us": self.run_us, "bare_us": self.bare_us,
+                "timestep_s": self.timestep_s, "control_dt_s": self.control_dt_s,
+                "steps": self.steps, "fell": self.fell}
+
+
+def run_cost(spec, *, repeats: int = 3, segment: int = 20) -> RunCost:
+    """What a run costs per physics step over bare ``mj_step``, in one process.
+
+    The run is built and executed as ``mjchar run`` does (the run builder,
+    :class:`~mjchar.controllers.core.runs.RunSpec`), with a frame callback that reads the
+    process CPU clock after the reset and after every control step
+    (:class:`~mjchar.perf.timing.Laps`): the time between the first and the last read is the
+    scenario loop, the controller's ``act``, ``Character.step`` and the loop's bookkeeping
+    (metrics recording, fall test) included, the clock reads excluded. The yardstick is bare
+    ``mj_step`` on a copy of the same model (as the controller configured it: the same
+    actuation and time step) from the states the run visited: one more run of the same spec
+    (deterministic) saves its full state (``mjSTATE_INTEGRATION``: controls and applied forces
+    included) every ``segment`` physics steps, and ``mj_step(m, d, segment)`` from each of them
+    is timed. Timed runs and bare loops take turns, ``repeats`` times; both on the process CPU
+    clock, so that load from other processes affects both alike.
+
+    Args:
+        spec: a :class:`~mjchar.controllers.core.runs.RunSpec` whose scenario returns one
+            :class:`~mjchar.controllers.core.metrics.Result` (not a protocol of many runs).
+        repeats: timed runs (and bare loops); the median ratio is reported.
+        segment: physics steps between saved states.
+    """
+    from mjchar.controllers.core.metrics import Result
+    from mjchar.controllers.core.runs import execute
+
+    repeats, segment = positive_int(repeats, "repeats"), positive_int(segment, "segment")
+    if spec.scenario_spec.protocol:
+        raise PerfError(f"{spec.controller}/{spec.scenario_spec.name}: run_cost needs a scenario "
+                        f"with one Result, not a protocol of many runs")
+    sig = mujoco.mjtState.mjSTATE_INTEGRATION
+    saved: list[tuple[np.ndarray, float]] = []
+    built = spec.build()
+    ch = built.character
+    dt = ch.timestep
+    every = [0.0]
+
+    def save(c: Character) -> None:
+        if c.data.time >= every[0] - 1e-9:
+            s = np.empty(mujoco.mj_stateSize(c.model, sig))
+            mujoco.mj_getState(c.model, c.data, s, sig)
+            saved.append((s, float(c.data.time)))
+            every[0] = float(c.data.time) + segment * dt
+
+    built.frame_callback = save
+    ref = execute(built)
+    if not isinstance(ref, Result):
+        raise PerfError(f"{spec.controller}/{spec.scenario}: run_cost needs a scenario with one "
+                        f"Result, not a protocol")
+    end = ch.data.time
+    model = copy.deepcopy(ch.model)  # as the controller configured it
+    data = mujoco.MjData(model)
+    lengths = [max(1, int(round((t1 - t0) / dt)))
+               for (_, t0), t1 in zip(saved, [t for _, t in saved[1:]] + [end], strict=True)]
+
+    def bare() -> Timing:
+        total = Timing()
+        for (s, _), n in zip(saved, lengths, strict=True):
+            mujoco.mj_setState(model, data, s, sig)
+            total += timed(mujoco.mj_step, model, data, n)[1]
+        return total
+
+    bare_steps = sum(lengths)
+    ratios, run_us, bare_us = [], [], []
+    for _ in range(repeats):
+        run = spec.build()
+        laps = Laps()
+        run.frame_callback = laps
+        res = execute(run)
+        if res.n_steps != ref.n_steps:
+            raise PerfError(f"{spec.controller}: runs of the same spec took {ref.n_steps} and "
+                            f"{res.n_steps} steps (not deterministic)")
+        per_run = laps.span / max(res.n_steps, 1)
+        per_bare = max(bare().cpu_s, 1e-12) / bare_steps
+        ratios.append(per_run / per_bare)
+        run_us.append(per_run * 1e6)
+        bare_us.append(per_bare * 1e6)
+    return RunCost(spec.controller, ref.scenario, statistics.median(ratios), ratios,
+                   statistics.median(run_us), statistics.median(bare_us), dt,
+                   float(ref.control_dt_s), int(ref.n_steps), bool(ref.fell))

@@ -27,7 +27,7 @@ from typing import Any
 
 from .errors import PerfError, positive_int
 
-__all__ = ["CLOCKS", "Timing", "Runs", "timed", "rounds", "load_average"]
+__all__ = ["CLOCKS", "Timing", "Runs", "Laps", "PhysicsClock", "timed", "rounds", "load_average"]
 
 #: the clocks a :class:`Timing` holds (attribute names)
 CLOCKS = ("wall_s", "cpu_s", "thread_s")
@@ -152,6 +152,133 @@ def rounds(cases: Mapping[str, Callable[[], Any]], *, repeats: int = 1,
         if gc_off and was_enabled:
             gc.enable()
     return out
+
+
+class Laps:
+    """A callback that reads the process CPU clock (``time.process_time``) at every call, for
+    timing a loop from inside (a run's ``frame_callback``: called after the reset and after
+    every control step).
+
+    :attr:`span` is the CPU seconds from the first call to the last, less the callbacks' own
+    cost (:meth:`overhead`, measured once per process): what the loop between them cost.
+    """
+
+    _cost: float | None = None
+
+    def __init__(self) -> None:
+        self.first: float | None = None
+        self.last: float | None = None
+        self.calls = 0
+
+    def __call__(self, *_args) -> None:
+        t = time.process_time()
+        if self.first is None:
+            self.first = t
+        self.last = t
+        self.calls += 1
+
+    @classmethod
+    def overhead(cls, calls: int = 20000) -> float:
+        """CPU seconds one call adds to the loop it times (the smallest of three measurements
+        of ``calls`` calls in a row)."""
+        if cls._cost is None:
+            best = math.inf
+            for _ in range(3):
+                laps = cls()
+                for _ in range(calls):
+                    laps()
+                best = min(best, (laps.last - laps.first) / (calls - 1))
+            cls._cost = best
+        return cls._cost
+
+    @property
+    def span(self) -> float:
+        """CPU seconds between the first and the last call, less the calls' own cost."""
+        if self.first is None or self.calls < 2:
+            raise PerfError("Laps was called fewer than twice")
+        return max(self.last - self.first - (self.calls - 1) * self.overhead(), 0.0)
+
+
+class PhysicsClock:
+    """Process CPU seconds spent inside MuJoCo's stepping functions (``mj_step``, ``mj_step1``,
+    ``mj_step2``) called through the name ``mujoco`` of some modules, while active.
+
+    A context manager: on entry, each module's global ``mujoco`` is replaced by a stand-in that
+    forwards every attribute to the real module and times the three stepping functions (two
+    clock reads around each call); on exit the modules get the real one back. For measurements
+    only. The timing's own cost lands outside the timed intervals: :meth:`overhead` measures it
+    per call, and :meth:`share` takes it out of the loop's time.
+    """
+
+    STEPPING = ("mj_step", "mj_step1", "mj_step2")
+    _cost: float | None = None
+
+    def __init__(self, *modules):
+        self.modules = modules
+        self.cpu_s = 0.0
+        self.calls = 0
+        self._saved: list = []
+
+    @classmethod
+    def overhead(cls, calls: int = 20000) -> float:
+        """CPU seconds the timing adds per stepping call outside the timed interval (the
+        smallest of three measurements of ``calls`` timed calls of a function that does
+        nothing, less the time inside them)."""
+        if cls._cost is None:
+            import types
+
+            best = math.inf
+            for _ in range(3):
+                fake = types.SimpleNamespace(**{n: (lambda *a, **k: None) for n in cls.STEPPING})
+                holder = types.SimpleNamespace(mujoco=fake)
+                with cls(holder) as clock:
+                    step = holder.mujoco.mj_step
+                    t0 = time.process_time()
+                    for _ in range(calls):
+                        step()
+                    total = time.process_time() - t0
+                best = min(best, max(total - clock.cpu_s, 0.0) / calls)
+            cls._cost = best
+        return cls._cost
+
+    def share(self, loop_cpu_s: float) -> float:
+        """The fraction of a loop's CPU seconds ``loop_cpu_s`` (timed around the loop while this
+        clock was active) spent inside the stepping functions, the timing's own cost taken out
+        of the loop's time."""
+        return self.cpu_s / max(loop_cpu_s - self.calls * self.overhead(), 1e-12)
+
+    def __enter__(self) -> PhysicsClock:
+        clock = self
+
+        class _Timed:
+            def __init__(self, real):
+                self._real = real
+                for name in PhysicsClock.STEPPING:
+                    setattr(self, name, self._timer(getattr(real, name)))
+
+            @staticmethod
+            def _timer(fn):
+                def call(*args, **kwargs):
+                    t0 = time.process_time()
+                    try:
+                        return fn(*args, **kwargs)
+                    finally:
+                        clock.cpu_s += time.process_time() - t0
+                        clock.calls += 1
+                return call
+
+            def __getattr__(self, name):
+                return getattr(self._real, name)
+
+        self._saved = [(m, m.mujoco) for m in self.modules]
+        for m, real in self._saved:
+            m.mujoco = _Timed(real)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for m, real in self._saved:
+            m.mujoco = real
+        self._saved = []
 
 
 def load_average() -> float | None:

@@ -11,6 +11,7 @@ root fixed in the world with the ``root_weld`` equality.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import mujoco
@@ -22,6 +23,30 @@ from .model import as_vector
 
 #: actuation modes of :meth:`Actuation.set_mode`
 ACTUATION_MODES = ("native", "torque")
+
+
+def _selector(idx: np.ndarray) -> slice | np.ndarray:
+    """``idx`` (int array) as a slice when it is a contiguous ascending run, else itself."""
+    idx = np.asarray(idx, dtype=int)
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
+
+
+def _l1(x: np.ndarray) -> float:
+    """Sum of the absolute values of the 1-D array ``x`` (MuJoCo's ``mju_L1`` when ``x`` is a
+    writeable contiguous float64 vector, numpy otherwise)."""
+    try:
+        return mujoco.mju_L1(x)
+    except TypeError:
+        return float(np.abs(x).sum())
+
+
+def _all_finite(x: np.ndarray) -> bool:
+    """Whether every element of ``x`` is finite: a finite sum of absolute values says so (a NaN
+    or an infinity makes it non-finite); only a sum that overflows, or a bad element, takes
+    numpy's element-wise test."""
+    return math.isfinite(_l1(x)) or bool(np.isfinite(x).all())
 
 
 class Actuation:
@@ -42,6 +67,12 @@ class Actuation:
         actuated[actuator_dof] = True
         self._unactuated = np.flatnonzero(~actuated)
         self._root_dofs = root_dofs
+        # the same indices as slices where they are contiguous and ascending (the converter's
+        # layout: the root's 6 dofs first, one actuator per dof after them, in dof order): a
+        # slice reads a view instead of gathering a copy
+        self._act_sel = _selector(actuator_dof)
+        self._unact_sel = _selector(self._unactuated)
+        self._root_sel = _selector(root_dofs)
         self._root_body = int(root_body)
         self._refresh = refresh
         self._weld = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "root_weld")
@@ -56,6 +87,7 @@ class Actuation:
         self._native_target = np.zeros(self._nu)  # native set-points before any feed-forward
         self._table = self.native_gains()
         self._root_wrench = np.zeros(6)
+        self._wrench_applied = False
 
     # -- modes and gains ----------------------------------------------------------------------
     @property
@@ -151,7 +183,9 @@ class Actuation:
         """
         d = self._data
         d.qfrc_applied[:] = 0
-        self._root_wrench[:] = 0
+        if self._wrench_applied:
+            self._root_wrench[:] = 0
+            self._wrench_applied = False
         if action is None:
             d.ctrl[:] = 0 if self._mode == "torque" else self._native_target
             return
@@ -160,29 +194,33 @@ class Actuation:
             if tau.shape != (self._nv,):
                 raise CharacterError(f"action torque must have shape ({self._nv},), got "
                                      f"{tau.shape}")
-            if not np.isfinite(tau).all():
+            if not _all_finite(tau):
                 raise SimulationDiverged("the controller produced a non-finite torque", d.time)
-            d.qfrc_applied[self._unactuated] = tau[self._unactuated]
-            rw = tau[self._root_dofs]
-            if rw.any():
+            d.qfrc_applied[self._unact_sel] = tau[self._unact_sel]
+            rw = tau[self._root_sel]
+            if _l1(rw) != 0.0:  # (finite here: = rw.any())
                 R = d.xmat[self._root_body].reshape(3, 3)
                 self._root_wrench[:3] = rw[:3]
                 self._root_wrench[3:] = R @ rw[3:]
+                self._wrench_applied = True
+        target = action.target
         if self._mode == "torque":
-            if action.target is not None:
+            if target is not None:
                 raise CharacterError("PD targets given while the actuators are in torque mode")
-            d.ctrl[:] = 0 if tau is None else tau[self._actuator_dof]
+            d.ctrl[:] = 0 if tau is None else tau[self._act_sel]
             return
-        if action.target is not None:
-            if action.target.shape != (self._nu,):
+        if target is not None:
+            if target.shape != (self._nu,):
                 raise CharacterError(f"action target must have shape ({self._nu},), got "
-                                     f"{action.target.shape}")
-            if not np.isfinite(action.target).all():
+                                     f"{target.shape}")
+            if not _all_finite(target):
                 raise SimulationDiverged("the controller produced a non-finite target", d.time)
-            self._native_target[:] = action.target
+            self._native_target[:] = target
         d.ctrl[:] = self._native_target
-        if tau is not None and tau[self._actuator_dof].any():
-            self._add_feedforward(tau[self._actuator_dof])
+        if tau is not None:
+            ff = tau[self._act_sel]
+            if _l1(ff) != 0.0:  # (finite here: = ff.any())
+                self._add_feedforward(np.array(ff))
 
     def _add_feedforward(self, ff: np.ndarray) -> None:
         """Native mode: add the ``(nu,)`` feed-forward torques ``ff`` (N m) through the actuators
@@ -204,10 +242,16 @@ class Actuation:
         outside (the "hand of god"); zeros for controllers that need none."""
         return self._root_wrench.copy()
 
+    @property
+    def root_wrench_applied(self) -> bool:
+        """Whether the last action applied a root wrench (:attr:`root_wrench` is not zero)."""
+        return self._wrench_applied
+
     def reset(self) -> None:
         """Forget the last action (set-points and root wrench); ``character.reset`` calls it."""
         self._native_target[:] = 0
         self._root_wrench[:] = 0
+        self._wrench_applied = False
 
     def hold_controls(self) -> None:
         """Take the current controls as the native set-points (after a restored state)."""

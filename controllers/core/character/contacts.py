@@ -61,6 +61,18 @@ class Contacts:
         self._foot_side = foot_side
         self._foot_sites = foot_sites
         self._force = np.zeros(6)
+        # per (geom, geom) pair of a contact: the character geom touching the floor (-1: not a
+        # floor contact), and from it, as nested lists (a contact list is short: Python reads
+        # it faster than numpy gathers it), whether that is a body other than a foot (a fall,
+        # non_foot()) and which foot it is (feet())
+        ng = int(model.ngeom)
+        other = np.full((ng, ng), -1)
+        other[self.floor_geom, :] = np.arange(ng)
+        rows = np.flatnonzero(np.arange(ng) != self.floor_geom)
+        other[rows, self.floor_geom] = rows
+        body = self._geom_body[np.maximum(other, 0)]
+        self._pair_non_foot = ((other >= 0) & ~self._is_foot[body]).tolist()
+        self._pair_side = np.where(other >= 0, self._geom_side[np.maximum(other, 0)], -1).tolist()
 
     # -- contacts -----------------------------------------------------------------------------
     def _floor_geoms(self) -> tuple[np.ndarray, np.ndarray]:
@@ -94,9 +106,19 @@ class Contacts:
 
     def feet(self) -> tuple[bool, bool]:
         """``(left, right)``: whether each foot (ankle or toe body) touches the floor."""
-        geoms, _ = self._floor_geoms()
-        sides = self._geom_side[geoms].tolist()
+        if self._data.ncon == 0:
+            return False, False
+        side = self._pair_side
+        sides = [side[a][b] for a, b in self._data.contact.geom.tolist()]
         return 0 in sides, 1 in sides
+
+    def any_non_foot(self) -> bool:
+        """Whether a character body other than the feet touches the floor (a fall; the names
+        are :meth:`non_foot`'s)."""
+        if self._data.ncon == 0:
+            return False
+        bad = self._pair_non_foot
+        return any(bad[a][b] for a, b in self._data.contact.geom.tolist())
 
     def non_foot(self) -> list[str]:
         """Names of character bodies other than the feet that touch the floor (a fall)."""

@@ -33,7 +33,9 @@ class Dynamics:
         self._jac = np.zeros((3, self._nv))
         self._M = np.zeros((self._nv, self._nv))
         self._scratch = mujoco.MjData(model)
-        self._M_diag = model.M_rowadr + model.M_rownnz - 1  # diagonal of the CSR mass matrix
+        # the diagonal of the CSR mass matrix (as intp: int32 indices are converted per use)
+        self._M_diag = (model.M_rowadr + model.M_rownnz - 1).astype(np.intp)
+        self._M_add = np.full(len(self._data.M), -0.0)
 
     def _body(self, body: str | int) -> int:
         return int(body) if isinstance(body, (int, np.integer)) else self._body_id(body)
@@ -61,9 +63,14 @@ class Dynamics:
         scratch copy (``mj_factorM``/``mj_solveM``), a few microseconds for a humanoid.
         """
         sd = self._scratch
-        sd.M[:] = self._data.M
-        if diagonal is not None:
-            sd.M[self._M_diag] += diagonal
+        if diagonal is None:
+            sd.M[:] = self._data.M
+        else:
+            # M + diag in one pass: the diagonal's entries where they go, -0.0 elsewhere
+            # (x + -0.0 is x for every x, signed zeros included)
+            add = self._M_add
+            add[self._M_diag] = diagonal
+            np.add(self._data.M, add, out=sd.M)
         mujoco.mj_factorM(self._model, sd)
         x = np.empty((1, self._nv))
         mujoco.mj_solveM(self._model, sd, x, np.ascontiguousarray(rhs, dtype=float).reshape(1, -1))
@@ -93,11 +100,13 @@ class Dynamics:
         mujoco.mj_jacSubtreeCom(self._model, self._data, out, b)
         return out
 
-    def point_jacobian(self, body: str | int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def point_jacobian(self, body: str | int, point: np.ndarray,
+                       out: tuple[np.ndarray, np.ndarray] | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """Jacobians ``(jacp, jacr)``, each ``(3, nv)``, of a world ``point`` (m) fixed to
-        ``body`` (name or id)."""
-        jacp = np.zeros((3, self._nv))
-        jacr = np.zeros((3, self._nv))
+        ``body`` (name or id). Written into ``out`` (two ``(3, nv)`` arrays) when given (no
+        allocation per call), else into new arrays."""
+        jacp, jacr = (np.zeros((3, self._nv)), np.zeros((3, self._nv))) if out is None else out
         mujoco.mj_jac(self._model, self._data, jacp, jacr, np.asarray(point, dtype=float),
                       self._body(body))
         return jacp, jacr

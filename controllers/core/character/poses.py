@@ -1,8 +1,9 @@
 """``character.poses``: kinematic queries on a pose, computed on a scratch ``MjData`` so the
 simulation state is untouched: the rest and standing poses, the leg length, the lowest point of
 the character's geoms (above a level or a tilted floor), a pose put on the floor, a body's world
-pose, the world frames of every body, joint and site (:class:`Kinematics`), and damped
-least-squares inverse kinematics (``mj_jacBody``, ``mj_integratePos``).
+pose, the world frames of every body, joint and site (:class:`Kinematics`), the offsets of bodies
+and sites in their parents' frames (model constants), and damped least-squares inverse
+kinematics (``mj_jacBody``, ``mj_integratePos``).
 
 :class:`Poses` is the part a controller uses (names resolved, shapes checked); the functions
 below it take a model and ids.
@@ -24,29 +25,54 @@ _GEOM_CAPSULE = int(mujoco.mjtGeom.mjGEOM_CAPSULE)
 _GEOM_BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
 
 
-def lowest_point(model: mujoco.MjModel, qpos: np.ndarray, bodies: np.ndarray) -> float:
+class _GeomsByShape:
+    """The geoms of some bodies split by shape (what :func:`lowest_point` needs, computed once
+    per model and bodies)."""
+
+    def __init__(self, model: mujoco.MjModel, bodies: np.ndarray):
+        geoms = np.flatnonzero(np.isin(model.geom_bodyid, bodies))
+        t = model.geom_type[geoms]
+        self.boxes = geoms[t == _GEOM_BOX]
+        self.capsules = geoms[t == _GEOM_CAPSULE]
+        self.spheres = geoms[t == _GEOM_SPHERE]
+        self.others = geoms[~np.isin(t, (_GEOM_BOX, _GEOM_CAPSULE, _GEOM_SPHERE))]
+        self.size = len(geoms)
+
+
+def _lowest(m: mujoco.MjModel, sd: mujoco.MjData, shapes: _GeomsByShape) -> float:
+    """Lowest world z of the geoms ``shapes`` of the kinematics in ``sd`` (see
+    :func:`lowest_point`; capsules, spheres and other shapes element-wise over the geoms, boxes
+    one product each)."""
+    if shapes.size == 0:
+        raise ValueError("lowest_point of no geoms")
+    xpos, xmat, size = sd.geom_xpos, sd.geom_xmat, m.geom_size
+    low = math.inf
+    for g in shapes.boxes:
+        low = min(low, float(xpos[g, 2] - np.abs(xmat[g, 6:9]) @ size[g]))
+    g = shapes.capsules
+    if len(g):
+        low = min(low, float((xpos[g, 2] - np.abs(xmat[g, 8]) * size[g, 1] - size[g, 0]).min()))
+    g = shapes.spheres
+    if len(g):
+        low = min(low, float((xpos[g, 2] - size[g, 0]).min()))
+    g = shapes.others
+    if len(g):
+        low = min(low, float((xpos[g, 2] - m.geom_rbound[g]).min()))
+    return low
+
+
+def lowest_point(model: mujoco.MjModel, qpos: np.ndarray, bodies: np.ndarray, *,
+                 scratch: mujoco.MjData | None = None,
+                 shapes: _GeomsByShape | None = None) -> float:
     """Lowest world z (m) of the geoms of ``bodies`` (ids) at pose ``qpos`` ``(nq,)``: boxes,
-    capsules and spheres exactly, other shapes by their bounding sphere."""
+    capsules and spheres exactly, other shapes by their bounding sphere. ``scratch``: an
+    ``MjData`` of ``model`` to compute the kinematics in (default: a new one); ``shapes``: the
+    geoms of ``bodies`` sorted by shape, when already known."""
     m = model
-    scratch = mujoco.MjData(m)
-    scratch.qpos[:] = qpos
-    mujoco.mj_kinematics(m, scratch)
-    geoms = np.flatnonzero(np.isin(m.geom_bodyid, bodies))
-    z = []
-    for g in geoms:
-        c = scratch.geom_xpos[g]
-        R = scratch.geom_xmat[g].reshape(3, 3)
-        s = m.geom_size[g]
-        t = m.geom_type[g]
-        if t == _GEOM_BOX:
-            z.append(c[2] - np.abs(R[2]) @ s)
-        elif t == _GEOM_CAPSULE:
-            z.append(c[2] - abs(R[2, 2]) * s[1] - s[0])
-        elif t == _GEOM_SPHERE:
-            z.append(c[2] - s[0])
-        else:
-            z.append(c[2] - m.geom_rbound[g])
-    return float(min(z))
+    sd = mujoco.MjData(m) if scratch is None else scratch
+    sd.qpos[:] = qpos
+    mujoco.mj_kinematics(m, sd)
+    return _lowest(m, sd, _GeomsByShape(m, bodies) if shapes is None else shapes)
 
 
 def body_pose(model: mujoco.MjModel, qpos: np.ndarray, body: int) -> tuple[np.ndarray, np.ndarray]:
@@ -170,6 +196,16 @@ class Poses:
         self._bodies = bodies
         self._body_id = body_id
         self._role = role
+        self._scratch: mujoco.MjData | None = None  # made at the first query that needs one
+        self._shapes = _GeomsByShape(model, bodies)
+
+    def _scratch_data(self) -> mujoco.MjData:
+        """The scratch ``MjData`` the pose queries compute kinematics in (one per character:
+        ``mj_kinematics`` reads only ``qpos`` and the model, so what it held before is
+        irrelevant)."""
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(self._model)
+        return self._scratch
 
     def _qpos(self, qpos) -> np.ndarray:
         return as_vector(qpos, self._nq, "qpos")
@@ -184,6 +220,19 @@ class Poses:
     def standing(self) -> np.ndarray:
         """``(nq,)`` the rest pose with its lowest point on the floor z = 0 (:meth:`on_floor`)."""
         return self.on_floor(self._model.qpos0)
+
+    def body_offset(self, body: str | int) -> np.ndarray:
+        """``(3,)`` position (m) of ``body``'s origin (name or id) in its parent body's frame:
+        the model's constant ``body_pos``, the same in every pose (a bone: the offset of a BVH
+        joint from its parent; a copy)."""
+        return self._model.body_pos[self._body(body)].copy()
+
+    def site_offset(self, site: int) -> tuple[int, np.ndarray]:
+        """The body (id) that site id ``site`` is attached to, and the site's position ``(3,)``
+        (m) in that body's frame: the model's constants ``site_bodyid``, ``site_pos`` (a
+        copy)."""
+        m = self._model
+        return int(m.site_bodyid[site]), m.site_pos[site].copy()
 
     def dof_limits(self, dofs: np.ndarray) -> np.ndarray:
         """``(k, 2)`` lower and upper limits (rad, or m on slides) of the joints of hinge or slide
@@ -203,7 +252,8 @@ class Poses:
     def lowest_point(self, qpos: np.ndarray) -> float:
         """Lowest world z (m) of the character's geoms at pose ``qpos`` ``(nq,)`` (boxes,
         capsules, spheres exactly; other shapes by their bounding sphere)."""
-        return lowest_point(self._model, self._qpos(qpos), self._bodies)
+        return lowest_point(self._model, self._qpos(qpos), self._bodies,
+                            scratch=self._scratch_data(), shapes=self._shapes)
 
     def clearance(self, qpos: np.ndarray, normal: np.ndarray, origin: np.ndarray) -> float:
         """Lowest signed distance (m) of the character's geoms at pose ``qpos`` ``(nq,)`` from

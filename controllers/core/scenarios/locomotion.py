@@ -2,7 +2,8 @@
 
 - ``track``: start on the reference's first frame and follow it (tracking errors). A controller
   that plays a saved trajectory (it has ``play``) brings its own start state, control step and
-  reference, and is played instead.
+  reference, and is played instead. A clip that does not loop, like a saved trajectory, ends:
+  a run past its end is refused (:func:`clip_duration`); ``--loop`` repeats a clip.
 - ``walk``: locomotion, reported as distance and speed. Trackers walk by tracking the clip (as
   ``track``); walkers walk from the standing pose at rest, or, with a ``seed``, from their own
   start state (``start_state``) with a small seeded perturbation. ``steady_window`` adds the
@@ -21,6 +22,7 @@ import math
 import numpy as np
 
 from ..character import Character
+from ..limits import MAX_DURATION_S
 from ..metrics import Result
 from .options import DISTANCE, DURATION, PUSH_WHILE_MOVING, SEED, SLOPE, STEADY_WINDOW
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
@@ -33,6 +35,28 @@ WALK_DURATION = 10.0
 SLOPE_DEGREES, SLOPE_DISTANCE = 5.0, 20.0
 
 
+def clip_duration(reference, duration: float | None, what: str = "clip") -> float:
+    """How long a run following ``reference`` lasts: ``duration`` s, or the clip's length when
+    ``None``. A clip that does not loop (``reference.cyclic`` false) ends with its last frame,
+    so a longer run is refused in one line rather than tracking a frozen pose until it falls;
+    and a run is at most :data:`~mjchar.controllers.core.limits.MAX_DURATION_S` long, however
+    long the clip."""
+    length = float(reference.duration)
+    if duration is None:
+        if length > MAX_DURATION_S:
+            raise ScenarioError(f"the {what} lasts {length:g} s, longer than a run may "
+                                f"({MAX_DURATION_S:g} s): give --duration")
+        if not length > 0:
+            raise ScenarioError(f"the {what} is a single frame (0 s long): a run follows at "
+                                f"least 2 frames")
+        return length
+    if not getattr(reference, "cyclic", False) and duration > length + 1e-6:
+        loop = " or --loop to repeat the clip" if what == "clip" else ""
+        raise ScenarioError(f"--duration {duration:g} is past the end of the {length:.2f} s "
+                            f"{what}; give --duration up to {length:.2f}{loop}")
+    return duration
+
+
 def track(character: Character, controller, reference, *, duration: float | None = None,
           scenario: str = "track", push: PushEvent | None = None,
           start: tuple[np.ndarray, np.ndarray] | None = None, **kw) -> Result:
@@ -42,7 +66,7 @@ def track(character: Character, controller, reference, *, duration: float | None
     reference. ``push``: one push while tracking (:class:`PushEvent`)."""
     if reference is None:
         raise ScenarioError(f"the {scenario} scenario needs a reference motion")
-    duration = reference.duration if duration is None else duration
+    duration = clip_duration(reference, duration)
     check_push(push, duration)
     q, v = (reference.qpos(0.0), reference.qvel(0.0)) if start is None else start
     r = simulate(character, controller, duration=duration, scenario=scenario, qpos=q, qvel=v,
@@ -172,7 +196,8 @@ def _track(run, *, duration=None, force=None, direction=None, push_time=None,
     play = getattr(run.controller, "play", None)
     if play is not None:  # a saved trajectory: its own start, control step and reference
         return play(run.character, duration=duration, push=push,
-                    frame_callback=run.frame_callback)
+                    frame_callback=run.frame_callback,
+                    progress=run.simulate_options()["progress"])
     return track(run.character, run.controller, run.reference, duration=duration, push=push,
                  **run.simulate_options())
 

@@ -7,11 +7,13 @@ range-checks the value by its kind. A new scenario may declare its own :class:`O
 
 from __future__ import annotations
 
+from ..limits import MAX_DURATION_S
 from .registry import Option
 
 DURATION = Option("duration", "--duration", "seconds",
-                  "simulated seconds (default: per scenario; the clip for track/walk)",
-                  high=3600.0, metavar="T")
+                  "simulated seconds (default: per scenario; the clip for track/walk; a clip "
+                  "that does not loop or a saved trajectory: at most its length)",
+                  high=MAX_DURATION_S, metavar="T")
 FORCE = Option("force", "--push", "newtons",
                "push force in N (push: required; random-push: default 10; track/walk and "
                "replays: one push while moving, at --push-time)", metavar="N")
@@ -30,7 +32,7 @@ SEED = Option("seed", "--seed", "seed",
               "pose at rest)", metavar="N")
 STEADY_WINDOW = Option("steady_window", "--steady-window", "seconds",
                        "walk: also report the steady speed over the last S seconds",
-                       metavar="S")
+                       high=MAX_DURATION_S, metavar="S")
 MAX_FORCE = Option("max_force", "--max-force", "newtons",
                    "push-search: the force grid's cap in N (default 500)", metavar="N")
 TOLERANCE = Option("tolerance", "--tolerance", "newtons",
@@ -45,8 +47,8 @@ SLOPE = Option("degrees", "--slope", "number",
                "slopes: the slope in degrees, positive uphill (default 5)", high=44.0,
                metavar="DEG")
 DISTANCE = Option("distance", "--distance", "metres",
-                  "slopes: the distance to cover along the slope, m (default 20)",
-                  metavar="M")
+                  "slopes: the distance to cover along the slope, m (default 20, at most 1000)",
+                  high=1000.0, metavar="M")
 
 #: the push while tracking or walking (``track``, ``walk``): its details need ``force``
 PUSH_WHILE_MOVING = (FORCE, DIRECTION, PUSH_TIME, PUSH_DURATION)

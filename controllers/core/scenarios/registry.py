@@ -237,7 +237,9 @@ class Run:
             control step (video, BVH export, probes).
         control_dt: seconds between control steps (``None``: every physics step).
         seed: the run's seed (scenarios that randomise take it as their ``seed`` option).
-        progress: called with a line of progress by long protocols (``None``: quiet).
+        progress: a :class:`~mjchar.controllers.core.progress.Progress`: the simulation shows
+            its simulated time on it (a bar on a terminal) and long protocols write their
+            lines through it (any callable of one line will do for those); ``None``: quiet.
     """
 
     character: Any
@@ -251,8 +253,10 @@ class Run:
 
     def simulate_options(self) -> dict:
         """The keywords of :func:`~mjchar.controllers.core.scenarios.shared.simulate` this
-        run sets (frame callback, control step)."""
-        return {"frame_callback": self.frame_callback, "control_dt": self.control_dt}
+        run sets (frame callback, control step, progress bar)."""
+        bar = self.progress if hasattr(self.progress, "start") else None
+        return {"frame_callback": self.frame_callback, "control_dt": self.control_dt,
+                "progress": bar}
 
 
 def run_scenario(name: str, character, controller, *, reference=None, frame_callback=None,

@@ -22,7 +22,9 @@ import numpy as np
 
 from ..character import Character
 from ..errors import SimulationDiverged
+from ..limits import duration_problem
 from ..metrics import STEP_DISTANCE, FallDetector, Recorder, Result
+from ..progress import Progress
 from ..recording import chain_callbacks
 from .registry import ScenarioError
 
@@ -49,7 +51,8 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
              qpos: np.ndarray, qvel: np.ndarray | None = None, reference=None,
              control_dt: float | None = None, events: Callable[[Character], None] | None = None,
              seed: int | None = None, stop_on_fall: bool = True,
-             fall_height: float | None = None, frame_callback=None) -> Result:
+             fall_height: float | None = None, frame_callback=None,
+             progress: Progress | None = None) -> Result:
     """Run ``controller`` on ``character`` from ``(qpos, qvel)`` for ``duration`` s.
 
     Args:
@@ -58,11 +61,14 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
             whole number of physics steps.
         frame_callback: called as ``frame_callback(character)`` once after the reset (the
             start state) and after every control step (video capture, BVH export).
+        progress: a :class:`~mjchar.controllers.core.progress.Progress` shown the simulated
+            time (a bar on a terminal), or ``None``.
     Returns:
         the :class:`Result` (a fall or a divergence ends the run when ``stop_on_fall``).
     """
-    if not (math.isfinite(duration) and duration > 0):
-        raise ScenarioError(f"duration must be a positive number of seconds, got {duration}")
+    problem = duration_problem(duration)
+    if problem:
+        raise ScenarioError(f"the run's duration {problem}")
     character.reset(qpos, qvel)
     fall = FallDetector(character, fall_height)
     controller.reset(character)
@@ -76,6 +82,9 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
         frame_callback(character)
     fell, fall_time, reason, diverged = False, None, None, False
     steps = 0
+    if progress is not None:
+        progress.start(duration, desc=f"{getattr(controller, 'name', 'run')} {scenario}")
+    t0 = character.time
     wall0 = time.perf_counter()
     try:
         for _ in range(n_control):
@@ -85,6 +94,8 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
             rec.record(character)
             if frame_callback is not None:
                 frame_callback(character)
+            if progress is not None:
+                progress.update(character.time - t0)
             if not fell:
                 why = fall.check(character)
                 if why is not None:
@@ -94,6 +105,9 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
     except SimulationDiverged as e:
         fell, diverged, reason = True, True, str(e)
         fall_time = e.time if fall_time is None else fall_time
+    finally:
+        if progress is not None:
+            progress.close()
     wall = time.perf_counter() - wall0
     agg = rec.aggregates()
     track, root_err = rec.tracking_errors()
