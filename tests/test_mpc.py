@@ -329,6 +329,46 @@ def test_the_closed_loop_plans_through_plan(walk_ref):
     assert c.last_plan.time == pytest.approx(0.08)
 
 
+def test_a_labeller_gets_the_closed_loops_action_from_a_recorded_state(walk_ref):
+    """plan() is the closed loop's planning step: a second controller given the states the
+    closed loop visited (recorded at its replanning times), the same clip times and each
+    previous plan as nominal returns, bit for bit, the first action the closed loop applied
+    there. With no nominal (a learner's labeller from a state of its own), the plan starts
+    from the base targets."""
+    ch = Character()
+    loop = make_mpc(ch, walk_ref, **FAST)
+    applied, states = {}, {}
+    act = loop.act
+
+    def record_act(character, t):
+        a = act(character, t)
+        applied.setdefault(round(t, 6), np.array(a.target, copy=True))
+        return a
+
+    def record_state(character):
+        states[round(character.time, 6)] = character.state.get_physics().copy()
+
+    loop.act = record_act
+    S.track(ch, loop, walk_ref, duration=0.12, frame_callback=record_state)
+    loop.close()
+    times = (0.0, 0.04, 0.08)  # the replanning times (replan 0.04 s)
+    assert set(times) <= set(states) and set(times) <= set(applied)
+
+    other = Character()
+    labeller = make_mpc(other, walk_ref, **FAST)
+    labeller.reset(other)
+    plan = None
+    for t in times:
+        plan = labeller.plan(states[t], t, plan)
+        assert plan.time == pytest.approx(t)
+        assert np.array_equal(plan.target(t), applied[t]), t
+        assert np.array_equal(plan.targets[0], applied[t])
+    cold = labeller.plan(states[0.08], 0.08, rng=np.random.default_rng(0), boost=1.0)
+    assert cold.targets.shape == plan.targets.shape and np.isfinite(cold.targets).all()
+    assert not np.array_equal(cold.targets[0], plan.targets[0])  # the warm start mattered
+    labeller.close()
+
+
 # -- early termination and the coarse tail ------------------------------------------------------
 def test_a_rollout_continued_without_warm_start_is_the_same_rollout(character, walk_ref):
     """With the solver's warm start off (the fast planning model), a rollout stopped and
