@@ -88,13 +88,17 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
 def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     """plan_timestep changes the rollout model's step only: the character keeps its own, the
     rest of the physics is checked to be the character's. By default it is twice the
-    character's and the solver is the fast one (sparse Jacobian, no warm start); the
-    character's own step and solver make the rollouts exact."""
+    character's with the character's own solver; the fast solver is a sparse Jacobian without
+    warm start; the character's own step and solver make the rollouts exact."""
     import mujoco
 
     from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     c = make_mpc(character, walk_ref, **FAST)
+    c.reset(character)
+    assert c.options.plan_solver == "exact"  # the default: the character's own solver
+    assert c._rmodel.model.opt.disableflags == 0
+    c.options.plan_solver = "fast"
     c.reset(character)
     m = c._rmodel.model
     assert m.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
@@ -376,7 +380,7 @@ def test_a_rollout_continued_without_warm_start_is_the_same_rollout(character, w
     from mjchar.controllers.sampling.executors import LocalExecutor
     from mjchar.controllers.sampling.mpc import planning_model
 
-    rm = planning_model(character.source, character, 0.004)
+    rm = planning_model(character.source, character, 0.004, "fast")
     character.reset(walk_ref.qpos(0.2), walk_ref.qvel(0.2))
     state = character.state.get_physics()
     rng = np.random.default_rng(0)
@@ -414,7 +418,8 @@ def test_early_termination_and_the_coarse_tail(walk_ref):
     """With a split, every candidate runs the near part, the kept ones the tail on the coarse
     model: the steps add up, the dropped candidates get no weight, and the result does not
     depend on the thread count."""
-    o = {**FAST, "horizon": 0.2, "near": 0.08, "keep": 0.5, "tail_timestep": 0.01}
+    o = {**FAST, "horizon": 0.2, "near": 0.08, "keep": 0.5, "tail_timestep": 0.01,
+         "plan_solver": "fast"}
     ch = Character()
     c = make_mpc(ch, walk_ref, **o)
     c.reset(ch)

@@ -3,7 +3,8 @@
 - The **planning model** (:func:`planning_model`): the character's physics, compiled from its
   model file with the tracking sensors, checked against the character
   (:func:`~mjchar.controllers.sampling.trajectory.model_fingerprint`), at the planning time step,
-  with the fast solver settings by default (sparse constraint Jacobian, no solver warm start).
+  with the character's own solver settings or the fast ones (sparse constraint Jacobian, no
+  solver warm start).
 - The **reference on the control grid** (:class:`ReferenceGrid`): base targets (inverse
   dynamics on the reference) at control midpoints and the cost's reference features at control
   ends, computed on demand in blocks.
@@ -60,7 +61,7 @@ class MpcError(MjcharError):
 
 
 def planning_model(source, character: Character, timestep: float,
-                   solver: str = "fast") -> RolloutModel:
+                   solver: str = "exact") -> RolloutModel:
     """The model the candidates are rolled out on: ``source`` compiled with the tracking
     sensors (:func:`tracking_rollout_model`), checked to have the character's physics
     (:func:`model_fingerprint`, before the changes below), at the time step ``timestep``. With
