@@ -162,6 +162,13 @@ CASES = [
     ("mpc-choice", ["run", "mpc", "--param", "update=newton"], "update must be one of"),
     ("mpc-weights", ["run", "mpc", "--param", 'weights={"pose": 1e300}'],
      "weights must be an object"),
+    ("mpc-plan-solver", ["run", "mpc", "--param", "plan_solver=quick"],
+     "plan_solver must be one of 'fast', 'exact'"),
+    ("mpc-keep", ["run", "mpc", "--param", "keep=2"], "keep must be a finite number > 0 and <= 1"),
+    ("mpc-near-off-grid", ["run", "mpc", "--param", "near=0.25"],
+     "near (0.25 s) must be a whole number of controls"),
+    ("mpc-tail-timestep", ["run", "mpc", "--param", "tail_timestep=1"],
+     "tail_timestep must be a finite number >= 1e-05 and <= 0.01 (s)"),
     ("params-without-tunables", ["params", "pd"], "invalid choice: 'pd'"),
     # -- time steps, durations, runs past the end
     ("timestep-tiny", ["run", "pd", "--timestep", "1e-9"], "at least 1e-05 s"),

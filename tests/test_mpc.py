@@ -22,6 +22,7 @@ from mjchar.controllers.sampling.mpc import (
     MpcController,
     MpcError,
     MpcOptions,
+    Plan,
     make_mpc,
     shift_matrix,
 )
@@ -59,6 +60,13 @@ def _track(character, reference, duration, **options):
     ({"horizon": 1e9}, r"horizon must be a finite number > 0 and <= 5 \(s\)"),
     ({"weights": {"pose": 1e300}}, "weights must be an object"),
     ({"smoothness": float("nan")}, "smoothness"),
+    ({"plan_solver": "quick"}, "plan_solver must be one of 'fast', 'exact'"),
+    ({"near": 0.25}, "near .* whole number of controls"),
+    ({"near": -0.02}, r"near must be a finite number >= 0 and <= 5 \(s\)"),
+    ({"keep": 0.0}, "keep must be a finite number > 0 and <= 1"),
+    ({"keep": 1.5}, "keep must be a finite number > 0 and <= 1"),
+    ({"tail_timestep": 0.003}, "not a whole number of tail_timestep"),
+    ({"tail_timestep": 0.05}, r"tail_timestep must be a finite number >= 1e-05 and <= 0.01"),
     ({"stance_height": 0.0}, "stance_height must be a finite number > 0 and <= 1"),
     ({"stance_height": "low"}, "stance_height must be a finite number > 0 and <= 1"),
     ({"colour": "red"}, "unknown MPC option.*colour.*valid: samples"),
@@ -80,19 +88,31 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
 def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     """plan_timestep changes the rollout model's step only: the character keeps its own, the
     rest of the physics is checked to be the character's. By default it is twice the
-    character's; the character's own step makes the rollouts exact."""
+    character's with the character's own solver; the fast solver is a sparse Jacobian without
+    warm start; the character's own step and solver make the rollouts exact."""
+    import mujoco
+
     from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     c = make_mpc(character, walk_ref, **FAST)
     c.reset(character)
-    assert c._rmodel.model.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
+    assert c.options.plan_solver == "exact"  # the default: the character's own solver
+    assert c._rmodel.model.opt.disableflags == 0
+    c.options.plan_solver = "fast"
+    c.reset(character)
+    m = c._rmodel.model
+    assert m.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
     assert (c.k, c.k_plan) == (10, 5)
-    assert model_fingerprint(c._rmodel.model) == model_fingerprint(character.model)
+    assert m.opt.jacobian == mujoco.mjtJacobian.mjJAC_SPARSE
+    assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_WARMSTART
+    assert character.model.opt.disableflags == 0  # the character's own physics untouched
     c.act(character, 0.0)  # one replanning step: rollouts of k_plan steps per control
     assert c.stats["physics_steps"] == 8 * 10 * 5
-    c.options.plan_timestep = 0.002  # the character's own step: a new rollout model
+    c.options.plan_timestep = 0.002  # the character's own step and solver: the same physics
+    c.options.plan_solver = "exact"
     c.reset(character)
     assert c._rmodel.model.opt.timestep == 0.002 and c.k_plan == 10
+    assert model_fingerprint(c._rmodel.model) == model_fingerprint(character.model)
     c.close()
 
 
@@ -218,12 +238,13 @@ def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
     """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
     at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
     ch = Character()
-    c = make_mpc(ch, walk_ref, plan_timestep=0.002, **FAST)  # the same step
+    c = make_mpc(ch, walk_ref, plan_timestep=0.002, plan_solver="exact",
+                 **FAST)  # the character's own step and solver
     ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
     c.reset(ch)
     c.act(ch, 0.0)
     res = c._executor.evaluate(RolloutRequest(c._rmodel, get_state(ch.model, ch.data),
-                                              c._plan[None], c.k))
+                                              c.last_plan.targets[None], c.k))
     for _ in range(c.R * c.k):
         ch.step(c.act(ch, ch.time))
     np.testing.assert_array_equal(get_state(ch.model, ch.data)[1:],
@@ -237,6 +258,178 @@ def test_mjchar_run_mpc(capsys):
     assert run_command(["run", "mpc", "--duration", "0.2", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["controller"] == "mpc" and not out["fell"] and out["tracking_error_m"] < 0.05
+
+
+# -- planning from any state (the expert interface) --------------------------------------------
+def test_plan_from_a_given_state_and_clip_time(walk_ref):
+    """plan() plans from a full-physics state at a clip time without touching the character;
+    the same random stream gives the same plan; a Plan warm starts the next one."""
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **FAST)
+    c.reset(ch)
+    ch.reset(walk_ref.qpos(0.3), walk_ref.qvel(0.3))
+    state = ch.state.get_physics()
+    before = ch.state.get()
+    p = c.plan(state, 0.3, rng=np.random.default_rng(1))
+    assert np.array_equal(ch.state.get(), before)  # the character is not touched
+    assert isinstance(p, Plan) and p.time == pytest.approx(0.3)
+    assert p.targets.shape == (c.T, ch.nu) and p.knots.shape == (2, ch.nu)
+    assert p.physics_steps == 8 * c.T * c.k_plan and p.rollouts == 8
+    np.testing.assert_allclose(p.target(0.305), p.targets[0])
+    np.testing.assert_allclose(p.target(0.345), p.targets[2])
+    np.testing.assert_allclose(p.target(5.0), p.targets[-1])
+    q = c.plan(state, 0.3, rng=np.random.default_rng(1))
+    assert np.array_equal(p.targets, q.targets)  # same stream, same plan (boost 1 both times)
+    nxt = c.plan(state, 0.34, p, rng=np.random.default_rng(2))  # warm started by p
+    assert nxt.time == pytest.approx(0.34) and c.last_plan is nxt
+    c.close()
+
+
+def test_plan_off_the_control_grid_uses_a_grid_of_its_own(walk_ref):
+    """A 30 Hz learner's states fall between the MPC's 0.02 s controls: the base targets and
+    cost features are sampled from the state's own time on."""
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **FAST)
+    c.reset(ch)
+    t = 1 / 30
+    ch.reset(walk_ref.qpos(t), walk_ref.qvel(t))
+    p = c.plan(ch.state.get_physics(), t)
+    assert p.time == pytest.approx(t)
+    grid, n0 = c._grid_at(t)
+    assert grid is not c.grid and n0 == 1
+    np.testing.assert_allclose(grid.features.times[n0:n0 + 2], t + np.array([1, 2]) * 0.02)
+    with pytest.raises(MpcError, match="full-physics state"):
+        c.plan(ch.state.qpos, t)
+    with pytest.raises(MpcError, match="non-negative"):
+        c.plan(ch.state.get_physics(), -1.0)
+    c.close()
+
+
+def test_a_nominal_of_pd_targets_is_fitted_to_the_knots(walk_ref):
+    """Targets the knots can represent come back exactly: the nominal candidate is them."""
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **FAST)
+    c.reset(ch)
+    grid, n0 = c._grid_at(0.2)
+    base = grid.base(n0, n0 + c.T)
+    X0 = np.random.default_rng(0).standard_normal((2, ch.nu)) * (c.widths > 0)
+    u = base + c.spline.offsets(X0)
+    X, sigma, applied = c._warm(u, 0.2, base)
+    np.testing.assert_allclose(X, X0, atol=1e-9)
+    np.testing.assert_allclose(applied, u[0] - base[0])
+    held = c._warm(u[0], 0.2, base)[0]  # one action held over the horizon: a least-squares fit
+    assert held.shape == X0.shape and np.all(held[:, c.widths == 0] == 0)
+    with pytest.raises(MpcError, match="nominal"):
+        c._warm(np.zeros(3), 0.2, base)
+    c.close()
+
+
+def test_the_closed_loop_plans_through_plan(walk_ref):
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **FAST)
+    S.track(ch, c, walk_ref, duration=0.12)
+    c.close()
+    assert c.stats["replans"] == 3 and isinstance(c.last_plan, Plan)
+    assert c.last_plan.time == pytest.approx(0.08)
+
+
+def test_a_labeller_gets_the_closed_loops_action_from_a_recorded_state(walk_ref):
+    """plan() is the closed loop's planning step: a second controller given the states the
+    closed loop visited (recorded at its replanning times), the same clip times and each
+    previous plan as nominal returns, bit for bit, the first action the closed loop applied
+    there. With no nominal (a learner's labeller from a state of its own), the plan starts
+    from the base targets."""
+    ch = Character()
+    loop = make_mpc(ch, walk_ref, **FAST)
+    applied, states = {}, {}
+    act = loop.act
+
+    def record_act(character, t):
+        a = act(character, t)
+        applied.setdefault(round(t, 6), np.array(a.target, copy=True))
+        return a
+
+    def record_state(character):
+        states[round(character.time, 6)] = character.state.get_physics().copy()
+
+    loop.act = record_act
+    S.track(ch, loop, walk_ref, duration=0.12, frame_callback=record_state)
+    loop.close()
+    times = (0.0, 0.04, 0.08)  # the replanning times (replan 0.04 s)
+    assert set(times) <= set(states) and set(times) <= set(applied)
+
+    other = Character()
+    labeller = make_mpc(other, walk_ref, **FAST)
+    labeller.reset(other)
+    plan = None
+    for t in times:
+        plan = labeller.plan(states[t], t, plan)
+        assert plan.time == pytest.approx(t)
+        assert np.array_equal(plan.target(t), applied[t]), t
+        assert np.array_equal(plan.targets[0], applied[t])
+    cold = labeller.plan(states[0.08], 0.08, rng=np.random.default_rng(0), boost=1.0)
+    assert cold.targets.shape == plan.targets.shape and np.isfinite(cold.targets).all()
+    assert not np.array_equal(cold.targets[0], plan.targets[0])  # the warm start mattered
+    labeller.close()
+
+
+# -- early termination and the coarse tail ------------------------------------------------------
+def test_a_rollout_continued_without_warm_start_is_the_same_rollout(character, walk_ref):
+    """With the solver's warm start off (the fast planning model), a rollout stopped and
+    continued from its recorded state is bit-identical to one that ran on."""
+    from mjchar.controllers.sampling.executors import LocalExecutor
+    from mjchar.controllers.sampling.mpc import planning_model
+
+    rm = planning_model(character.source, character, 0.004, "fast")
+    character.reset(walk_ref.qpos(0.2), walk_ref.qvel(0.2))
+    state = character.state.get_physics()
+    rng = np.random.default_rng(0)
+    ctrl = walk_ref.qpos(0.2)[character.actuator_qpos] + 0.05 * rng.standard_normal((3, 10, 49))
+    with LocalExecutor(threads=2) as ex:
+        whole = ex.evaluate(RolloutRequest(rm, state, ctrl, 5))
+        near = ex.evaluate(RolloutRequest(rm, state, ctrl[:, :4], 5))
+        joined = near.then(ex.evaluate(RolloutRequest(rm, near.final_states, ctrl[:, 4:], 5)))
+        sub = whole.take(np.array([2, 0]))
+    for name in ("states", "com", "com_vel", "sites", "contacts", "ok", "failed_step"):
+        assert np.array_equal(getattr(joined, name), getattr(whole, name)), name
+    assert np.array_equal(sub.states, whole.states[[2, 0]])
+
+
+def test_cost_over_time_matches_the_cost_per_control(walk_ref):
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **FAST)
+    c.reset(ch)
+    ch.reset(walk_ref.qpos(0.0), walk_ref.qvel(0.0))
+    base = c.grid.base(0, c.T)
+    ctrl = base[None] + 0.05 * np.random.default_rng(0).standard_normal((4,) + base.shape)
+    res = c._executor.evaluate(RolloutRequest(c._rmodel, ch.state.get_physics(), ctrl,
+                                              c.k_plan))
+    f = c.grid.features
+    whole = c.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, f,
+                             np.arange(c.T))
+    for i in range(c.T):
+        each = c.cost(res.qpos[:, i], res.qvel[:, i], res.com[:, i], res.com_vel[:, i],
+                      res.sites[:, i], f, i)
+        np.testing.assert_allclose(whole[:, i], each, rtol=1e-12)
+    c.close()
+
+
+def test_early_termination_and_the_coarse_tail(walk_ref):
+    """With a split, every candidate runs the near part, the kept ones the tail on the coarse
+    model: the steps add up, the dropped candidates get no weight, and the result does not
+    depend on the thread count."""
+    o = {**FAST, "horizon": 0.2, "near": 0.08, "keep": 0.5, "tail_timestep": 0.01,
+         "plan_solver": "fast"}
+    ch = Character()
+    c = make_mpc(ch, walk_ref, **o)
+    c.reset(ch)
+    assert c._tail_model.model.opt.timestep == 0.01 and (c.T_near, c.k_tail) == (4, 2)
+    p = c.plan(ch.state.get_physics(), 0.0)
+    assert p.physics_steps == 8 * 4 * 5 + 4 * 6 * 2
+    c.close()
+    _, a, _ = _track(Character(), walk_ref, 0.2, **o)
+    _, b, _ = _track(Character(), walk_ref, 0.2, **{**o, "threads": 1})
+    assert np.array_equal(a, b)
 
 
 # -- cyclic clips ----------------------------------------------------------------------------------

@@ -61,7 +61,6 @@ from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
-from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.reference.foot_points import CONTACT_HEIGHT
 
 from ..core.base import Action, ControllerError
@@ -82,51 +81,38 @@ from ..core.param_fields import (
 )
 from ..core.registry import ControllerSpec, register
 from .executors import LocalExecutor
+from .planning import (
+    MPC_STANCE_HEIGHT,
+    PLAN_SOLVERS,
+    PLAN_STEP_RATIO,
+    MpcError,
+    ReferenceGrid,
+    model_file,
+    planning_model,
+    whole_multiple,
+)
 from .rollout import RolloutRequest
 from .tracking import (
+    FALL_COST,
     ROLE_WIDTHS,
     CostWeights,
     PoseReference,
-    ReferenceFeatures,
     TrackingCost,
     fall_penalty,
-    inverse_dynamics_targets,
-    reference_features,
     sampling_widths,
-    tracking_rollout_model,
 )
-from .trajectory import model_fingerprint
 from .trajopt import KnotSpline
 
-__all__ = ["MPC_STANCE_HEIGHT", "MPC_WIDTHS", "UPDATES", "MpcController", "MpcError",
-           "MpcOptions", "ReferenceGrid", "make_mpc", "shift_matrix", "stance_height"]
+__all__ = ["MPC_STANCE_HEIGHT", "MPC_WIDTHS", "PLAN_SOLVERS", "PLAN_STEP_RATIO", "UPDATES",
+           "MpcController", "MpcError", "MpcOptions", "Plan", "ReferenceGrid", "make_mpc",
+           "plan_timestep", "planning_model", "shift_matrix", "stance_height"]
 
 #: plan updates: predictive sampling, MPPI, cross-entropy
 UPDATES = ("sampling", "mppi", "cem")
-#: the stance labels' height (fraction of the root height) on a contact-floor reference, whose
-#: supporting feet are on the floor: 3 % labels walk60's landing foot only once it is down
-#: (the raw-mocap 12 % labels it 5 cm up and gives it half the weight); measured closed loop
-#: on walk60, walk_forward and walk_and_turn_right at 2, 3, 6 and 12 % (docs/mpc.md)
-MPC_STANCE_HEIGHT = 0.03
 #: the MPC's default noise widths: the arms and head are not sampled (their PD tracks them;
 #: halving the dimension of the search tracked walk60 better, docs/mpc.md); the legs and
 #: spine use the shared ``ROLE_WIDTHS``
 MPC_WIDTHS = {"clavicle": 0.0, "shoulder": 0.0, "elbow": 0.0, "wrist": 0.0, "head": 0.0}
-#: the planning model's default time step in character time steps: 2 halves the rollout physics
-#: (1.7x the real-time factor) and met every bar of docs/mpc.md on the bundled humanoid (0.004 s;
-#: 16/16 pushes, the 60 s loop, the clips, the perturbed starts); used when ``control_dt`` is a
-#: whole number of it, else the character's own step
-PLAN_STEP_RATIO = 2
-
-
-def _whole_multiple(span: float, step: float) -> bool:
-    """Whether ``span`` is a whole number (>= 1) of ``step`` (to 1e-6 of a step)."""
-    n = span / step
-    return abs(n - round(n)) <= 1e-6 and round(n) >= 1
-
-
-class MpcError(MjcharError):
-    """The MPC was given settings it cannot use (sizes, times, an unknown update)."""
 
 
 #: the cost weights' accepted values (the :class:`CostWeights` fields, each >= 0)
@@ -149,6 +135,18 @@ class MpcOptions:
             ``control_dt`` must be a whole number of it. A coarser step makes each rollout
             cheaper; the character itself still steps at its own time step, and giving that
             step here makes the rollouts exact.
+        plan_solver: the planning model's solver settings, one of :data:`PLAN_SOLVERS`
+            (:func:`planning_model`): ``"exact"`` (the character's own, the default) or
+            ``"fast"`` (cheaper steps; walk60 tracked at 2.51 cm instead of 2.44).
+        near: seconds of the horizon every candidate is rolled out over before the cheapest
+            go on (a whole number of controls; 0 or the horizon: no split, the default).
+            Only the ``keep`` fraction cheapest so far (fallen candidates last) is rolled on
+            over the tail; the others (terminated early) take no part in the update. With
+            ``plan_solver="fast"`` the tail continues each rollout bit for bit; with
+            ``"exact"`` it starts without the solver's warm start.
+        keep: the fraction of candidates rolled on over the tail after ``near``.
+        tail_timestep: the time step of the planning model the tail after ``near`` runs on
+            (``None``: the planning model's own; ``control_dt`` must be a whole number of it).
         update: the plan update: ``"sampling"`` (predictive sampling), ``"mppi"`` or ``"cem"``.
         noise: standard deviation of the knot perturbations, in units of the role widths.
         widths: role -> width (rad) overriding ``ROLE_WIDTHS`` (default :data:`MPC_WIDTHS`).
@@ -178,6 +176,10 @@ class MpcOptions:
     replan: float = time(0.04, gt=0, le=5)
     control_dt: float = time(0.02, gt=0, le=0.1)
     plan_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
+    plan_solver: str = choice("exact", PLAN_SOLVERS)
+    near: float = time(0.0, ge=0, le=5)
+    keep: float = number(1.0, gt=0, le=1)
+    tail_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
     update: str = choice("mppi", UPDATES)
     noise: float = number(0.5, gt=0, le=10)
     widths: dict = mapping(lambda: dict(MPC_WIDTHS), ge=0, le=math.pi, keys=tuple(ROLE_WIDTHS),
@@ -208,21 +210,21 @@ class MpcOptions:
             raise MpcError(f"MPC option weights must be {_WEIGHTS.accepted()}, got "
                            f"{asdict(self.weights)}")
         for k in ("horizon", "replan"):
-            if not _whole_multiple(getattr(self, k), self.control_dt):
+            if not whole_multiple(getattr(self, k), self.control_dt):
                 raise MpcError(f"{k} ({getattr(self, k)} s) must be a whole number of controls "
                                f"of {self.control_dt} s")
-        if self.plan_timestep is not None:
-            v = self.plan_timestep
-            if isinstance(v, bool) or not (isinstance(v, int | float) and math.isfinite(v)
-                                           and v > 0):
-                raise MpcError(f"plan_timestep must be a positive number or None, got {v!r}")
-            if not _whole_multiple(self.control_dt, v):
+        if self.near > 0 and not whole_multiple(self.near, self.control_dt):
+            raise MpcError(f"near ({self.near} s) must be a whole number of controls of "
+                           f"{self.control_dt} s")
+        for k in ("plan_timestep", "tail_timestep"):
+            v = getattr(self, k)
+            if v is not None and not whole_multiple(self.control_dt, v):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
-                               f"plan_timestep {v} s planning steps")
+                               f"{k} {v} s planning steps")
         if self.replan > self.horizon + 1e-9:
             raise MpcError(f"replan ({self.replan} s) cannot exceed horizon ({self.horizon} s)")
         if timestep is not None:
-            if not _whole_multiple(self.control_dt, timestep):
+            if not whole_multiple(self.control_dt, timestep):
                 raise MpcError(f"control_dt {self.control_dt} s is not a whole number of "
                                f"{timestep} s physics steps")
 
@@ -275,7 +277,7 @@ def plan_timestep(options: MpcOptions, timestep: float) -> float:
     if options.plan_timestep is not None:
         return float(options.plan_timestep)
     coarse = PLAN_STEP_RATIO * float(timestep)
-    return coarse if _whole_multiple(options.control_dt, coarse) else float(timestep)
+    return coarse if whole_multiple(options.control_dt, coarse) else float(timestep)
 
 
 def stance_height(options: MpcOptions, reference) -> float:
@@ -285,58 +287,64 @@ def stance_height(options: MpcOptions, reference) -> float:
     return MPC_STANCE_HEIGHT if getattr(reference, "floor", None) == "contact" else CONTACT_HEIGHT
 
 
-class ReferenceGrid:
-    """Base targets at control midpoints and reference features at control ends on the grid
-    ``n control_dt`` (``n = 0, 1, ...``), computed in blocks of ``block`` controls on demand
-    (so an endless cyclic reference costs memory in proportion to the time tracked).
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """What one planning step (:meth:`MpcController.plan`) chose: PD targets over the horizon
+    from clip time ``time``, control ``i`` held over ``[time + i dt, time + (i + 1) dt)``.
 
-    Base targets (:func:`inverse_dynamics_targets`) of a block are computed with a margin of
-    four smoothing widths on each side, so blocks join without a visible seam.
+    Attributes:
+        time: clip time of control 0 (s); control_dt: seconds per control ``dt``.
+        targets: ``(T, nu)`` PD targets (rad; the actuators' ``ctrl``).
+        base: ``(T, nu)`` the base targets under them (inverse dynamics on the reference).
+        knots: ``(K, nu)`` the plan's spline knots (offsets in units of the role widths): what
+            a next plan shifts to warm start from.
+        sigma: ``(K, nu)`` the search widths the plan leaves (CEM's; the noise otherwise).
+        cost: the cost of the cheapest candidate rolled out.
+        rollouts: candidates rolled out; physics_steps: planning-model steps simulated (every
+            candidate's, early-terminated ones only as far as they ran); seconds: wall time.
     """
 
-    def __init__(self, character: Character, reference, rmodel, control_dt: float,
-                 smoothing: float, block: int = 50, *, stance_height: float):
-        self.character, self.reference, self.rmodel = character, reference, rmodel
-        self.stance_height = float(stance_height)
-        self.dt, self.smoothing, self.block = float(control_dt), float(smoothing), int(block)
-        self.pad = int(math.ceil(4 * smoothing / control_dt)) + 1 if smoothing > 0 else 0
-        self._base = np.zeros((0, character.nu))
-        self.features: ReferenceFeatures | None = None
+    time: float
+    control_dt: float
+    targets: np.ndarray
+    base: np.ndarray
+    knots: np.ndarray
+    sigma: np.ndarray
+    cost: float
+    rollouts: int
+    physics_steps: int
+    seconds: float
 
     @property
-    def size(self) -> int:
-        return len(self._base)
+    def offsets(self) -> np.ndarray:
+        """``(T, nu)`` the plan's offsets over the base targets (rad)."""
+        return self.targets - self.base
 
-    def ensure(self, n_end: int) -> None:
-        """Compute rows up to control ``n_end`` (exclusive)."""
-        while self.size < n_end:
-            a = self.size
-            b = a + self.block
-            n = np.arange(a - self.pad, b + self.pad)
-            # both feet where no foot is labelled: measured better closed loop than SAMCON's
-            # lowest foot (docs/mpc.md, "The clip's start and grounded stance labels")
-            base = inverse_dynamics_targets(self.character, self.reference, (n + 0.5) * self.dt,
-                                            smoothing=self.smoothing, unlabelled="both",
-                                            stance_height=self.stance_height,
-                                            )[self.pad:len(n) - self.pad]
-            f = reference_features(self.rmodel, self.reference, (np.arange(a, b) + 1) * self.dt)
-            self._base = np.concatenate([self._base, base])
-            if self.features is None:
-                self.features = f
-            else:
-                self.features = ReferenceFeatures(*(
-                    np.concatenate([getattr(self.features, k.name), getattr(f, k.name)])
-                    for k in fields(ReferenceFeatures)))
+    @property
+    def horizon(self) -> float:
+        """Seconds the plan covers."""
+        return len(self.targets) * self.control_dt
 
-    def base(self, a: int, b: int) -> np.ndarray:
-        """``(b - a, nu)`` base targets of controls ``a .. b-1``."""
-        self.ensure(b)
-        return self._base[a:b]
+    def index(self, t: float) -> int:
+        """The control containing clip time ``t`` (the first before ``time``, the last after
+        the horizon)."""
+        i = int(math.floor((t - self.time) / self.control_dt + 1e-6))
+        return min(max(i, 0), len(self.targets) - 1)
+
+    def target(self, t: float) -> np.ndarray:
+        """``(nu,)`` PD targets (rad) at clip time ``t`` (held, past the horizon, at the last
+        control's)."""
+        return self.targets[self.index(t)]
 
 
 class MpcController:
     """Closed-loop sampling MPC tracking ``target`` (a ReferenceMotion, or a pose ``(nq,)`` to
     hold) on native PD actuators; see the module docstring.
+
+    The closed loop (:meth:`act`) calls :meth:`plan` every ``replan`` seconds from the
+    character's state, warm started from its previous plan. :meth:`plan` is also the expert of
+    imitation learning (DAgger): after :meth:`reset`, it plans from any full-physics state at any
+    clip time, warm started from any nominal (docs/mpc.md, "Planning from any state").
 
     Args:
         target: what to track (``None``: the character's standing pose at :meth:`reset`).
@@ -345,6 +353,7 @@ class MpcController:
     Attributes:
         stats: replanning steps, rollouts and planning-model physics steps simulated, seconds
             spent planning, and the chosen cost of every replanning step.
+        last_plan: the latest :class:`Plan` (``None`` before the first).
     """
 
     name = "mpc"
@@ -358,12 +367,12 @@ class MpcController:
         self._rmodel = None
         self._rm_key = None
         self._bound = False
+        self.last_plan: Plan | None = None
 
     # -- setup -------------------------------------------------------------------------------
     def reset(self, character: Character) -> None:
-        """Bind to ``character``: native PD with the model's own gains, the rollout model (same
-        physics; the time step :func:`plan_timestep`), the reference
-        grid, a fresh plan and random stream."""
+        """Bind to ``character``: native PD with the model's own gains, the planning model
+        (:func:`planning_model`), the reference grid, a fresh plan and random stream."""
         o, ch = self.options, character
         o.check(ch.timestep)
         if not np.all(ch.actuation.position_actuators):
@@ -371,16 +380,15 @@ class MpcController:
         ch.actuation.set_mode("native")
         kp, kd = ch.actuation.default_gains()
         ch.actuation.set_native_gains(kp, kd)
-        source = _model_file(ch)
+        source = model_file(ch)
         plan_dt = plan_timestep(o, ch.timestep)
-        key = (source, plan_dt)
+        tail_dt = plan_dt if o.tail_timestep is None else float(o.tail_timestep)
+        key = (source, plan_dt, tail_dt, o.plan_solver)
         if self._rm_key != key:
-            rm = tracking_rollout_model(source, ch)
-            rm.model.opt.timestep = plan_dt  # the fingerprint leaves the time step out
-            if model_fingerprint(rm.model) != model_fingerprint(ch.model):
-                raise MpcError(f"the character's physics differs from its model file "
-                               f"{source} (edited gains or options?)")
-            self._rmodel, self._rm_key = rm, key
+            self._rmodel = planning_model(source, ch, plan_dt, o.plan_solver)
+            self._tail_model = self._rmodel if tail_dt == plan_dt else planning_model(
+                source, ch, tail_dt, o.plan_solver)
+            self._rm_key = key
         ref = self.target
         if ref is None:
             from ..core.scenarios import standing_pose
@@ -395,30 +403,30 @@ class MpcController:
         self.reference = ref
         self.k = int(round(o.control_dt / ch.timestep))  # physics steps per control
         self.k_plan = int(round(o.control_dt / plan_dt))  # planning-model steps per control
+        self.k_tail = int(round(o.control_dt / tail_dt))  # the tail's
         self.T = int(round(o.horizon / o.control_dt))
         self.R = int(round(o.replan / o.control_dt))
+        self.T_near = min(int(round(o.near / o.control_dt)), self.T)
         self.widths = sampling_widths(ch, o.widths, o.width_scale)
         self.knot_dt = o.horizon / (o.knots - 1)
         self.spline = KnotSpline(self.T, o.control_dt, self.knot_dt, np.diag(self.widths))
         if self.spline.n_knots != o.knots:
             raise MpcError(f"internal: {self.spline.n_knots} knots instead of {o.knots}")
         self.cost = TrackingCost(ch, o.weights, site_names=self._rmodel.site_names)
-        self.grid = ReferenceGrid(ch, ref, self._rmodel, o.control_dt, o.smoothing,
-                                  stance_height=stance_height(o, ref))
+        self._character = ch
+        self._stance = stance_height(o, ref)
+        self._grids: dict[float, ReferenceGrid] = {}
+        self.grid = self._grid(0.0)
         threads = o.threads or os.cpu_count() or 1
         if self._executor is None or self._executor.threads != threads:
             if self._executor is not None:
                 self._executor.close()
             self._executor = LocalExecutor(threads=threads)
         self.rng = np.random.default_rng(o.seed)
-        nu = ch.nu
-        self.X = np.zeros((o.knots, nu))
-        self.sigma = np.full((o.knots, nu), o.noise)
         self._mean_cost = None
-        self._n0 = 0
-        self._plan: np.ndarray | None = None
-        self._offsets = np.zeros((self.T, nu))
+        self.last_plan = None
         self._next = 0
+        self._nstate = self._rmodel.nstate
         self.stats = {"replans": 0, "rollouts": 0, "physics_steps": 0, "planning_s": 0.0,
                       "costs": []}
         self._bound = True
@@ -435,49 +443,156 @@ class MpcController:
         the current state when a replanning time is reached)."""
         if not self._bound:
             raise ControllerError("mpc: act() called before reset()")
-        n = int(math.floor(t / self.options.control_dt + 1e-6))
-        if self._plan is None or n >= self._next:
-            self._replan(character, n)
-        i = min(max(n - self._n0, 0), self.T - 1)
-        return Action(target=self._plan[i])
+        cdt = self.options.control_dt
+        n = int(math.floor(t / cdt + 1e-6))
+        if self.last_plan is None or n >= self._next:
+            self.plan(character.state.get_physics(), n * cdt, self.last_plan)
+            self._next = n + self.R
+            character.state.clear_warm_start()  # as every rollout starts
+        return Action(target=self.last_plan.target(t))
 
-    def _replan(self, ch: Character, n0: int) -> None:
-        o = self.options
-        t0 = _time.perf_counter()
-        cdt = o.control_dt
-        if self._plan is not None:
-            S = shift_matrix(o.knots, self.knot_dt, (n0 - self._n0) * cdt)
-            X = S @ self.X
-            sigma = S @ self.sigma
-            applied = self._offsets[min(max(n0 - self._n0 - 1, 0), self.T - 1)]
-        else:
-            X, sigma, applied = self.X, self.sigma, np.zeros(ch.nu)
+    def plan(self, state: np.ndarray, t: float, nominal=None, *,
+             rng: np.random.Generator | None = None, boost: float | None = None) -> Plan:
+        """One planning step: ``N`` candidates rolled out from ``state`` at clip time ``t``,
+        scored against the reference, the plan updated (module docstring, steps 1-6).
+
+        Args:
+            state: ``(nstate,)`` full-physics state of the character's model
+                (``character.state.get_physics()``, or
+                :func:`~mjchar.controllers.sampling.rollout.get_state` of any ``MjData`` of the
+                same model); its own time field is not read.
+            t: the clip time ``state`` is at (s, >= 0); need not be on the control grid.
+            nominal: what the candidates are drawn around: ``None`` (the base targets), a
+                :class:`Plan` (shifted to ``t``: the warm start of consecutive states), or PD
+                targets (rad), ``(nu,)`` held over the horizon or ``(T', nu)`` per control from
+                ``t`` (the last held), e.g. a learned policy's action; fitted to the knots in
+                least squares on the sampled joints (the others keep their base targets).
+            rng: the random stream (default: the controller's, seeded by ``options.seed``).
+            boost: factor on the noise (default: the closed loop's, from the cost history of
+                this controller's plans, see :attr:`MpcOptions.max_boost`).
+
+        Returns:
+            the :class:`Plan`; also kept as :attr:`last_plan`. Costs ``samples x horizon /
+            plan_timestep`` planning-model steps at most (fewer with ``near``, ``keep`` and
+            ``tail_timestep``).
+        """
+        if not self._bound:
+            raise ControllerError("mpc: plan() called before reset()")
+        o, w0 = self.options, _time.perf_counter()
+        state = np.asarray(state, dtype=np.float64)
+        if state.shape != (self._nstate,):
+            raise MpcError(f"state must be a ({self._nstate},) full-physics state "
+                           f"(character.state.get_physics()), got shape {state.shape}")
+        if not (math.isfinite(t) and t >= -1e-9):
+            raise MpcError(f"the clip time must be a non-negative number, got {t!r}")
+        rng = self.rng if rng is None else rng
+        grid, n0 = self._grid_at(t)
+        base = grid.base(n0, n0 + self.T)
+        X, sigma, applied = self._warm(nominal, t, base)
         N = o.samples
         if o.antithetic:  # pairs +eps, -eps (and one more when N - 1 is odd)
-            half = self.rng.standard_normal(((N - 1) // 2,) + X.shape)
-            extra = self.rng.standard_normal(((N - 1) % 2,) + X.shape)
+            half = rng.standard_normal(((N - 1) // 2,) + X.shape)
+            extra = rng.standard_normal(((N - 1) % 2,) + X.shape)
             eps = np.concatenate([half, -half, extra])
         else:
-            eps = self.rng.standard_normal((N - 1,) + X.shape)
-        Xs = np.concatenate([X[None], X[None] + self._boost() * sigma * eps])  # (N, K, nu)
+            eps = rng.standard_normal((N - 1,) + X.shape)
+        b = self._boost() if boost is None else float(boost)
+        Xs = np.concatenate([X[None], X[None] + b * sigma * eps])  # (N, K, nu)
         off = self.spline.offsets(Xs)  # (N, T, nu), radians
-        base = self.grid.base(n0, n0 + self.T)
-        state = ch.state.get_physics()
-        req = RolloutRequest(self._rmodel, state, base[None] + off, self.k_plan)
-        res = self._executor.evaluate(req)
-        c = self._costs(res, off, applied, n0)
+        c, steps = self._rollout_costs(state, base[None] + off, off, applied, grid, n0)
         X, sigma, best = self._update(Xs, c, X, sigma)
-        self.X, self.sigma = X, sigma
-        self._offsets = self.spline.offsets(X)
-        self._plan = base + self._offsets
-        self._n0, self._next = n0, n0 + self.R
-        ch.state.clear_warm_start()  # as every rollout started
+        offsets = self.spline.offsets(X)
+        t0 = grid.origin + n0 * o.control_dt
+        seconds = _time.perf_counter() - w0
+        p = Plan(time=t0, control_dt=o.control_dt, targets=base + offsets, base=base.copy(),
+                 knots=X, sigma=sigma, cost=best, rollouts=N, physics_steps=steps,
+                 seconds=seconds)
+        self.last_plan = p
         st = self.stats
         st["replans"] += 1
         st["rollouts"] += N
-        st["physics_steps"] += N * self.T * self.k_plan  # of the planning model
-        st["costs"].append(float(best))
-        st["planning_s"] += _time.perf_counter() - t0
+        st["physics_steps"] += steps  # of the planning model
+        st["costs"].append(best)
+        st["planning_s"] += seconds
+        return p
+
+    # -- the planning step's parts -------------------------------------------------------------
+    def _grid(self, origin: float) -> ReferenceGrid:
+        key = round(origin, 9)
+        g = self._grids.get(key)
+        if g is None:
+            o = self.options
+            g = ReferenceGrid(self._character, self.reference, self._rmodel, o.control_dt,
+                              o.smoothing, stance_height=self._stance, origin=key)
+            self._grids[key] = g
+        return g
+
+    def _grid_at(self, t: float) -> tuple[ReferenceGrid, int]:
+        """The grid whose controls start at ``t``, and ``t``'s control index on it."""
+        cdt = self.options.control_dt
+        n0 = int(math.floor(t / cdt + 1e-6))
+        frac = t - n0 * cdt
+        if abs(frac) < 1e-9:
+            return self.grid, n0
+        return self._grid(frac), n0
+
+    def _warm(self, nominal, t: float, base: np.ndarray):
+        """``(X, sigma, applied)``: the knots and search widths the candidates are drawn
+        around, and the offset (rad) applied just before ``t`` (the smoothness term's start)."""
+        o, nu = self.options, base.shape[1]
+        if nominal is None:
+            return np.zeros((o.knots, nu)), np.full((o.knots, nu), o.noise), np.zeros(nu)
+        if isinstance(nominal, Plan):
+            if nominal.knots.shape != (o.knots, nu):
+                raise MpcError(f"the nominal plan has knots {nominal.knots.shape}, this "
+                               f"controller plans ({o.knots}, {nu})")
+            S = shift_matrix(o.knots, self.knot_dt, t - nominal.time)
+            applied = nominal.offsets[nominal.index(t - o.control_dt)]
+            return S @ nominal.knots, S @ nominal.sigma, applied
+        u = np.asarray(nominal, dtype=np.float64)
+        if u.ndim == 1:
+            u = u[None]
+        if u.ndim != 2 or u.shape[1] != nu or len(u) < 1 or not np.isfinite(u).all():
+            raise MpcError(f"a nominal must be a Plan or finite PD targets of shape ({nu},) "
+                           f"or (T, {nu}), got shape {np.shape(nominal)}")
+        u = np.concatenate([u[:self.T], np.repeat(u[-1:], max(0, self.T - len(u)), axis=0)])
+        off = u - base  # (T, nu) rad
+        X = np.zeros((o.knots, nu))
+        s = self.widths > 0
+        X[:, s] = np.linalg.lstsq(self.spline.B, off[:, s] / self.widths[s], rcond=None)[0]
+        return X, np.full((o.knots, nu), o.noise), off[0]
+
+    def _rollout_costs(self, state, controls, off, applied, grid, n0):
+        """``((N,) costs, planning-model steps)`` of the candidates ``controls (N, T, nu)``.
+
+        Without a split (``near``), one batch over the horizon. With it, every candidate runs
+        the near part; the ``keep`` fraction cheapest so far (fallen ones last) runs on over
+        the tail, from where it stopped, on the tail model; the rest cost ``inf`` (no weight
+        in the update)."""
+        o, T, N = self.options, self.T, len(controls)
+        rows = n0 + np.arange(T)
+        grid.ensure(n0 + T)
+        T1 = self.T_near
+        if T1 <= 0 or T1 >= T:
+            res = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls,
+                                                         self.k_plan))
+            return self._costs(res, off, applied, grid.features, rows), N * T * self.k_plan
+        n_keep = min(N, max(2, int(math.ceil(o.keep * N))))
+        first = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls[:, :T1],
+                                                       self.k_plan))
+        steps = N * T1 * self.k_plan
+        c1 = self._costs(first, off[:, :T1], applied, grid.features, rows[:T1])
+        c1 = np.where(first.ok, c1, np.inf)  # a diverged candidate cannot be continued
+        keep = np.sort(np.argsort(c1, kind="stable")[:n_keep])
+        keep = keep[np.isfinite(c1[keep])]
+        if not len(keep):  # every candidate diverged: the least bad by what they did
+            return np.where(np.isfinite(c1), c1, 10 * FALL_COST), steps
+        c = np.full(N, np.inf)
+        near = first.take(keep)
+        tail = self._executor.evaluate(RolloutRequest(
+            self._tail_model, near.final_states, controls[keep, T1:], self.k_tail))
+        c[keep] = self._costs(near.then(tail), off[keep], applied, grid.features, rows)
+        return c, steps + len(keep) * (T - T1) * self.k_tail
 
     def _boost(self) -> float:
         """Noise factor: the last plan's cost over its running mean (time constant
@@ -490,13 +605,12 @@ class MpcController:
             (1 - a) * self._mean_cost + a * c[-1])
         return float(np.clip(c[-1] / max(self._mean_cost, 1e-9), 1.0, o.max_boost))
 
-    def _costs(self, res, off: np.ndarray, applied: np.ndarray, n0: int) -> np.ndarray:
-        """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts."""
-        feats = self.grid.features
-        c = np.empty((off.shape[0], self.T))
-        for i in range(self.T):
-            c[:, i] = self.cost(res.qpos[:, i], res.qvel[:, i], res.com[:, i],
-                                res.com_vel[:, i], res.sites[:, i], feats, n0 + i)
+    def _costs(self, res, off: np.ndarray, applied: np.ndarray, feats,
+               rows: np.ndarray) -> np.ndarray:
+        """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts
+        ``res`` of the offsets ``off (N, T, nu)`` against feature rows ``rows (T,)``."""
+        c = self.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, feats,
+                                rows)
         c = np.where(np.isfinite(c), c, 1e3).mean(axis=1)
         if self.options.smoothness > 0:
             prev = np.concatenate([np.broadcast_to(applied, (off.shape[0], 1, off.shape[2])),
@@ -507,44 +621,25 @@ class MpcController:
 
     def _update(self, Xs: np.ndarray, c: np.ndarray, X: np.ndarray, sigma: np.ndarray):
         """The new nominal knots and CEM's sigma from candidates ``Xs (N, K, nu)`` and their
-        costs ``c (N,)``; returns ``(X, sigma, cost of the best candidate)``."""
+        costs ``c (N,)`` (``inf``: terminated early, no weight); returns ``(X, sigma, cost of
+        the best candidate)``."""
         o = self.options
         order = np.argsort(c, kind="stable")
         best = float(c[order[0]])
         if o.update == "sampling":
             return Xs[order[0]].copy(), sigma, best
         if o.update == "mppi":
-            spread = max(float(np.median(c)) - best, 1e-9)
+            spread = max(float(np.median(c[np.isfinite(c)])) - best, 1e-9)
             w = np.exp(-(c - best) / (o.temperature * spread))
             w /= w.sum()
             return np.tensordot(w, Xs, axes=1), sigma, best
-        n_el = max(2, int(math.ceil(o.elites * len(c))))
+        n_el = max(2, int(math.ceil(o.elites * np.isfinite(c).sum())))
         el = Xs[order[:n_el]]
         mean = el.mean(axis=0)
         std = el.std(axis=0)
         sigma = np.clip((1 - o.cem_rate) * sigma + o.cem_rate * std,
                         0.2 * o.noise, 2.0 * o.noise)
         return mean, sigma, best
-
-
-
-def _model_file(character: Character) -> str:
-    """The MJCF file the rollout model is compiled from: the Character's own, or for a
-    Character built from an ``MjModel`` the bundled humanoid's when the physics is the same
-    (what ``mjchar bench`` does); else :class:`MpcError`."""
-    if character.source is not None:
-        return character.source
-    import mujoco
-
-    from mjchar.bvh.bundled.assets import humanoid_path
-
-    path = os.fspath(humanoid_path())
-    if model_fingerprint(mujoco.MjModel.from_xml_path(path)) == model_fingerprint(
-            character.model):
-        return path
-    raise MpcError("mpc builds its rollout model from the model file: give the Character an "
-                   "MJCF path (a Character built from an MjModel works only for the bundled "
-                   "humanoid)")
 
 
 def make_mpc(character: Character | None = None, target=None, **options) -> MpcController:

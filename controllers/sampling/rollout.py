@@ -533,6 +533,39 @@ class RolloutResult:
                              foot_mask=first.foot_mask,
                              steps_per_control=first.steps_per_control)
 
+    def take(self, index) -> RolloutResult:
+        """The samples ``index`` (an index array or a slice) of this result."""
+        arrays = {name: getattr(self, name)[index]
+                  for name in ("states", "com", "com_vel", "sites", "contacts", "ok",
+                               "failed_step")}
+        return RolloutResult(**arrays, qpos_slice=self.qpos_slice, qvel_slice=self.qvel_slice,
+                             foot_mask=self.foot_mask, steps_per_control=self.steps_per_control)
+
+    def then(self, later: RolloutResult) -> RolloutResult:
+        """The same B samples over ``T + T'`` controls: ``later`` continued each sample from
+        its final state (``RolloutRequest(model, self.final_states, more_controls, k')``, on
+        this model or on one with the same physics at another time step). With the same model,
+        bit-identical to one rollout of the joined controls when the model's solver warm start
+        is disabled (``mjDSBL_WARMSTART``): a full-physics state then holds everything the next
+        step reads; otherwise the continuation restarts the solver from a zero warm start (a
+        difference at the solver's tolerance). A sample that failed in ``self`` must not be
+        continued (its final state is NaN). The joined result keeps this result's
+        ``steps_per_control``; a failure in ``later`` is placed at the start of the control it
+        happened in when ``k'`` differs."""
+        if later.states.shape[0] != self.states.shape[0]:
+            raise RolloutError(f"cannot continue {self.states.shape[0]} samples with "
+                               f"{later.states.shape[0]}")
+        k, k2 = self.steps_per_control, later.steps_per_control
+        arrays = {name: np.concatenate([getattr(self, name), getattr(later, name)], axis=1)
+                  for name in ("states", "com", "com_vel", "sites", "contacts")}
+        offset = self.states.shape[1] * k
+        moved = later.failed_step if k2 == k else (later.failed_step // k2) * k
+        failed = np.where(self.failed_step >= 0, self.failed_step,
+                          np.where(later.failed_step >= 0, moved + offset, -1))
+        return RolloutResult(**arrays, ok=self.ok & later.ok, failed_step=failed,
+                             qpos_slice=self.qpos_slice, qvel_slice=self.qvel_slice,
+                             foot_mask=self.foot_mask, steps_per_control=k)
+
 
 # ------------------------------------------------------------------------------------------------
 # the engine

@@ -478,6 +478,47 @@ class TrackingCost:
              + w.balance * t["balance"] + w.com * t["com"] + w.joints * t["joints"])
         return np.where(np.isfinite(c), c, np.inf)
 
+    def over_time(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray,
+                  com_vel: np.ndarray, sites: np.ndarray, ref: ReferenceFeatures,
+                  rows: np.ndarray) -> np.ndarray:
+        """``(B, T)`` weighted cost of whole rollouts in one vectorised pass: state ``t`` of
+        every sample (``qpos (B, T, nq)``, ``qvel (B, T, nv)``, ``com, com_vel (B, T, 3)``,
+        ``sites (B, T, S, 3)``, e.g. a :class:`RolloutResult`'s) against row ``rows[t]`` of
+        ``ref``; the same numbers as :meth:`__call__` per control (to rounding), about twenty
+        times cheaper for a horizon of 35 controls. NaN states cost ``inf``."""
+        w = self.weights
+        v = w.velocity
+        rows = np.asarray(rows, dtype=int)
+        rq, rv = ref.qpos[rows], ref.qvel[rows]  # (T, nq), (T, nv)
+        dq = qpos[..., self._q_idx] - rq[:, self._q_idx]
+        dv = qvel[..., self._v_idx] - rv[:, self._v_idx]
+        pose = (np.sqrt((dq * dq) @ self._member).sum(axis=-1)
+                + v * np.sqrt((dv * dv) @ self._member).sum(axis=-1))
+        dot = np.abs(np.einsum("btq,tq->bt", qpos[..., self._root_quat],
+                               rq[:, self._root_quat]))
+        ang = 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
+        root = ang + v * np.linalg.norm(qvel[..., self._root_angvel]
+                                        - rv[:, self._root_angvel], axis=-1)
+        rsites, rcom, rcomv = ref.sites[rows], ref.com[rows], ref.com_vel[rows]
+        ee_s, ee_r = sites[:, :, self._ee], rsites[:, self._ee]  # (B, T, E, 3), (T, E, 3)
+        ee = np.abs(ee_s[..., 2] - ee_r[..., 2]).sum(axis=-1)
+        cz = np.maximum(com[..., 2:3], 1e-3)  # (B, T, 1)
+        rz = np.maximum(rcom[:, 2:3], 1e-3)  # (T, 1)
+        r = (com[:, :, None, :2] - ee_s[..., :2]) / cz[..., None]
+        rbar = (rcom[:, None, :2] - ee_r[..., :2]) / rz[..., None]
+        bal = (np.linalg.norm(r - rbar, axis=-1).sum(axis=-1)
+               + v * np.linalg.norm(com_vel - rcomv, axis=-1))
+        dc = com - rcom + w.com_horizon * (com_vel - rcomv)
+        comt = np.linalg.norm(dc[..., :2], axis=-1) + np.abs(dc[..., 2])
+        if len(self._joints):
+            dj = sites[:, :, self._joints] - rsites[:, self._joints]
+            joints = np.linalg.norm(dj, axis=-1).mean(axis=-1)
+        else:
+            joints = np.zeros(qpos.shape[:2])
+        c = (w.pose * pose + w.root * root + w.end_effector * ee + w.balance * bal
+             + w.com * comt + w.joints * joints)
+        return np.where(np.isfinite(c), c, np.inf)
+
     def fallen(self, result: RolloutResult, upto: int | None = None) -> np.ndarray:
         """``(B,)`` bool: non-foot floor contact, divergence, or root below the fall height at
         any control end of ``result`` (up to control index ``upto`` exclusive)."""

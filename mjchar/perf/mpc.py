@@ -1,26 +1,37 @@
 """The closed-loop sampling MPC tracker (controllers/sampling/mpc.py): the figures of docs/mpc.md.
 
-Everything runs sequentially (2 cores shared with other processes: the load average is recorded
-with every part; the real-time factor is simulated seconds per wall second of the whole run).
+The load average is recorded with every part (the machine may be shared); tracking, pushes and
+falls do not depend on it, nor on the thread count (same seed, same trajectory).
 
 - ``--clips``: the four shared clips tracked at the default settings (fall, mean joint error,
-  root force, real-time factor).
+  root force).
 - ``--loop``: walk60 made cyclic (``mjchar.bvh.editing.clips.make_cyclic``) and tracked for
-  ``--loop-duration``
-  (60) s.
+  ``--loop-duration`` (60) s.
 - ``--pushes``: 100 N x 0.2 s at the pelvis, at 4 moments of the gait cycle x 4 directions, while
   tracking cyclic walk60 (MPC, hand-of-god) and on the SAMCON replay of walk60: falls, and the
-  time after the push until the joint error is back below 8 cm.
+  time after the push until the joint error is back below 8 cm (``--push-moments``,
+  ``--push-directions`` choose other cells).
 - ``--perturbed``: starts with 0.1 rad joint noise and 0.2 m/s root velocity noise, 5 seeds.
-- ``--curve``: tracking error and real-time factor against samples x horizon on walk60.
+- ``--curve``: tracking error and planning-model steps per simulated second against samples x
+  horizon on walk60.
+- ``--sweep NAME=V1,V2``: one option varied at a time around the defaults (repeatable), each
+  variant run through the parts ``--sweep-parts`` names (default clips, pushes, loop).
 - ``--determinism``: the same seed twice, and with 1 and 2 threads: bit-identical trajectories.
 - ``--speed``: the real-time factor on walk60 with every core (the options' ``threads``
-  otherwise), beside bare ``mj_step`` throughput measured in the same run: the physics steps the
-  settings simulate per simulated second give the factor the cores could reach if rollouts
-  were all the work (``bound``), and ``efficiency`` = factor / bound.
+  otherwise), beside bare ``mj_step`` of the bundled humanoid on one core measured in the same
+  run, before and after. Printed: the measured factor ``rtf`` (simulated / wall seconds); the
+  same normalised to a core doing :data:`REFERENCE_STEPS` bare steps per second, ``rtf_30k =
+  rtf x 30,000 / bare steps per wall second``; a load-robust projection from CPU clocks,
+  ``rtf_cpu_30k = sim / (main-thread CPU + rollout-thread CPU / threads) x 30,000 / bare steps
+  per CPU second`` (what the run would reach on idle cores of that speed); and the planning-model
+  steps per simulated second the run took (machine-independent).
 
-    python -m mjchar.perf.mpc --all          # everything (about half an hour)
-    python -m mjchar.perf.mpc --clips        # one part
+``--jobs N`` runs the tracking parts (clips, loop, pushes, perturbed starts, curve, sweep) as
+``N`` processes of one rollout thread each: the same trajectories (thread count does not change
+them), their real-time factors are not the controller's (use ``--speed`` alone for that).
+
+    python -m mjchar.perf.mpc --all          # everything (about an hour on 2 cores)
+    python -m mjchar.perf.mpc --speed        # the real-time factor, normalised
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -54,6 +66,9 @@ DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 RECOVERED = 0.08  # m: the joint error a pushed tracker must return below
 RECOVERY_WINDOW = 2.0  # s after the push's end
 SETTLE = 4.0  # s simulated after the push's end (the error must stay low once recovered)
+#: bare ``mj_step`` of the bundled humanoid per second on the core the real-time factors are
+#: normalised to
+REFERENCE_STEPS = 30_000.0
 
 
 def load() -> float | None:
@@ -86,39 +101,48 @@ class ErrorTrace:
 
 
 def run_mpc(ref, duration=None, options=None, **kw):
+    """``(ScenarioResult, Timing, controller stats)`` of the MPC tracking ``ref``."""
     ch = Character()
-    c = make_mpc(ch, ref, progress=False, **(options or {}))
+    c = make_mpc(ch, ref, **(options or {}))
     r, t = timed(S.track, ch, c, ref, duration=duration, **kw)
     c.close()
-    return r, t.wall_s, c.stats
+    return r, t, c.stats
 
 
-def summary(r, wall: float, stats=None) -> dict:
+def summary(r, timing, stats=None) -> dict:
     out = {"fell": r.fell, "fall_time_s": r.fall_time_s, "tracking_error_m": r.tracking_error_m,
            "root_error_m": r.root_error_m, "root_force_mean_N": r.root_force_mean_N,
-           "sim_s": r.sim_time_s, "wall_s": wall, "rtf": r.sim_time_s / wall, "load": load()}
+           "sim_s": r.sim_time_s, "wall_s": timing.wall_s, "cpu_s": timing.cpu_s,
+           "rtf": r.sim_time_s / timing.wall_s, "load": load()}
     if stats:
         out["replans"], out["rollouts"] = stats["replans"], stats["rollouts"]
+        out["plan_steps_per_sim_s"] = stats["physics_steps"] / max(r.sim_time_s, 1e-9)
     return out
 
 
-def clips(options: dict) -> dict:
-    out = {}
-    for name in CLIPS:
-        ref = reference(Character(), name)
-        r, wall, st = run_mpc(ref, options=options)
-        out[name] = summary(r, wall, st)
-        print(name, json.dumps(out[name]), flush=True)
-    return out
+# -- the parts, as items that can run in worker processes ----------------------------------------
+def _clip(name: str, options: dict) -> dict:
+    r, t, st = run_mpc(reference(Character(), name), options=options)
+    return summary(r, t, st)
 
 
-def loop(duration: float, options: dict) -> dict:
+def _loop(duration: float, options: dict) -> dict:
     ref = reference(Character(), "walk60", cyclic=True)
-    r, wall, st = run_mpc(ref, duration=duration, options=options)
-    out = summary(r, wall, st)
-    out["cycle_s"] = ref.duration
-    print("loop", json.dumps(out), flush=True)
-    return out
+    r, t, st = run_mpc(ref, duration=duration, options=options)
+    return {**summary(r, t, st), "cycle_s": ref.duration}
+
+
+def _perturbed(seed: int, options: dict) -> dict:
+    ch = Character()
+    ref = reference(ch, "walk60")
+    start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
+    r, t, st = run_mpc(ref, options=options, start=start)
+    return summary(r, t, st)
+
+
+def _curve_point(n_h: tuple, options: dict) -> dict:
+    n, h = n_h
+    return _clip("walk60", {**options, "samples": n, "horizon": h})
 
 
 def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
@@ -139,10 +163,12 @@ def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
         duration = push.end + SETTLE
         trace = ErrorTrace(ref)
         if controller == "mpc":
-            c = make_mpc(ch, ref, progress=False, **options)
+            c = make_mpc(ch, ref, **options)
         else:
             c = make_controller(controller, ch, ref)
         r = S.track(ch, c, ref, duration=duration, push=push, frame_callback=trace)
+        if controller == "mpc":
+            c.close()
     t, e = trace.errors()
     after = t >= push.end
     high = np.flatnonzero(after & (e >= RECOVERED))
@@ -157,46 +183,117 @@ def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
             "root_force_mean_N": r.root_force_mean_N}
 
 
+def _push_item(args: tuple, options: dict) -> dict:
+    controller, force, moment, direction = args
+    return _pushed(controller, S.PushEvent(force, DIRECTIONS[direction], moment, 0.2), options)
+
+
+_ITEMS = {"clip": _clip, "loop": _loop, "perturbed": _perturbed, "curve": _curve_point,
+          "push": _push_item}
+
+
+def _run_item(item: tuple) -> dict:
+    kind, arg, options = item
+    return _ITEMS[kind](arg, options)
+
+
+def run_items(items: list[tuple], jobs: int = 1, label: str = "") -> list[dict]:
+    """Run ``(kind, arg, options)`` items in order (``jobs`` > 1: in that many worker
+    processes, one rollout thread each), printing each result as it comes."""
+    if jobs > 1:
+        items = [(k, a, {**o, "threads": 1}) for k, a, o in items]
+        with ProcessPoolExecutor(jobs) as ex:
+            results = list(ex.map(_run_item, items))
+    else:
+        results = [_run_item(i) for i in items]
+    for (kind, arg, _), out in zip(items, results, strict=True):
+        print(label or kind, json.dumps(arg), json.dumps(out), flush=True)
+    return results
+
+
+def clips(options: dict, jobs: int = 1) -> dict:
+    res = run_items([("clip", name, options) for name in CLIPS], jobs, "clip")
+    return dict(zip(CLIPS, res, strict=True))
+
+
+def loop(duration: float, options: dict, jobs: int = 1) -> dict:
+    return run_items([("loop", duration, options)], jobs, "loop")[0]
+
+
 def pushes(options: dict, controllers=("mpc", "hand_of_god", "samcon_replay"),
-           force: float = 100.0, moments=None, directions=None) -> dict:
-    ch = Character()
-    period = reference(ch, "walk60", cyclic=True).duration
+           force: float = 100.0, moments=None, directions=None, jobs: int = 1) -> dict:
+    period = reference(Character(), "walk60", cyclic=True).duration
     moments = moments or [round(0.5 + k * period / 4, 3) for k in range(4)]
+    directions = [d for d in DIRECTIONS if not directions or d in directions]
     out = {"force_N": force, "moments_s": moments, "cycle_s": period}
     for name in controllers:
-        rows = {}
-        for m in moments:
-            for dname, deg in DIRECTIONS.items():
-                if directions and dname not in directions:
-                    continue
-                rows[f"{m}/{dname}"] = _pushed(name, S.PushEvent(force, deg, m, 0.2), options)
-                print(name, m, dname, json.dumps(rows[f"{m}/{dname}"]), flush=True)
+        cells = [(m, d) for m in moments for d in directions]
+        res = run_items([("push", (name, force, m, d), options) for m, d in cells], jobs,
+                        "push")
+        rows = {f"{m}/{d}": r for (m, d), r in zip(cells, res, strict=True)}
+        ok = [r["recovered"] for r in rows.values()]
+        rows["summary"] = {"recovered": int(sum(ok)), "of": len(ok),
+                           "falls": int(sum(r["fell"] for r in rows.values())),
+                           "slowest_s": max((r["recovery_s"] for r in rows.values()
+                                             if r["recovery_s"] is not None), default=None),
+                           "highest_peak_m": max(r["peak_error_m"] or 0 for r in rows.values())}
+        print(name, "pushes", json.dumps(rows["summary"]), flush=True)
         out[name] = rows
     return out
 
 
-def perturbed(options: dict, seeds=range(5)) -> dict:
+def perturbed(options: dict, seeds=range(5), jobs: int = 1) -> dict:
+    res = run_items([("perturbed", s, options) for s in seeds], jobs, "perturbed")
+    return {str(s): r for s, r in zip(seeds, res, strict=True)}
+
+
+def curve(options: dict, samples=(16, 32, 48), horizons=(0.5, 0.6, 0.7), jobs: int = 1) -> dict:
+    cells = [(n, h) for n in samples for h in horizons]
+    res = run_items([("curve", c, options) for c in cells], jobs, "curve")
+    return {f"{n}x{h}": r for (n, h), r in zip(cells, res, strict=True)}
+
+
+def sweep(options: dict, variations: dict, parts=("clips", "pushes", "loop"),
+          loop_duration: float = 60.0, jobs: int = 1) -> dict:
+    """Each option of ``variations`` (name -> values) varied alone around ``options``, every
+    variant through ``parts``; a line per variant."""
     out = {}
-    ch = Character()
-    ref = reference(ch, "walk60")
-    for s in seeds:
-        start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), s)
-        r, wall, st = run_mpc(ref, options=options, start=start)
-        out[str(s)] = summary(r, wall, st)
-        print("perturbed", s, json.dumps(out[str(s)]), flush=True)
+    for name, values in variations.items():
+        for v in values:
+            o = {**options, name: v}
+            row = {}
+            if "clips" in parts:
+                row["clips"] = {k: _short(r) for k, r in clips(o, jobs).items()}
+            if "pushes" in parts:
+                row["pushes"] = pushes(o, ("mpc",), jobs=jobs)["mpc"]["summary"]
+            if "loop" in parts:
+                row["loop"] = _short(loop(loop_duration, o, jobs))
+            if "perturbed" in parts:
+                row["perturbed"] = {k: _short(r) for k, r in perturbed(o, jobs=jobs).items()}
+            row["plan_steps_per_sim_s"] = nominal_steps(o)
+            out[f"{name}={v}"] = row
+            print("sweep", f"{name}={v}", json.dumps(row), flush=True)
     return out
 
 
-def curve(options: dict, samples=(16, 48, 96), horizons=(0.3, 0.5, 0.7)) -> dict:
-    out = {}
-    ref = reference(Character(), "walk60")
-    for n in samples:
-        for h in horizons:
-            o = {**options, "samples": n, "horizon": h}
-            r, wall, st = run_mpc(ref, options=o)
-            out[f"{n}x{h}"] = summary(r, wall, st)
-            print("curve", n, h, json.dumps(out[f"{n}x{h}"]), flush=True)
-    return out
+def _short(r: dict) -> dict:
+    return {"fell": r["fell"], "fall_time_s": r["fall_time_s"],
+            "error_cm": round(100 * r["tracking_error_m"], 2),
+            "plan_steps_per_sim_s": round(r.get("plan_steps_per_sim_s", 0))}
+
+
+def nominal_steps(options: dict, timestep: float = 0.002) -> float:
+    """Planning-model steps per simulated second the options take at most (every candidate
+    over the whole horizon, or with ``near`` every candidate over the near part and the
+    ``keep`` fraction over the tail at ``tail_timestep``; candidates that diverge in the near
+    part cut the measured figure below this)."""
+    o = MpcOptions.from_kwargs(**options)
+    plan_dt = plan_timestep(o, timestep)
+    if 0 < o.near < o.horizon:
+        tail_dt = plan_dt if o.tail_timestep is None else float(o.tail_timestep)
+        kept = min(o.samples, max(2, int(np.ceil(o.keep * o.samples))))
+        return (o.samples * o.near / plan_dt + kept * (o.horizon - o.near) / tail_dt) / o.replan
+    return o.samples * o.horizon / o.replan / plan_dt
 
 
 def determinism(options: dict) -> dict:
@@ -204,7 +301,7 @@ def determinism(options: dict) -> dict:
     rows = {}
     for key, o in (("a", {}), ("b", {}), ("threads1", {"threads": 1})):
         ch = Character()
-        c = make_mpc(ch, ref, progress=False, **{**options, **o})
+        c = make_mpc(ch, ref, **{**options, **o})
         q = []
         S.track(ch, c, ref, duration=1.0,
                 frame_callback=lambda ch, q=q: q.append(ch.state.qpos.copy()))
@@ -216,24 +313,51 @@ def determinism(options: dict) -> dict:
     return out
 
 
-def speed(options: dict) -> dict:
-    """Real-time factor on walk60, against bare ``mj_step`` throughput on this machine now."""
+def speed(options: dict, duration: float | None = None) -> dict:
+    """Real-time factor on walk60, measured and normalised to a core doing
+    :data:`REFERENCE_STEPS` bare steps per second (module docstring)."""
     ch = Character()
     ref = reference(ch, "walk60")
-    before = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
-    r, wall, st = run_mpc(ref, options=options)
-    after = raw_step_rate(ch.model, ref.qpos(0.0))["c_loop_steps_per_s"]
+    before = raw_step_rate(ch.model, ref.qpos(0.0), repeats=5)
+    r, t, st = run_mpc(ref, duration=duration, options=options)
+    after = raw_step_rate(ch.model, ref.qpos(0.0), repeats=5)
     o = MpcOptions(**options)
     threads = o.threads or os.cpu_count() or 1
-    plan_dt = plan_timestep(o, float(ch.model.opt.timestep))
-    # physics steps per simulated second: the rollouts, plus the character's own steps
-    steps = o.samples * o.horizon / o.replan / plan_dt + 1.0 / float(ch.model.opt.timestep)
-    rate = (before + after) / 2
-    bound = threads * rate / steps
-    out = {**summary(r, wall, st), "threads": threads, "raw_steps_per_s": rate,
-           "raw_steps_per_s_before_after": [before, after], "steps_per_sim_s": steps,
-           "bound": bound, "efficiency": (r.sim_time_s / wall) / bound}
+    wall_rate = (before["c_loop_steps_per_s"] + after["c_loop_steps_per_s"]) / 2
+    cpu_rate = (before["c_loop_steps_per_cpu_s"] + after["c_loop_steps_per_cpu_s"]) / 2
+    sim = r.sim_time_s
+    rtf = sim / t.wall_s
+    # rollout threads run while the main thread waits (it spends no CPU then): the run on idle
+    # cores would take the main thread's CPU plus the rollout threads' CPU spread over them
+    serial = t.thread_s if threads > 1 else t.cpu_s
+    projected = serial + max(t.cpu_s - t.thread_s, 0.0) / threads if threads > 1 else serial
+    plan_steps = st["physics_steps"] / sim
+    steps = plan_steps + 1.0 / float(ch.model.opt.timestep)  # and the character's own steps
+    out = {**summary(r, t, st), "threads": threads,
+           "bare_steps_per_s": wall_rate, "bare_steps_per_cpu_s": cpu_rate,
+           "bare_steps_per_s_before_after": [before["c_loop_steps_per_s"],
+                                             after["c_loop_steps_per_s"]],
+           "rtf_30k": rtf * REFERENCE_STEPS / wall_rate,
+           "rtf_cpu": sim / projected, "rtf_cpu_30k": sim / projected * REFERENCE_STEPS / cpu_rate,
+           "main_thread_cpu_s": t.thread_s, "rollout_thread_cpu_s": t.cpu_s - t.thread_s,
+           "planning_s": st["planning_s"], "plan_steps_per_sim_s": plan_steps,
+           "nominal_plan_steps_per_sim_s": nominal_steps(options, float(ch.model.opt.timestep)),
+           "bound": threads * wall_rate / steps}
     print("speed", json.dumps(out), flush=True)
+    print(f"speed: {sim:.2f} sim s in {t.wall_s:.2f} s wall on {threads} threads, load "
+          f"{out['load']}: real-time factor {rtf:.3f} measured, {out['rtf_30k']:.3f} at "
+          f"{REFERENCE_STEPS:,.0f} bare steps/s per core (bare here {wall_rate:,.0f}/s); "
+          f"from CPU clocks {out['rtf_cpu']:.3f}, {out['rtf_cpu_30k']:.3f} normalised (bare "
+          f"{cpu_rate:,.0f} per CPU s); {plan_steps:,.0f} planning-model steps per simulated "
+          f"second", flush=True)
+    return out
+
+
+def _variations(specs: list[str]) -> dict:
+    out = {}
+    for spec in specs:
+        k, v = spec.split("=", 1)
+        out[k] = [json.loads(x) for x in v.split(",")]
     return out
 
 
@@ -243,35 +367,48 @@ def main(argv=None) -> int:
     for part in ("clips", "loop", "pushes", "perturbed", "curve", "determinism", "speed", "all"):
         p.add_argument(f"--{part}", action="store_true")
     p.add_argument("--loop-duration", type=float, default=60.0)
+    p.add_argument("--speed-duration", type=float, default=None,
+                   help="seconds of walk60 the speed run tracks (default: the whole clip)")
     p.add_argument("--push-controllers", nargs="+", default=["mpc", "hand_of_god",
                                                              "samcon_replay"])
     p.add_argument("--push-moments", nargs="+", type=float, help="push times (s)")
     p.add_argument("--push-directions", nargs="+", choices=list(DIRECTIONS))
     p.add_argument("--option", action="append", default=[], metavar="NAME=JSON",
                    help="an MpcOptions field (repeatable), e.g. samples=64")
+    p.add_argument("--sweep", action="append", default=[], metavar="NAME=V1,V2",
+                   help="vary one option around the others (repeatable), e.g. samples=24,48")
+    p.add_argument("--sweep-parts", nargs="+", default=["clips", "pushes", "loop"],
+                   choices=["clips", "pushes", "loop", "perturbed"])
+    p.add_argument("--jobs", type=int, default=1,
+                   help="worker processes for the tracking parts (one rollout thread each)")
     p.add_argument("--out", default="mpc_bench.json")
     args = p.parse_args(argv)
     options = {}
     for kv in args.option:
         k, v = kv.split("=", 1)
         options[k] = json.loads(v)
-    results = {"options": options, "cpus": os.cpu_count()}
-    a = args.all
+    MpcOptions.from_kwargs(**options)  # an unknown or impossible option fails here
+    results = {"options": options, "cpus": os.cpu_count(), "load_start": load()}
+    a, jobs = args.all, max(1, args.jobs)
     if a or args.determinism:
         results["determinism"] = determinism(options)
     if a or args.clips:
-        results["clips"] = clips(options)
+        results["clips"] = clips(options, jobs)
     if a or args.perturbed:
-        results["perturbed"] = perturbed(options)
+        results["perturbed"] = perturbed(options, jobs=jobs)
     if a or args.pushes:
         results["pushes"] = pushes(options, tuple(args.push_controllers),
-                                   moments=args.push_moments, directions=args.push_directions)
+                                   moments=args.push_moments, directions=args.push_directions,
+                                   jobs=jobs)
     if a or args.loop:
-        results["loop"] = loop(args.loop_duration, options)
+        results["loop"] = loop(args.loop_duration, options, jobs)
     if a or args.curve:
-        results["curve"] = curve(options)
+        results["curve"] = curve(options, jobs=jobs)
+    if args.sweep:
+        results["sweep"] = sweep(options, _variations(args.sweep), tuple(args.sweep_parts),
+                                 args.loop_duration, jobs)
     if a or args.speed:
-        results["speed"] = speed(options)
+        results["speed"] = speed(options, args.speed_duration)
     print(f"wrote {write_json(args.out, results)}")
     return 0
 
