@@ -106,6 +106,14 @@ def _rest_angle(sine: float) -> float:
     return a if abs(a) > 1e-6 else 0.0
 
 
+def _knee_yaw(flex_axis: np.ndarray, fwd: np.ndarray, left: np.ndarray) -> float:
+    """Yaw (rad, about up) that turns the lateral axis ``left`` ``(3,)`` onto the horizontal part
+    of a knee's flexion axis ``flex_axis`` ``(3,)`` (a positive rotation about it flexes the
+    knee); exactly 0 for an axis with no forward component."""
+    f = float(flex_axis @ fwd)
+    return math.atan2(-f, float(flex_axis @ left)) if f else 0.0
+
+
 def _cross3(a: list[float], b: list[float]) -> list[float]:
     """Cross product of two 3-vectors given as Python floats (the same IEEE operations as
     numpy's element-wise ones, without numpy's per-element overhead)."""
@@ -338,6 +346,7 @@ class Simbicon:
             shank = pos(ankle) - pos(knee)
             sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
             foot = sole - pos(ankle)
+            knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd)
             leg = {
                 "side": side,
                 "hip": H,
@@ -351,7 +360,7 @@ class Simbicon:
                 "ankle_joints": np.array([h.jnt for h in A.values()]),
                 "ankle_acts": np.array([h.act for h in A.values()]),
                 # hinge signs measured on the model (anatomical + = this many times hinge +)
-                "knee_flex": -sign(rest.joint_axes[K["y"].jnt], shank, fwd),
+                "knee_flex": knee_flex,
                 "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up),
                 "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd),
                 # heading-frame rotations of the thigh: flexion about left, abduction about fwd
@@ -365,6 +374,10 @@ class Simbicon:
                 "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
                 @ np.stack([fwd, left], axis=1),
                 "twist_sign": sign(rest.joint_axes[H["z"].jnt], fwd, left) if "z" in H else 1.0,
+                # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
+                # the hip twists the thigh by minus this so the knee flexes in the sagittal
+                # plane, and the ankle twists the foot back (0 for a knee about lateral)
+                "knee_yaw": _knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
@@ -441,6 +454,12 @@ class Simbicon:
                     ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
                     base[h.act] = (g.elbow_flexion - _rest_angle(math.sin(bent))) * s_e
+        for leg in self._legs:
+            # the foot turned back by what the hip turns the thigh (see "knee_yaw")
+            if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
+                hz = leg["ankle"]["z"]
+                base[hz.act] = leg["knee_yaw"] * sign(rest.joint_axes[hz.jnt], fwd, left)
+                base[leg["hip"]["z"].act] = -leg["knee_yaw"] * leg["twist_sign"]
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
             if grp in ("hip",):
@@ -602,7 +621,7 @@ class Simbicon:
             # heading (thigh yaw = pelvis yaw + s q_twist)
             hz = sw["hip"]["z"]
             err = math.remainder(self.desired_heading - heading, 2 * math.pi)
-            want = sw["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            want = sw["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - sw["knee_yaw"])
             tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
         if g.swing_gravity:
             # the swing leg's weight by Jacobian transpose (Coros et al. 2010)
@@ -635,8 +654,8 @@ class Simbicon:
             hz = st["hip"]["z"]
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
             thigh_yaw = yaw_of(s.body_rotations[st["hip_body"]])
-            err = math.remainder(thigh_yaw - self.desired_heading, 2 * math.pi)
-            want = st["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            err = math.remainder(thigh_yaw + st["knee_yaw"] - self.desired_heading, 2 * math.pi)
+            want = st["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - st["knee_yaw"])
             tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
         else:
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
