@@ -65,3 +65,18 @@ def test_simbicon_walks_on_a_structure_rig(structure_bodies, name):
     assert not r.fell, (name, r.fall_time_s, r.fall_reason)
     assert r.root_force_max_N == 0.0
     assert r.distance_m > 12.0, (name, r.distance_m)
+
+
+@pytest.mark.parametrize("joint_model, joint", [("ball", "pelvis_lowerback"), ("full", "lKnee")])
+def test_simbicon_names_the_joint_it_cannot_read(tmp_path, joint_model, joint):
+    """A body SIMBICON cannot drive is a one-line error naming the joint and the fix."""
+    from mjchar.bvh.bundled.assets import motion_path
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.walking.simbicon import SimbiconModelError, make_simbicon
+
+    xml = tmp_path / f"{joint_model}.xml"
+    convert(bvh.load(motion_path("walk")), joint_model=joint_model).save(xml)
+    ch = Character(str(xml))
+    with pytest.raises(SimbiconModelError, match=rf"^{joint}: .*--joint-model hinge") as e:
+        make_simbicon(ch).reset(ch)
+    assert "\n" not in str(e.value)

@@ -43,6 +43,8 @@ from .leg import yaw_of
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
+#: the rest pose's axes a hinge is keyed by (the canonical rest: x forward, y left, z up)
+_AXIS_NAMES = {"x": "forward", "y": "lateral", "z": "vertical"}
 #: gain groups of the stance ankle's hinges nearest the world x (forward at rest, as every hinge
 #: key here) and z axes at rest: its roll and twist; a gait without them uses its ``ankle`` gains
 _STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
@@ -54,6 +56,16 @@ DEFAULT_GAINS = {
     "swing_hip": (600.0, 60.0),
     "swing_ankle_world": (100.0, 10.0),
 }
+
+
+class SimbiconModelError(ControllerError):
+    """The model lacks what SIMBICON reads from it (a hinge at a leg joint, a knee that flexes
+    about one axis near the lateral one, a hinge whose sign the rest pose tells); the message
+    names the joint and what would fix it."""
+
+
+#: how a body made by ``mjchar convert`` gets hinge triplets and a single knee hinge
+_HINGE_FIX = "convert the BVH with the default --joint-model hinge"
 
 
 def _rot_x(a: float) -> np.ndarray:
@@ -257,8 +269,8 @@ class Simbicon:
         out: dict[str, _Hinge] = {}
         for dof in character.joint_dofs(joint):
             if not character.hinge_dofs[dof]:
-                raise ControllerError(
-                    f"SIMBICON needs hinge joints (joint_model='hinge'); {joint} is not"
+                raise SimbiconModelError(
+                    f"SIMBICON needs hinge joints; {joint} is not a hinge: {_HINGE_FIX}"
                 )
             j = int(character.dof_joint[dof])
             a = self._rest.joint_axes[j]
@@ -302,7 +314,12 @@ class Simbicon:
 
     def _map(self, ch: Character) -> None:
         if not np.all(ch.actuator_qpos >= 0):
-            raise ControllerError("SIMBICON needs one hinge actuator per dof (joint_model='hinge')")
+            a = int(np.flatnonzero(ch.actuator_qpos < 0)[0])
+            j = mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_JOINT,
+                                  int(ch.model.actuator_trnid[a, 0]))
+            raise SimbiconModelError(
+                f"{j}: SIMBICON needs one hinge actuator per dof and this joint's actuator is "
+                f"not one: {_HINGE_FIX}")
         self._act_dof = ch.actuator_dof.copy()
         self._act_qpos = ch.actuator_qpos.copy()
         # the same as slices when contiguous (a view to read per step, not a gathered copy)
@@ -322,12 +339,25 @@ class Simbicon:
         def pos(j: str) -> np.ndarray:
             return rest.body_positions[ch.body_id(j)]
 
-        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray) -> float:
+        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray,
+                 joint: str = "") -> float:
             """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``."""
             s = float(np.dot(np.cross(axis, lever), towards))
             if abs(s) < 1e-9:
-                raise ControllerError("cannot tell a hinge's sign on this model")
+                raise SimbiconModelError(
+                    f"{joint or 'a hinge'}: SIMBICON cannot tell which way the hinge turns the "
+                    "limb in the rest pose (its axis is along the bone, or the bone has no "
+                    "length); convert the BVH again so the rest pose stands with legs down "
+                    "(mjchar convert), or map the role to a joint with a bone (--roles)")
             return 1.0 if s > 0 else -1.0
+
+        def needs(hinges: dict, axis: str, joint: str, what: str) -> None:
+            if axis not in hinges:
+                raise SimbiconModelError(
+                    f"{joint}: SIMBICON needs a {what} hinge (about the {_AXIS_NAMES[axis]} axis "
+                    f"at rest) and this joint has {len(hinges)} hinge(s) about "
+                    f"{', '.join(_AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
+                    "joint rotation channels, or map the role to a joint that has them (--roles)")
 
         g = self.gait
         kp, kd = ch.actuation.default_gains()
@@ -337,16 +367,21 @@ class Simbicon:
             hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
             toe = ch.role(f"{side}_toe", required=False)
             H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
+            needs(H, "y", hip, "flexion")
+            needs(A, "y", ankle, "dorsiflexion")
             if "y" not in K or len(K) != 1:
-                raise ControllerError(
-                    f"{knee}: SIMBICON expects a single flexion hinge at the knee"
+                raise SimbiconModelError(
+                    f"{knee}: SIMBICON needs a single flexion hinge at the knee, about an axis "
+                    f"nearest the lateral one at rest; it has {len(K)} hinge(s) about "
+                    f"{', '.join(_AXIS_NAMES[k] for k in K) or 'nothing'}: {_HINGE_FIX}, or "
+                    "map left_knee/right_knee to the knees (--roles)"
                 )
             out = left if side == "left" else -left
             thigh = pos(knee) - pos(hip)
             shank = pos(ankle) - pos(knee)
             sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
             foot = sole - pos(ankle)
-            knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd)
+            knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
             leg = {
                 "side": side,
                 "hip": H,
@@ -361,19 +396,20 @@ class Simbicon:
                 "ankle_acts": np.array([h.act for h in A.values()]),
                 # hinge signs measured on the model (anatomical + = this many times hinge +)
                 "knee_flex": knee_flex,
-                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up),
-                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd),
+                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
+                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
                 # heading-frame rotations of the thigh: flexion about left, abduction about fwd
-                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd),
-                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out),
+                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, hip),
+                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out, hip),
                 "out": out,
                 "thigh_dir": thigh / np.linalg.norm(thigh),
                 # + rotation about the heading frame's lateral axis lifts the toes?
-                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
+                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up, ankle),
                 # the foot's forward and left axes in its own frame (from the rest pose)
                 "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
                 @ np.stack([fwd, left], axis=1),
-                "twist_sign": sign(rest.joint_axes[H["z"].jnt], fwd, left) if "z" in H else 1.0,
+                "twist_sign": (sign(rest.joint_axes[H["z"].jnt], fwd, left, hip) if "z" in H
+                               else 1.0),
                 # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
                 # the hip twists the thigh by minus this so the knee flexes in the sagittal
                 # plane, and the ankle twists the foot back (0 for a knee about lateral)
@@ -409,7 +445,8 @@ class Simbicon:
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd)))
+                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd,
+                                                                   j)))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():
@@ -434,9 +471,9 @@ class Simbicon:
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
                     base[hs["x"].act] = (g.shoulder_down - drop) * sign(
-                        rest.joint_axes[hs["x"].jnt], arm, -up)
+                        rest.joint_axes[hs["x"].jnt], arm, -up, sh)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd)
+                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
                     # that points forward or back is brought back to it first
@@ -449,7 +486,7 @@ class Simbicon:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd)
+                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd, el)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
                     ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
@@ -458,7 +495,8 @@ class Simbicon:
             # the foot turned back by what the hip turns the thigh (see "knee_yaw")
             if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
                 hz = leg["ankle"]["z"]
-                base[hz.act] = leg["knee_yaw"] * sign(rest.joint_axes[hz.jnt], fwd, left)
+                base[hz.act] = leg["knee_yaw"] * sign(rest.joint_axes[hz.jnt], fwd, left,
+                                                            ch.role(f"{leg['side']}_ankle"))
                 base[leg["hip"]["z"].act] = -leg["knee_yaw"] * leg["twist_sign"]
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
