@@ -37,6 +37,15 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
+from .frames import (
+    angle_between,
+    cross_rows,
+    log,
+    rot_x,
+    rot_y,
+    rot_z,
+    world_torque,
+)
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .leg import yaw_of
 
@@ -68,30 +77,8 @@ class SimbiconModelError(ControllerError):
 _HINGE_FIX = "convert the BVH with the default --joint-model hinge"
 
 
-def _rot_x(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def _rot_y(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def _rot_z(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _log(R: np.ndarray) -> np.ndarray:
-    """``(3,)`` rotation vector (rad) of a rotation matrix ``(3, 3)``."""
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, R.reshape(9))
-    if q[0] < 0:
-        q = -q
-    v = np.empty(3)
-    mujoco.mju_quat2Vel(v, q, 1.0)
-    return v
 
 
 def _selector(idx: np.ndarray) -> slice | np.ndarray:
@@ -101,14 +88,6 @@ def _selector(idx: np.ndarray) -> slice | np.ndarray:
         return slice(int(idx[0]), int(idx[0]) + len(idx))
     return idx
 
-
-def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``(3,)`` rotation vector turning unit vector ``u`` onto unit vector ``v`` (shortest arc)."""
-    ax = _cross(u, v)
-    s = math.sqrt(ax @ ax)
-    if s < 1e-12:
-        return np.zeros(3)
-    return ax * (math.atan2(s, float(u @ v)) / s)
 
 
 def _rest_angle(sine: float) -> float:
@@ -126,39 +105,8 @@ def _knee_yaw(flex_axis: np.ndarray, fwd: np.ndarray, left: np.ndarray) -> float
     return math.atan2(-f, float(flex_axis @ left)) if f else 0.0
 
 
-def _cross3(a: list[float], b: list[float]) -> list[float]:
-    """Cross product of two 3-vectors given as Python floats (the same IEEE operations as
-    numpy's element-wise ones, without numpy's per-element overhead)."""
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array(_cross3(a.tolist(), b.tolist()))
-
-
-def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of ``(k, 3)`` rows and one ``(3,)`` vector, the same element-wise
-    operations (``np.cross`` costs ~10x more at this size)."""
-    out = np.empty_like(a)
-    b0, b1, b2 = b.tolist()
-    out[:, 0] = a[:, 1] * b2 - a[:, 2] * b1
-    out[:, 1] = a[:, 2] * b0 - a[:, 0] * b2
-    out[:, 2] = a[:, 0] * b1 - a[:, 1] * b0
-    return out
-
-
-def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """``(3,)`` world torque that hinges with world ``axes`` ``(k, 3)`` apply to their child body
-    when their generalised forces are ``tau`` ``(k,)`` (``axes @ T = tau``; least squares for
-    fewer than three hinges)."""
-    if len(tau) == 3:  # Cramer's rule: T = sum_i tau_i (a_j x a_k) / det
-        a1, a2, a3 = axes.tolist()
-        c23, c31, c12 = _cross3(a2, a3), _cross3(a3, a1), _cross3(a1, a2)
-        det = float(axes[0] @ np.array(c23))
-        if abs(det) > 1e-9:
-            t0, t1, t2 = tau.tolist()
-            return np.array([(t0 * c23[k] + t1 * c31[k] + t2 * c12[k]) / det for k in range(3)])
-    return np.linalg.lstsq(axes, tau, rcond=None)[0]
 
 
 class _Hinge:
@@ -590,7 +538,7 @@ class Simbicon:
         if self._step_start is not None:
             t0, c0 = self._step_start
             if t > t0:
-                H = _rot_z(self.desired_heading)
+                H = rot_z(self.desired_heading)
                 self.step_speed = float((c - c0) @ H[:, 0]) / (t - t0)
                 if g.speed_target is not None:
                     self.speed_offset = float(
@@ -637,7 +585,7 @@ class Simbicon:
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
         Rp = s.body_rotations[self._pelvis]
         heading = yaw_of(Rp)
-        H = _rot_z(heading)
+        H = rot_z(heading)
 
         # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
         dd, vv = self._feedback_terms(character, st, H, com, com_vel)
@@ -646,11 +594,11 @@ class Simbicon:
         self.last_swing_target = np.array([sag, cor])
 
         # swing hip, world (heading) frame: the thigh's direction u -> u_d
-        u_d = H @ (_rot_x(sw["abd_sign"] * cor) @ (_rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
+        u_d = H @ (rot_x(sw["abd_sign"] * cor) @ (rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
         u = s.body_rotations[sw["hip_body"]] @ sw["thigh_dir"]
         w = s.body_angular_velocities[sw["hip_body"]]
         kps, kds = self._swing_gains
-        tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
+        tau_w = kps * angle_between(u, u_d) - kds * (w - (w @ u) * u)
         acts = sw["hip_acts"]
         axes_sw = s.joint_axes[sw["hip_joints"]]
         tau[acts] = axes_sw @ tau_w
@@ -669,11 +617,11 @@ class Simbicon:
         lo, hi = sw["hip_limits"]
         clamped = np.minimum(np.maximum(tau[acts], lo), hi)
         tau[acts] = clamped
-        tau_sw = _world_torque(axes_sw, clamped)
+        tau_sw = world_torque(axes_sw, clamped)
 
         # torso (pelvis), world frame: desired heading and forward lean
         Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
-        tau_torso = (self._torso_kp * _log(Rpd @ Rp.T)
+        tau_torso = (self._torso_kp * log(Rpd @ Rp.T)
                      - self._torso_kd * s.body_angular_velocities[self._pelvis])
 
         # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
@@ -681,7 +629,7 @@ class Simbicon:
         for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
             clamped = np.minimum(np.maximum(tau[a], lo), hi)
             tau[a] = clamped
-            react += _world_torque(s.joint_axes[js], clamped)
+            react += world_torque(s.joint_axes[js], clamped)
         tau_st = -tau_torso - tau_sw - react
         acts = st["hip_acts"]
         if "z" in st["hip"]:
@@ -706,7 +654,7 @@ class Simbicon:
                                      sw["foot_pitch_sign"] * p.swing_ankle)
             Rf = s.body_rotations[sw["ankle_body"]]
             kpa, kda = self._ankle_world_gains
-            tau_f = kpa * _log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
+            tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
             tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
         return np.minimum(np.maximum(tau, self._neg_limits), lim)
 
@@ -716,7 +664,7 @@ class Simbicon:
         cache = self._targets_world
         hit = cache.get(key)
         if hit is None or hit[0] != yaw or hit[1] != pitch:
-            hit = (yaw, pitch, _rot_z(yaw) @ _rot_y(pitch))
+            hit = (yaw, pitch, rot_z(yaw) @ rot_y(pitch))
             cache[key] = hit
         return hit[2]
 
@@ -738,7 +686,7 @@ class Simbicon:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
         js = st["support_joints"]
         r = (s.com() if com is None else com) - s.joint_anchors[js]
-        return -np.einsum("ij,ij->i", s.joint_axes[js], _cross_rows(r, F))
+        return -np.einsum("ij,ij->i", s.joint_axes[js], cross_rows(r, F))
 
     def _feedback_terms(
         self, character: Character, st: dict, H: np.ndarray,
