@@ -3,12 +3,12 @@
 
 # Registration order: simbicon, then ipm:
 # isort: off
-from .simbicon import Simbicon, make_simbicon
+from .simbicon import Simbicon, SimbiconModelError, make_simbicon
 from .ipm import IPMController, IPMError, IPMParams, ipm_step_offset, make_ipm
 # isort: on
 from .gaits import GAITS, Gait, GaitError, get_gait
 from .swing import SwingError, SwingTrajectory, two_link_ik
 
 __all__ = ["GAITS", "Gait", "GaitError", "IPMController", "IPMError", "IPMParams", "Simbicon",
-           "SwingError", "SwingTrajectory", "get_gait", "ipm_step_offset", "make_ipm",
-           "make_simbicon", "two_link_ik"]
+           "SimbiconModelError", "SwingError", "SwingTrajectory", "get_gait", "ipm_step_offset",
+           "make_ipm", "make_simbicon", "two_link_ik"]

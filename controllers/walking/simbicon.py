@@ -37,12 +37,23 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
+from .frames import (
+    angle_between,
+    cross_rows,
+    log,
+    rot_x,
+    rot_y,
+    rot_z,
+    world_torque,
+)
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .leg import yaw_of
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
+#: the rest pose's axes a hinge is keyed by (the canonical rest: x forward, y left, z up)
+_AXIS_NAMES = {"x": "forward", "y": "lateral", "z": "vertical"}
 #: gain groups of the stance ankle's hinges nearest the world x (forward at rest, as every hinge
 #: key here) and z axes at rest: its roll and twist; a gait without them uses its ``ankle`` gains
 _STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
@@ -56,30 +67,18 @@ DEFAULT_GAINS = {
 }
 
 
-def _rot_x(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+class SimbiconModelError(ControllerError):
+    """The model lacks what SIMBICON reads from it (a hinge at a leg joint, a knee that flexes
+    about one axis near the lateral one, a hinge whose sign the rest pose tells); the message
+    names the joint and what would fix it."""
 
 
-def _rot_y(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+#: how a body made by ``mjchar convert`` gets hinge triplets and a single knee hinge
+_HINGE_FIX = "convert the BVH with the default --joint-model hinge"
 
 
-def _rot_z(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _log(R: np.ndarray) -> np.ndarray:
-    """``(3,)`` rotation vector (rad) of a rotation matrix ``(3, 3)``."""
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, R.reshape(9))
-    if q[0] < 0:
-        q = -q
-    v = np.empty(3)
-    mujoco.mju_quat2Vel(v, q, 1.0)
-    return v
 
 
 def _selector(idx: np.ndarray) -> slice | np.ndarray:
@@ -90,14 +89,6 @@ def _selector(idx: np.ndarray) -> slice | np.ndarray:
     return idx
 
 
-def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``(3,)`` rotation vector turning unit vector ``u`` onto unit vector ``v`` (shortest arc)."""
-    ax = _cross(u, v)
-    s = math.sqrt(ax @ ax)
-    if s < 1e-12:
-        return np.zeros(3)
-    return ax * (math.atan2(s, float(u @ v)) / s)
-
 
 def _rest_angle(sine: float) -> float:
     """``asin(sine)`` (rad), 0 below 1e-6 rad: a rest pose's offset from the pose a gait assumes
@@ -106,39 +97,16 @@ def _rest_angle(sine: float) -> float:
     return a if abs(a) > 1e-6 else 0.0
 
 
-def _cross3(a: list[float], b: list[float]) -> list[float]:
-    """Cross product of two 3-vectors given as Python floats (the same IEEE operations as
-    numpy's element-wise ones, without numpy's per-element overhead)."""
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+def _knee_yaw(flex_axis: np.ndarray, fwd: np.ndarray, left: np.ndarray) -> float:
+    """Yaw (rad, about up) that turns the lateral axis ``left`` ``(3,)`` onto the horizontal part
+    of a knee's flexion axis ``flex_axis`` ``(3,)`` (a positive rotation about it flexes the
+    knee); exactly 0 for an axis with no forward component."""
+    f = float(flex_axis @ fwd)
+    return math.atan2(-f, float(flex_axis @ left)) if f else 0.0
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array(_cross3(a.tolist(), b.tolist()))
 
 
-def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of ``(k, 3)`` rows and one ``(3,)`` vector, the same element-wise
-    operations (``np.cross`` costs ~10x more at this size)."""
-    out = np.empty_like(a)
-    b0, b1, b2 = b.tolist()
-    out[:, 0] = a[:, 1] * b2 - a[:, 2] * b1
-    out[:, 1] = a[:, 2] * b0 - a[:, 0] * b2
-    out[:, 2] = a[:, 0] * b1 - a[:, 1] * b0
-    return out
-
-
-def _world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """``(3,)`` world torque that hinges with world ``axes`` ``(k, 3)`` apply to their child body
-    when their generalised forces are ``tau`` ``(k,)`` (``axes @ T = tau``; least squares for
-    fewer than three hinges)."""
-    if len(tau) == 3:  # Cramer's rule: T = sum_i tau_i (a_j x a_k) / det
-        a1, a2, a3 = axes.tolist()
-        c23, c31, c12 = _cross3(a2, a3), _cross3(a3, a1), _cross3(a1, a2)
-        det = float(axes[0] @ np.array(c23))
-        if abs(det) > 1e-9:
-            t0, t1, t2 = tau.tolist()
-            return np.array([(t0 * c23[k] + t1 * c31[k] + t2 * c12[k]) / det for k in range(3)])
-    return np.linalg.lstsq(axes, tau, rcond=None)[0]
 
 
 class _Hinge:
@@ -249,8 +217,8 @@ class Simbicon:
         out: dict[str, _Hinge] = {}
         for dof in character.joint_dofs(joint):
             if not character.hinge_dofs[dof]:
-                raise ControllerError(
-                    f"SIMBICON needs hinge joints (joint_model='hinge'); {joint} is not"
+                raise SimbiconModelError(
+                    f"SIMBICON needs hinge joints; {joint} is not a hinge: {_HINGE_FIX}"
                 )
             j = int(character.dof_joint[dof])
             a = self._rest.joint_axes[j]
@@ -294,7 +262,12 @@ class Simbicon:
 
     def _map(self, ch: Character) -> None:
         if not np.all(ch.actuator_qpos >= 0):
-            raise ControllerError("SIMBICON needs one hinge actuator per dof (joint_model='hinge')")
+            a = int(np.flatnonzero(ch.actuator_qpos < 0)[0])
+            j = mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_JOINT,
+                                  int(ch.model.actuator_trnid[a, 0]))
+            raise SimbiconModelError(
+                f"{j}: SIMBICON needs one hinge actuator per dof and this joint's actuator is "
+                f"not one: {_HINGE_FIX}")
         self._act_dof = ch.actuator_dof.copy()
         self._act_qpos = ch.actuator_qpos.copy()
         # the same as slices when contiguous (a view to read per step, not a gathered copy)
@@ -314,12 +287,25 @@ class Simbicon:
         def pos(j: str) -> np.ndarray:
             return rest.body_positions[ch.body_id(j)]
 
-        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray) -> float:
+        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray,
+                 joint: str = "") -> float:
             """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``."""
             s = float(np.dot(np.cross(axis, lever), towards))
             if abs(s) < 1e-9:
-                raise ControllerError("cannot tell a hinge's sign on this model")
+                raise SimbiconModelError(
+                    f"{joint or 'a hinge'}: SIMBICON cannot tell which way the hinge turns the "
+                    "limb in the rest pose (its axis is along the bone, or the bone has no "
+                    "length); convert the BVH again so the rest pose stands with legs down "
+                    "(mjchar convert), or map the role to a joint with a bone (--roles)")
             return 1.0 if s > 0 else -1.0
+
+        def needs(hinges: dict, axis: str, joint: str, what: str) -> None:
+            if axis not in hinges:
+                raise SimbiconModelError(
+                    f"{joint}: SIMBICON needs a {what} hinge (about the {_AXIS_NAMES[axis]} axis "
+                    f"at rest) and this joint has {len(hinges)} hinge(s) about "
+                    f"{', '.join(_AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
+                    "joint rotation channels, or map the role to a joint that has them (--roles)")
 
         g = self.gait
         kp, kd = ch.actuation.default_gains()
@@ -329,15 +315,21 @@ class Simbicon:
             hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
             toe = ch.role(f"{side}_toe", required=False)
             H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
+            needs(H, "y", hip, "flexion")
+            needs(A, "y", ankle, "dorsiflexion")
             if "y" not in K or len(K) != 1:
-                raise ControllerError(
-                    f"{knee}: SIMBICON expects a single flexion hinge at the knee"
+                raise SimbiconModelError(
+                    f"{knee}: SIMBICON needs a single flexion hinge at the knee, about an axis "
+                    f"nearest the lateral one at rest; it has {len(K)} hinge(s) about "
+                    f"{', '.join(_AXIS_NAMES[k] for k in K) or 'nothing'}: {_HINGE_FIX}, or "
+                    "map left_knee/right_knee to the knees (--roles)"
                 )
             out = left if side == "left" else -left
             thigh = pos(knee) - pos(hip)
             shank = pos(ankle) - pos(knee)
             sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
             foot = sole - pos(ankle)
+            knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
             leg = {
                 "side": side,
                 "hip": H,
@@ -351,20 +343,25 @@ class Simbicon:
                 "ankle_joints": np.array([h.jnt for h in A.values()]),
                 "ankle_acts": np.array([h.act for h in A.values()]),
                 # hinge signs measured on the model (anatomical + = this many times hinge +)
-                "knee_flex": -sign(rest.joint_axes[K["y"].jnt], shank, fwd),
-                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up),
-                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd),
+                "knee_flex": knee_flex,
+                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
+                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
                 # heading-frame rotations of the thigh: flexion about left, abduction about fwd
-                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd),
-                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out),
+                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, hip),
+                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out, hip),
                 "out": out,
                 "thigh_dir": thigh / np.linalg.norm(thigh),
                 # + rotation about the heading frame's lateral axis lifts the toes?
-                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up),
+                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up, ankle),
                 # the foot's forward and left axes in its own frame (from the rest pose)
                 "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
                 @ np.stack([fwd, left], axis=1),
-                "twist_sign": sign(rest.joint_axes[H["z"].jnt], fwd, left) if "z" in H else 1.0,
+                "twist_sign": (sign(rest.joint_axes[H["z"].jnt], fwd, left, hip) if "z" in H
+                               else 1.0),
+                # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
+                # the hip twists the thigh by minus this so the knee flexes in the sagittal
+                # plane, and the ankle twists the foot back (0 for a knee about lateral)
+                "knee_yaw": _knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
@@ -396,7 +393,8 @@ class Simbicon:
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd)))
+                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd,
+                                                                   j)))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():
@@ -421,9 +419,9 @@ class Simbicon:
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
                     base[hs["x"].act] = (g.shoulder_down - drop) * sign(
-                        rest.joint_axes[hs["x"].jnt], arm, -up)
+                        rest.joint_axes[hs["x"].jnt], arm, -up, sh)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd)
+                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
                     # that points forward or back is brought back to it first
@@ -436,11 +434,18 @@ class Simbicon:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd)
+                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd, el)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
                     ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
                     base[h.act] = (g.elbow_flexion - _rest_angle(math.sin(bent))) * s_e
+        for leg in self._legs:
+            # the foot turned back by what the hip turns the thigh (see "knee_yaw")
+            if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
+                hz = leg["ankle"]["z"]
+                base[hz.act] = leg["knee_yaw"] * sign(rest.joint_axes[hz.jnt], fwd, left,
+                                                            ch.role(f"{leg['side']}_ankle"))
+                base[leg["hip"]["z"].act] = -leg["knee_yaw"] * leg["twist_sign"]
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
             if grp in ("hip",):
@@ -533,7 +538,7 @@ class Simbicon:
         if self._step_start is not None:
             t0, c0 = self._step_start
             if t > t0:
-                H = _rot_z(self.desired_heading)
+                H = rot_z(self.desired_heading)
                 self.step_speed = float((c - c0) @ H[:, 0]) / (t - t0)
                 if g.speed_target is not None:
                     self.speed_offset = float(
@@ -580,7 +585,7 @@ class Simbicon:
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
         Rp = s.body_rotations[self._pelvis]
         heading = yaw_of(Rp)
-        H = _rot_z(heading)
+        H = rot_z(heading)
 
         # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
         dd, vv = self._feedback_terms(character, st, H, com, com_vel)
@@ -589,11 +594,11 @@ class Simbicon:
         self.last_swing_target = np.array([sag, cor])
 
         # swing hip, world (heading) frame: the thigh's direction u -> u_d
-        u_d = H @ (_rot_x(sw["abd_sign"] * cor) @ (_rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
+        u_d = H @ (rot_x(sw["abd_sign"] * cor) @ (rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
         u = s.body_rotations[sw["hip_body"]] @ sw["thigh_dir"]
         w = s.body_angular_velocities[sw["hip_body"]]
         kps, kds = self._swing_gains
-        tau_w = kps * _angle_between(u, u_d) - kds * (w - (w @ u) * u)
+        tau_w = kps * angle_between(u, u_d) - kds * (w - (w @ u) * u)
         acts = sw["hip_acts"]
         axes_sw = s.joint_axes[sw["hip_joints"]]
         tau[acts] = axes_sw @ tau_w
@@ -602,7 +607,7 @@ class Simbicon:
             # heading (thigh yaw = pelvis yaw + s q_twist)
             hz = sw["hip"]["z"]
             err = math.remainder(self.desired_heading - heading, 2 * math.pi)
-            want = sw["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            want = sw["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - sw["knee_yaw"])
             tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
         if g.swing_gravity:
             # the swing leg's weight by Jacobian transpose (Coros et al. 2010)
@@ -612,11 +617,11 @@ class Simbicon:
         lo, hi = sw["hip_limits"]
         clamped = np.minimum(np.maximum(tau[acts], lo), hi)
         tau[acts] = clamped
-        tau_sw = _world_torque(axes_sw, clamped)
+        tau_sw = world_torque(axes_sw, clamped)
 
         # torso (pelvis), world frame: desired heading and forward lean
         Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
-        tau_torso = (self._torso_kp * _log(Rpd @ Rp.T)
+        tau_torso = (self._torso_kp * log(Rpd @ Rp.T)
                      - self._torso_kd * s.body_angular_velocities[self._pelvis])
 
         # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
@@ -624,7 +629,7 @@ class Simbicon:
         for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
             clamped = np.minimum(np.maximum(tau[a], lo), hi)
             tau[a] = clamped
-            react += _world_torque(s.joint_axes[js], clamped)
+            react += world_torque(s.joint_axes[js], clamped)
         tau_st = -tau_torso - tau_sw - react
         acts = st["hip_acts"]
         if "z" in st["hip"]:
@@ -635,8 +640,8 @@ class Simbicon:
             hz = st["hip"]["z"]
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
             thigh_yaw = yaw_of(s.body_rotations[st["hip_body"]])
-            err = math.remainder(thigh_yaw - self.desired_heading, 2 * math.pi)
-            want = st["twist_sign"] * min(max(err, -g.max_twist), g.max_twist)
+            err = math.remainder(thigh_yaw + st["knee_yaw"] - self.desired_heading, 2 * math.pi)
+            want = st["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - st["knee_yaw"])
             tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
         else:
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
@@ -649,7 +654,7 @@ class Simbicon:
                                      sw["foot_pitch_sign"] * p.swing_ankle)
             Rf = s.body_rotations[sw["ankle_body"]]
             kpa, kda = self._ankle_world_gains
-            tau_f = kpa * _log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
+            tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
             tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
         return np.minimum(np.maximum(tau, self._neg_limits), lim)
 
@@ -659,7 +664,7 @@ class Simbicon:
         cache = self._targets_world
         hit = cache.get(key)
         if hit is None or hit[0] != yaw or hit[1] != pitch:
-            hit = (yaw, pitch, _rot_z(yaw) @ _rot_y(pitch))
+            hit = (yaw, pitch, rot_z(yaw) @ rot_y(pitch))
             cache[key] = hit
         return hit[2]
 
@@ -681,7 +686,7 @@ class Simbicon:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
         js = st["support_joints"]
         r = (s.com() if com is None else com) - s.joint_anchors[js]
-        return -np.einsum("ij,ij->i", s.joint_axes[js], _cross_rows(r, F))
+        return -np.einsum("ij,ij->i", s.joint_axes[js], cross_rows(r, F))
 
     def _feedback_terms(
         self, character: Character, st: dict, H: np.ndarray,
