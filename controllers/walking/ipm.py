@@ -114,7 +114,14 @@ from ..core.geometry import point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle, yaw_of
-from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
+from .swing import (
+    SwingTrajectory,
+    frame_from_axes,
+    hinge_leg_ik,
+    rotation_about,
+    rotation_z,
+    two_link_ik,
+)
 
 _LEFT, _RIGHT = 0, 1
 
@@ -593,8 +600,12 @@ class IPMController:
             R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
         hip_pos = s.joint_anchors[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
-        thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
-        R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+        if sw.planar:
+            thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
+            R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+        else:
+            R_thigh_des, flexion = hinge_leg_ik(hip_pos, ankle_target, sw.bone1, sw.bone2,
+                                                sw.knee_axis, pole, sw.flexion_sign)
 
         # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
         # target velocities by finite differences (feed-forward: no lag from the damping)

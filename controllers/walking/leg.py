@@ -105,6 +105,19 @@ class Leg:
         ankle_in_shank = ch.poses.body_offset(self.foot)
         self.l1 = float(np.linalg.norm(knee_in_thigh))
         self.l2 = float(np.linalg.norm(ankle_in_shank))
-        axis_in_thigh = (rest.body_rotations[self.thigh].T
-                         @ rest.joint_axes[ch.dof_joint[self.knee_dof]])
+        R_thigh = rest.body_rotations[self.thigh]
+        axis_in_thigh = R_thigh.T @ rest.joint_axes[ch.dof_joint[self.knee_dof]]
         self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns
+        # the knee as the model has it, in the thigh's frame at zero flexion: the bones, the
+        # hinge axis and the side it flexes to (its range's middle; a fitted axis may be tilted)
+        self.bone1 = knee_in_thigh
+        self.bone2 = R_thigh.T @ rest.body_rotations[self.shank] @ ankle_in_shank
+        self.knee_axis = axis_in_thigh / np.linalg.norm(axis_in_thigh)
+        lo, hi = ch.poses.dof_limits(self.knee)[0]
+        self.flexion_sign = -1.0 if lo + hi < 0 else 1.0
+        # the textbook leg (axis across both bones, shank in line with the thigh, flexing to
+        # positive angles): planar two-link IK; any other knee: the hinge's own IK
+        u1 = knee_in_thigh / self.l1
+        self.planar = bool(abs(float(self.knee_axis @ u1)) < 1e-6
+                           and np.linalg.norm(np.cross(u1, self.bone2 / self.l2)) < 1e-6
+                           and float(u1 @ self.bone2) > 0 and self.flexion_sign > 0)
