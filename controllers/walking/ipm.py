@@ -213,8 +213,11 @@ class IPMController:
         toes = np.concatenate([lg.toe for lg in self._legs])
         self._upper = np.concatenate([upper, toes]).astype(int)
         if not ch.hinge_dofs[self._upper].all():
-            raise IPMError("IPM needs hinge joints in the upper body too (convert with "
-                           "joint_model='hinge')")
+            body = ch.dof_body[self._upper[np.flatnonzero(~ch.hinge_dofs[self._upper])[0]]]
+            joint = next(n for n, b in zip(ch.joint_names, ch.joint_bodies, strict=True)
+                         if b == body)
+            raise IPMError(f"IPM needs hinge joints in the upper body too (joint {joint} is a "
+                           "ball joint): convert with --joint-model hinge (joint_model='hinge')")
         self._upper_q = ch.dof_qpos[self._upper]
         kp, kd = ch.actuation.default_gains()
         s = self.params.upper.gain_scale

@@ -81,12 +81,16 @@ class Leg:
         self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
         self.leg = np.concatenate([self.hip, self.knee, self.ankle])
         self.all = np.concatenate([self.leg, self.toe])
-        hinges = ch.hinge_dofs[self.leg].all()
-        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3 or not hinges:
-            raise IPMError(f"IPM needs hips and ankles of 3 hinges and a hinge knee ({side} leg "
-                           f"has {len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs"
-                           f"{'' if hinges else ', not all hinges'}); convert with "
-                           "joint_model='hinge'")
+        for role, name, dofs, n in (("hip", self.hip_name, self.hip, 3),
+                                    ("knee", self.knee_name, self.knee, 1),
+                                    ("ankle", self.ankle_name, self.ankle, 3)):
+            if len(dofs) != n or not ch.hinge_dofs[dofs].all():
+                kind = (f"has {len(dofs)} hinges" if ch.hinge_dofs[dofs].all()
+                        else "is a ball joint")
+                want = "3 hinges" if n == 3 else "one hinge"
+                raise IPMError(f"IPM needs {want} at the {side} {role} (joint "
+                               f"{name} {kind}): convert with --joint-model hinge "
+                               "(joint_model='hinge')")
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
