@@ -380,10 +380,12 @@ class IPMController:
         drop = 0.0
         for lg in self._legs:
             q[lg.knee_q] = k
-            for dof in (lg.hip[0], lg.ankle[0]):  # first hinge = pitch for y-first orders
-                if abs(self._rest_axes[ch.dof_joint[dof]]
-                       @ self._rest_axes[ch.dof_joint[lg.knee_dof]]) > 0.99:
-                    q[ch.dof_qpos[dof]] = -0.5 * k
+            knee_axis = self._rest_axes[ch.dof_joint[lg.knee_dof]]
+            for dofs in (lg.hip, lg.ankle):  # the hinge nearest the knee's axis: the pitch
+                cos = self._rest_axes[ch.dof_joint[dofs]] @ knee_axis
+                i = int(np.argmax(np.abs(cos)))
+                if abs(cos[i]) > 0.7:
+                    q[ch.dof_qpos[dofs[i]]] = -0.5 * k * math.copysign(1.0, cos[i])
             drop = max(drop, lg.l1 + lg.l2 - math.hypot(
                 lg.l1 * math.cos(0.5 * k) + lg.l2 * math.cos(0.5 * k), 0.0))
         q[ch.root_qpos[2]] -= drop
@@ -412,11 +414,11 @@ class IPMController:
     def _reach_drop(self, ch: Character, q: np.ndarray, ankles: list, knee: float) -> float:
         """How far (m) to lower the pelvis of pose ``q`` so each leg reaches its ankle target
         (``ankles``, world, left then right) with the knee bent ``knee`` rad: the reach is
-        ``|l1 + l2 e^(i knee)|``, hip joint to ankle joint (0 when both already reach)."""
+        :meth:`Leg.reach`, hip joint to ankle joint (0 when both already reach)."""
         anchors = ch.poses.kinematics(q).joint_anchors
         drop = 0.0
         for lg, ankle in zip(self._legs, ankles, strict=True):
-            reach = math.sqrt(lg.l1 ** 2 + lg.l2 ** 2 + 2 * lg.l1 * lg.l2 * math.cos(knee))
+            reach = lg.reach(knee)
             d = anchors[lg.hip_jnt[0]] - ankle
             horizontal = float(d[0] ** 2 + d[1] ** 2)
             if horizontal >= reach ** 2:

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.character import Character, Kinematics
 from .ipm_params import IPMError
-from .swing import frame_from_axes
+from .swing import frame_from_axes, rotation_about
 
 
 def wrap_angle(a: float) -> float:
@@ -125,3 +125,11 @@ class Leg:
         self.planar = bool(abs(float(self.knee_axis @ u1)) < 1e-6
                            and np.linalg.norm(np.cross(u1, self.bone2 / self.l2)) < 1e-6
                            and float(u1 @ self.bone2) > 0 and self.flexion_sign > 0)
+
+    def reach(self, knee: float) -> float:
+        """Hip joint to ankle joint distance (m) with the knee at ``knee`` rad:
+        ``|l1 + l2 e^(i knee)|`` for the textbook leg, else from the bones and the hinge axis."""
+        if self.planar:
+            return math.sqrt(self.l1 ** 2 + self.l2 ** 2 + 2 * self.l1 * self.l2 * math.cos(knee))
+        return float(np.linalg.norm(self.bone1 + rotation_about(self.knee_axis, knee)
+                                    @ self.bone2))
