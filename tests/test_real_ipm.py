@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 from conftest import real_export, run_command
 
 from mjchar import bvh
+from mjchar.bvh.bundled.assets import HUMANOID_XML
 from mjchar.bvh.editing.clips import leading_jumps
 from mjchar.bvh.mjcf import convert
 from mjchar.controllers import Character, run
@@ -102,6 +104,16 @@ def test_ball_joints_are_refused_naming_the_joint_and_the_fix():
     with pytest.raises(ControllerError, match=r"joint \w+ is a ball joint driven by motors: "
                                               r"convert with --joint-model hinge"):
         run("mpc", "track", model=ch.model, motion=real_export("emilya_walk.bvh"), duration=0.04)
+
+
+def test_a_knee_flexing_to_negative_angles_is_refused_naming_it():
+    xml = HUMANOID_XML.read_text().replace(
+        '<joint name="lKnee_y" type="hinge" axis="0 1 0" range="-0.261799 2.79253"',
+        '<joint name="lKnee_y" type="hinge" axis="0 -1 0" range="-2.79253 0.261799"')
+    ch = Character(mujoco.MjModel.from_xml_string(xml), info=Character().info)
+    with pytest.raises(IPMError, match=r"flex to positive angles \(joint lKnee turns -160..15 "
+                                       r"deg\): flip its axis"):
+        IPMController(speed=1.0).reset(ch)
 
 
 # -- claims: the walks and the tracks --------------------------------------------------------

@@ -610,7 +610,7 @@ class IPMController:
             R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
         else:
             R_thigh_des, flexion = hinge_leg_ik(hip_pos, ankle_target, sw.bone1, sw.bone2,
-                                                sw.knee_axis, pole, sw.flexion_sign)
+                                                sw.knee_axis, pole)
 
         # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
         # target velocities by finite differences (feed-forward: no lag from the damping)

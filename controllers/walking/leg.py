@@ -112,19 +112,22 @@ class Leg:
         R_thigh = rest.body_rotations[self.thigh]
         axis_in_thigh = R_thigh.T @ rest.joint_axes[ch.dof_joint[self.knee_dof]]
         self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns
-        # the knee as the model has it, in the thigh's frame at zero flexion: the bones, the
-        # hinge axis and the side it flexes to (its range's middle; a fitted axis may be tilted)
+        # the knee as the model has it, in the thigh's frame at zero flexion: the bones and the
+        # hinge axis (a knee axis fitted to a capture may be tilted off the bones)
         self.bone1 = knee_in_thigh
         self.bone2 = R_thigh.T @ rest.body_rotations[self.shank] @ ankle_in_shank
         self.knee_axis = axis_in_thigh / np.linalg.norm(axis_in_thigh)
         lo, hi = ch.poses.dof_limits(self.knee)[0]
-        self.flexion_sign = -1.0 if lo + hi < 0 else 1.0
-        # the textbook leg (axis across both bones, shank in line with the thigh, flexing to
-        # positive angles): planar two-link IK; any other knee: the hinge's own IK
+        if lo + hi < 0:  # the stance knee's targets are flexions, positive angles
+            raise IPMError(f"IPM needs knees that flex to positive angles (joint "
+                           f"{self.knee_name} turns {math.degrees(lo):.0f}..{math.degrees(hi):.0f}"
+                           " deg): flip its axis, as mjchar convert does")
+        # the textbook leg (axis across both bones, shank in line with the thigh): planar
+        # two-link IK; any other knee: the hinge's own IK (Leg.planar, swing.hinge_leg_ik)
         u1 = knee_in_thigh / self.l1
         self.planar = bool(abs(float(self.knee_axis @ u1)) < 1e-6
                            and np.linalg.norm(np.cross(u1, self.bone2 / self.l2)) < 1e-6
-                           and float(u1 @ self.bone2) > 0 and self.flexion_sign > 0)
+                           and float(u1 @ self.bone2) > 0)
 
     def reach(self, knee: float) -> float:
         """Hip joint to ankle joint distance (m) with the knee at ``knee`` rad:
