@@ -16,7 +16,8 @@ swing foot along a trajectory defined relative to the centre of mass in the head
 Hip and knee angles then come from two-link IK (:func:`two_link_ik`): thigh length ``l1``, shank
 length ``l2``, a hip position and an ankle target give the knee flexion by the law of cosines and
 the thigh direction in the plane that contains the hip-ankle line and the "pole" (forward)
-direction, so the knee points forward.
+direction, so the knee points forward. A knee whose hinge axis is not across both bones (an
+axis fitted to a capture) is solved about that axis instead (:func:`hinge_leg_ik`).
 """
 
 from __future__ import annotations
