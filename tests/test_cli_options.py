@@ -183,3 +183,23 @@ def test_speed_range_on_another_body_is_checked_in_its_units(zoo_humanoids, caps
         argv = [command, "simbicon", "--model", xml, "--speed", "0.62"]
         assert expected in _one_line_error(capsys, argv)
     assert main(["run", "simbicon", "--model", xml, "--speed", "1.7", "--duration", "0.2"]) == 0
+
+
+@pytest.mark.parametrize("argv,scenario", [
+    (["run", "mpc", "track"], "track"),
+    (["run", "ipm", "stand"], "stand"),
+    (["run", "ipm", "walk", "--scenario", "walk"], "walk"),
+])
+def test_a_scenario_word_after_the_controller_is_the_scenario(argv, scenario):
+    from mjchar.cli import build_parser
+    from mjchar.commands.run import describe
+
+    assert describe(build_parser().parse_args(argv)).scenario == scenario
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["run", "simbicon", "stand"], "simbicon does not run the stand scenario"),
+    (["run", "mpc", "track", "--scenario", "stand"], "only the replays"),
+])
+def test_a_scenario_word_is_checked_like_the_option(argv, needle, capsys):
+    assert needle in _one_line_error(capsys, argv)

@@ -12,6 +12,8 @@ and are vectorised over frames; loops run over joints only (a few dozen), never 
 - :func:`match_joint_order` expresses a motion in another skeleton's joint order (same names).
 - :func:`make_cyclic` cuts the best-matching cycle out of a clip (a gait cycle of a walk) and
   spreads the remaining mismatch over it, so the cycle repeats seamlessly.
+- :func:`leading_jumps` counts the frames a capture starts with that are no part of its motion
+  (a zero pose written before the first real frame).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ __all__ = [
     "align",
     "concatenate",
     "make_cyclic",
+    "leading_jumps",
 ]
 
 
@@ -485,3 +488,28 @@ def make_cyclic(motion: Motion, min_period: float = 0.8, max_period: float | Non
     rot = quat_mul(off, rot)
     pos[:, 0, i] += w[:, 0] * (pos[0, 0, i] - pos[-1, 0, i])
     return Motion(motion.skeleton, dt, pos, quat_fix_continuity(rot, axis=0))
+
+
+def leading_jumps(motion: Motion, *, zero_pose: float = 0.25, ratio: float = 3.0,
+                  min_angle: float = 0.2, max_frames: int = 10) -> int:
+    """How many frames ``motion`` starts with that are no part of its capture: a clip whose
+    first frame is the skeleton's zero pose (every joint but the root within ``zero_pose`` rad
+    of it) and which leaves it faster than it moves afterwards. Frame ``k`` is skipped while the
+    largest joint rotation (rad) from frame ``k`` to ``k + 1`` is over ``min_angle`` and over
+    ``ratio`` x its median over the clip, at most ``max_frames``. An Xsens MVN export writes its
+    zero pose before the first captured frame (the root then turns by 90 degrees in one 0.01 s
+    frame); the Daz conversion of a CMU clip blends from it into the capture over four frames.
+    0 for a clip that does not start in its zero pose or moves continuously from there."""
+    q = motion.rotations
+    if len(q) < 3:
+        return 0
+    first = 2.0 * np.arccos(np.clip(np.abs(q[0, 1:, 0]), 0.0, 1.0))
+    if len(first) and first.max() > zero_pose:
+        return 0
+    dots = np.abs(np.sum(q[1:] * q[:-1], axis=-1))              # (F - 1, J)
+    jump = 2.0 * np.arccos(np.clip(dots, 0.0, 1.0)).max(axis=1)  # rad per frame
+    limit = max(min_angle, ratio * float(np.median(jump)))
+    k = 0
+    while k < min(max_frames, len(jump) - 1) and jump[k] > limit:
+        k += 1
+    return k

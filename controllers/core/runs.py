@@ -236,7 +236,7 @@ def check_model_file(model) -> None:
 def load_reference(spec: RunSpec, character: Character, progress=None):
     """The clip of ``spec`` as a ReferenceMotion in ``character``'s model (a clip on another
     skeleton: a one-line :class:`RunError` naming it and the fix)."""
-    from mjchar.bvh.editing.clips import make_cyclic
+    from mjchar.bvh.editing.clips import leading_jumps, make_cyclic
     from mjchar.bvh.errors import ReferenceMotionError
     from mjchar.bvh.io import load
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
@@ -246,6 +246,7 @@ def load_reference(spec: RunSpec, character: Character, progress=None):
     if motion.n_frames == 0:
         raise RunError(f"{source}: the clip has no frames (a skeleton without motion): give a "
                        f"clip to follow")
+    motion = motion[leading_jumps(motion):]  # a zero pose written before the capture
     if spec.loop:
         motion = make_cyclic(motion)
     try:

@@ -376,7 +376,12 @@ class MpcController:
         o, ch = self.options, character
         o.check(ch.timestep)
         if not np.all(ch.actuation.position_actuators):
-            raise ControllerError("mpc needs <position> actuators on every actuated dof")
+            body = ch.dof_body[ch.actuator_dof[np.flatnonzero(~ch.actuation.position_actuators)[0]]]
+            joint = next(n for n, b in zip(ch.joint_names, ch.joint_bodies, strict=True)
+                         if b == body)
+            raise ControllerError(f"mpc needs <position> actuators on every actuated dof; joint "
+                                  f"{joint} is a ball joint driven by motors: convert with "
+                                  "--joint-model hinge (or full)")
         ch.actuation.set_mode("native")
         kp, kd = ch.actuation.default_gains()
         ch.actuation.set_native_gains(kp, kd)

@@ -114,7 +114,14 @@ from ..core.geometry import point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle, yaw_of
-from .swing import SwingTrajectory, frame_from_axes, rotation_about, rotation_z, two_link_ik
+from .swing import (
+    SwingTrajectory,
+    frame_from_axes,
+    hinge_leg_ik,
+    rotation_about,
+    rotation_z,
+    two_link_ik,
+)
 
 _LEFT, _RIGHT = 0, 1
 
@@ -206,8 +213,11 @@ class IPMController:
         toes = np.concatenate([lg.toe for lg in self._legs])
         self._upper = np.concatenate([upper, toes]).astype(int)
         if not ch.hinge_dofs[self._upper].all():
-            raise IPMError("IPM needs hinge joints in the upper body too (convert with "
-                           "joint_model='hinge')")
+            body = ch.dof_body[self._upper[np.flatnonzero(~ch.hinge_dofs[self._upper])[0]]]
+            joint = next(n for n, b in zip(ch.joint_names, ch.joint_bodies, strict=True)
+                         if b == body)
+            raise IPMError(f"IPM needs hinge joints in the upper body too (joint {joint} is a "
+                           "ball joint): convert with --joint-model hinge (joint_model='hinge')")
         self._upper_q = ch.dof_qpos[self._upper]
         kp, kd = ch.actuation.default_gains()
         s = self.params.upper.gain_scale
@@ -370,10 +380,12 @@ class IPMController:
         drop = 0.0
         for lg in self._legs:
             q[lg.knee_q] = k
-            for dof in (lg.hip[0], lg.ankle[0]):  # first hinge = pitch for y-first orders
-                if abs(self._rest_axes[ch.dof_joint[dof]]
-                       @ self._rest_axes[ch.dof_joint[lg.knee_dof]]) > 0.99:
-                    q[ch.dof_qpos[dof]] = -0.5 * k
+            knee_axis = self._rest_axes[ch.dof_joint[lg.knee_dof]]
+            for dofs in (lg.hip, lg.ankle):  # the hinge nearest the knee's axis: the pitch
+                cos = self._rest_axes[ch.dof_joint[dofs]] @ knee_axis
+                i = int(np.argmax(np.abs(cos)))
+                if abs(cos[i]) > 0.7:
+                    q[ch.dof_qpos[dofs[i]]] = -0.5 * k * math.copysign(1.0, cos[i])
             drop = max(drop, lg.l1 + lg.l2 - math.hypot(
                 lg.l1 * math.cos(0.5 * k) + lg.l2 * math.cos(0.5 * k), 0.0))
         q[ch.root_qpos[2]] -= drop
@@ -402,11 +414,11 @@ class IPMController:
     def _reach_drop(self, ch: Character, q: np.ndarray, ankles: list, knee: float) -> float:
         """How far (m) to lower the pelvis of pose ``q`` so each leg reaches its ankle target
         (``ankles``, world, left then right) with the knee bent ``knee`` rad: the reach is
-        ``|l1 + l2 e^(i knee)|``, hip joint to ankle joint (0 when both already reach)."""
+        :meth:`Leg.reach`, hip joint to ankle joint (0 when both already reach)."""
         anchors = ch.poses.kinematics(q).joint_anchors
         drop = 0.0
         for lg, ankle in zip(self._legs, ankles, strict=True):
-            reach = math.sqrt(lg.l1 ** 2 + lg.l2 ** 2 + 2 * lg.l1 * lg.l2 * math.cos(knee))
+            reach = lg.reach(knee)
             d = anchors[lg.hip_jnt[0]] - ankle
             horizontal = float(d[0] ** 2 + d[1] ** 2)
             if horizontal >= reach ** 2:
@@ -593,8 +605,12 @@ class IPMController:
             R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
         hip_pos = s.joint_anchors[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
-        thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
-        R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+        if sw.planar:
+            thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
+            R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+        else:
+            R_thigh_des, flexion = hinge_leg_ik(hip_pos, ankle_target, sw.bone1, sw.bone2,
+                                                sw.knee_axis, pole)
 
         # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
         # target velocities by finite differences (feed-forward: no lag from the damping)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.character import Character, Kinematics
 from .ipm_params import IPMError
-from .swing import frame_from_axes
+from .swing import frame_from_axes, rotation_about
 
 
 def wrap_angle(a: float) -> float:
@@ -81,12 +81,16 @@ class Leg:
         self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
         self.leg = np.concatenate([self.hip, self.knee, self.ankle])
         self.all = np.concatenate([self.leg, self.toe])
-        hinges = ch.hinge_dofs[self.leg].all()
-        if len(self.hip) != 3 or len(self.knee) != 1 or len(self.ankle) != 3 or not hinges:
-            raise IPMError(f"IPM needs hips and ankles of 3 hinges and a hinge knee ({side} leg "
-                           f"has {len(self.hip)}, {len(self.knee)}, {len(self.ankle)} dofs"
-                           f"{'' if hinges else ', not all hinges'}); convert with "
-                           "joint_model='hinge'")
+        for role, name, dofs, n in (("hip", self.hip_name, self.hip, 3),
+                                    ("knee", self.knee_name, self.knee, 1),
+                                    ("ankle", self.ankle_name, self.ankle, 3)):
+            if len(dofs) != n or not ch.hinge_dofs[dofs].all():
+                kind = (f"has {len(dofs)} hinges" if ch.hinge_dofs[dofs].all()
+                        else "is a ball joint")
+                want = "3 hinges" if n == 3 else "one hinge"
+                raise IPMError(f"IPM needs {want} at the {side} {role} (joint "
+                               f"{name} {kind}): convert with --joint-model hinge "
+                               "(joint_model='hinge')")
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
@@ -105,6 +109,30 @@ class Leg:
         ankle_in_shank = ch.poses.body_offset(self.foot)
         self.l1 = float(np.linalg.norm(knee_in_thigh))
         self.l2 = float(np.linalg.norm(ankle_in_shank))
-        axis_in_thigh = (rest.body_rotations[self.thigh].T
-                         @ rest.joint_axes[ch.dof_joint[self.knee_dof]])
+        R_thigh = rest.body_rotations[self.thigh]
+        axis_in_thigh = R_thigh.T @ rest.joint_axes[ch.dof_joint[self.knee_dof]]
         self.thigh_rest = frame_from_axes(knee_in_thigh, axis_in_thigh)  # (3,3) columns
+        # the knee as the model has it, in the thigh's frame at zero flexion: the bones and the
+        # hinge axis (a knee axis fitted to a capture may be tilted off the bones)
+        self.bone1 = knee_in_thigh
+        self.bone2 = R_thigh.T @ rest.body_rotations[self.shank] @ ankle_in_shank
+        self.knee_axis = axis_in_thigh / np.linalg.norm(axis_in_thigh)
+        lo, hi = ch.poses.dof_limits(self.knee)[0]
+        if lo + hi < 0:  # the stance knee's targets are flexions, positive angles
+            raise IPMError(f"IPM needs knees that flex to positive angles (joint "
+                           f"{self.knee_name} turns {math.degrees(lo):.0f}..{math.degrees(hi):.0f}"
+                           " deg): flip its axis, as mjchar convert does")
+        # the textbook leg (axis across both bones, shank in line with the thigh): planar
+        # two-link IK; any other knee: the hinge's own IK (Leg.planar, swing.hinge_leg_ik)
+        u1 = knee_in_thigh / self.l1
+        self.planar = bool(abs(float(self.knee_axis @ u1)) < 1e-6
+                           and np.linalg.norm(np.cross(u1, self.bone2 / self.l2)) < 1e-6
+                           and float(u1 @ self.bone2) > 0)
+
+    def reach(self, knee: float) -> float:
+        """Hip joint to ankle joint distance (m) with the knee at ``knee`` rad:
+        ``|l1 + l2 e^(i knee)|`` for the textbook leg, else from the bones and the hinge axis."""
+        if self.planar:
+            return math.sqrt(self.l1 ** 2 + self.l2 ** 2 + 2 * self.l1 * self.l2 * math.cos(knee))
+        return float(np.linalg.norm(self.bone1 + rotation_about(self.knee_axis, knee)
+                                    @ self.bone2))

@@ -16,7 +16,8 @@ swing foot along a trajectory defined relative to the centre of mass in the head
 Hip and knee angles then come from two-link IK (:func:`two_link_ik`): thigh length ``l1``, shank
 length ``l2``, a hip position and an ankle target give the knee flexion by the law of cosines and
 the thigh direction in the plane that contains the hip-ankle line and the "pole" (forward)
-direction, so the knee points forward.
+direction, so the knee points forward. A knee whose hinge axis is not across both bones (an
+axis fitted to a capture) is solved about that axis instead (:func:`hinge_leg_ik`).
 """
 
 from __future__ import annotations
@@ -165,3 +166,61 @@ def frame_from_axes(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
 
 __all__ = ["SwingTrajectory", "SwingError", "two_link_ik", "frame_from_axes", "rotation_about",
            "rotation_z", "cross"]
+
+
+def hinge_leg_ik(hip: np.ndarray, target: np.ndarray, bone1: np.ndarray, bone2: np.ndarray,
+                 axis: np.ndarray, pole: np.ndarray, flexion_sign: float = 1.0, *,
+                 min_reach: float = 0.05, max_extension: float = 0.999
+                 ) -> tuple[np.ndarray, float]:
+    """Analytic IK of a hip-knee-ankle chain whose hinge knee turns about any axis.
+
+    :func:`two_link_ik` assumes the knee axis is perpendicular to both bones and the shank in
+    line with the thigh at zero flexion; a knee axis fitted to a real capture need not be (the
+    shank then sweeps a cone, not a plane). Here the ankle relative to the hip, in the thigh's
+    frame, is ``p(q) = bone1 + R(axis, q) bone2``, and ``|p(q)|`` equals the hip-ankle distance
+    ``D`` where ``A cos q + B sin q = (D^2 - |bone1|^2 - |bone2|^2) / 2 - C`` (Rodrigues:
+    ``A = bone1 . bone2 - (a . bone1)(a . bone2)``, ``B = bone1 . (a x bone2)``,
+    ``C = (a . bone1)(a . bone2)``); of its two roots the one on the flexion side is taken. The
+    thigh is then turned so that ``p(q)`` points at the target and the knee (``bone1``, off the
+    hip-ankle line) lies towards ``pole``.
+
+    Args:
+        hip: ``(3,)`` hip joint position (m, world).
+        target: ``(3,)`` ankle target (m, world); moved onto the reachable shell when too near
+            or too far (``min_reach`` m, ``max_extension`` x the longest reach).
+        bone1: ``(3,)`` knee joint position in the thigh's frame (m).
+        bone2: ``(3,)`` ankle joint position relative to the knee at zero flexion, in the
+            thigh's frame (m).
+        axis: ``(3,)`` unit knee hinge axis in the thigh's frame.
+        pole: ``(3,)`` world direction the knee should point to (e.g. the desired heading).
+        flexion_sign: +1 when the knee flexes to positive angles, -1 otherwise.
+    Returns:
+        ``(R_thigh, q)``: the thigh's world orientation ``(3, 3)`` and the knee angle (rad).
+    """
+    hip = np.asarray(hip, dtype=float)
+    b1 = np.asarray(bone1, dtype=float)
+    b2 = np.asarray(bone2, dtype=float)
+    a = _unit(np.asarray(axis, dtype=float))
+    r = np.asarray(target, dtype=float) - hip
+    D = math.sqrt(float(r @ r))
+    if not math.isfinite(D):
+        raise SwingError("hinge_leg_ik: non-finite hip or target")
+    ab1, ab2 = float(a @ b1), float(a @ b2)
+    A = float(b1 @ b2) - ab1 * ab2
+    B = float(b1 @ cross(a, b2))
+    C = ab1 * ab2
+    R0 = math.hypot(A, B)
+    base = float(b1 @ b1 + b2 @ b2) + 2.0 * C
+    lo = max(min_reach, math.sqrt(max(base - 2.0 * R0, 0.0)) + 1e-6)
+    hi = max_extension * math.sqrt(max(base + 2.0 * R0, 0.0))
+    r_hat = r / D if D > 1e-9 else np.array([0.0, 0.0, -1.0])
+    D = min(max(D, lo), hi)
+    phi = math.atan2(B, A)
+    c = (0.5 * (D * D - base)) / R0 if R0 > 1e-12 else 1.0
+    q = phi + flexion_sign * math.acos(min(max(c, -1.0), 1.0))
+    p = b1 + rotation_about(a, q) @ b2                       # hip -> ankle, thigh frame
+    side = np.asarray(pole, dtype=float)
+    if abs(float(_unit(side) @ r_hat)) > 0.999:  # pole along the leg: any perpendicular will do
+        side = np.array([1.0, 0.0, 0.0]) if abs(r_hat[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    R_thigh = frame_from_axes(r_hat, side) @ frame_from_axes(p, b1).T
+    return R_thigh, q

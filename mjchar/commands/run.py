@@ -62,8 +62,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("controller", choices=registry.names(), metavar="CONTROLLER",
                    help="one of: " + ", ".join(registry.names()))
     p.add_argument("trajectory", nargs="?", metavar="FILE",
-                   help="replays only: a trajectory saved by mjchar samcon / mjchar trajopt "
-                        "(default for samcon_replay / cmaes_replay: the bundled one)")
+                   help="replays: a trajectory saved by mjchar samcon / mjchar trajopt "
+                        "(default for samcon_replay / cmaes_replay: the bundled one); any "
+                        "other controller: a scenario's name, as --scenario "
+                        "(`mjchar run mpc track`)")
     p.add_argument("--scenario", choices=scenarios.names(), metavar="S",
                    help="one of: " + ", ".join(scenarios.names())
                         + " (default: the controller's own, see above)")
@@ -157,8 +159,12 @@ def describe(args: argparse.Namespace):
     from mjchar.bvh.errors import MjcharError
     from mjchar.controllers import registry
     from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.scenarios import registry as scenarios
 
     cspec = registry.get(args.controller)
+    if (args.trajectory in scenarios.names() and cspec.kind != "replay"
+            and args.scenario in (None, args.trajectory)):
+        args.scenario, args.trajectory = args.trajectory, None  # `mjchar run mpc track`
     spec = RunSpec(cspec.name, args.scenario)
     sspec = spec.scenario_spec
     if not sspec.suits(cspec):
