@@ -35,7 +35,7 @@ def tiny(**over) -> B.BenchConfig:
     cfg = replace(
         B.quick_config(1), stand_duration=0.4, random_push_duration=0.6,
         push_phases=1, push_seeds=1, push_standing_cap=100.0, push_walking_cap=50.0,
-        push_resolution=100.0, push_after=0.5, push_warmup=1.0, push_processes=1,
+        push_resolution=100.0, push_after=0.5, push_warmup=1.0,
         push_directions=("forward",), track_duration=0.4, walk_duration=0.8, steady_window=0.4,
         slope_duration=0.6, slope_distance=0.3,
         perf=B.PerfConfig(raw_steps=100, raw_repeats=1, cost_steps=100, cost_repeats=1,
