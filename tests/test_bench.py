@@ -5,6 +5,7 @@ plots (the measurements themselves: tests/test_perf.py)."""
 from __future__ import annotations
 
 import json
+import re
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -133,6 +134,39 @@ def test_same_seeds_give_the_same_table_and_other_seeds_differ():
     c = _matrix(tiny(seeds=(2,)))
     rp2 = next(x for x in c["cells"] if x["scenario"] == "random-push")
     assert rp2["runs"][0]["series"]["com_m"] != s0
+
+
+def test_the_job_count_does_not_change_the_results():
+    # a push search (runs spread over the pool), the MPC (threads of its own: 2 with one job,
+    # 1 with two on a 2-core machine), a walker and a tracker
+    cells = [("static_balance", "push-search"), ("mpc", "track"), ("simbicon", "walk"),
+             ("hand_of_god", "track")]
+    cfg = tiny(push_standing_cap=200.0, push_directions=("forward", "left"))
+    views, cpu = [], {}
+    for jobs in (1, 2):
+        controllers, out, _ = B.run_matrix(cells, cfg, trajectories={}, progress=False,
+                                           jobs=jobs, cpu=cpu)
+        assert [(c["controller"], c["scenario"]) for c in out] == cells  # the given order
+        assert all(c["status"] == "ok" for c in out), [c["reason"] for c in out]
+        doc = {"controllers": controllers, "cells": out, "performance": None,
+               "seeds": list(cfg.seeds), "config": cfg.to_dict()}
+        doc["table"] = B.table_rows(doc)
+        doc["expectations"] = B.check_expectations(doc)
+        views.append(B.physics_view(doc))
+    assert views[0] == views[1]
+    assert set(cpu) == {f"{c} / {s}" for c, s in cells} and all(v > 0 for v in cpu.values())
+    with pytest.raises(B.BenchError, match="jobs"):
+        B.run_matrix(cells[:1], cfg, progress=False, jobs=0)
+
+
+def test_help_states_what_quick_and_the_full_run_take(main, capsys):
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--jobs" in text
+    assert "2-core machine where one core does 30,000 bare mj_step/s" in text
+    assert re.search(r"--quick about \d+ minutes", text)
+    assert re.search(r"the full run about \d+ (minutes|hours?)", text)
 
 
 def test_cells_measure_what_the_table_reports():

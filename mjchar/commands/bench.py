@@ -141,11 +141,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nwrote {out / 'results.json'}, {out / 'table.md'}"
           + "".join(f", {out / p}" for p in doc["plots"])
           + (f", {len(doc['videos'])} video(s) in {out / 'videos'}" if doc["videos"] else ""))
-    slow = sorted(doc["timings"]["cells"].items(), key=lambda kv: -kv[1])[:3]
+    slow = sorted(doc["timings"]["cells_cpu"].items(), key=lambda kv: -kv[1])[:3]
     print(f"wall time {doc['wall_s']:.0f} s (matrix {doc['timings']['matrix_s']:.0f} s"
           + (f", performance {doc['timings']['performance_s']:.0f} s"
              if "performance_s" in doc["timings"] else "")
-          + "; slowest cells: " + ", ".join(f"{k} {v:.0f} s" for k, v in slow) + ")")
+          + "; costliest cells: " + ", ".join(f"{k} {v:.0f} CPU s" for k, v in slow) + ")")
     t = doc["timings"]
     n = t["normalised"]
     print(f"CPU time {t['cpu_s']:.0f} s on {t['jobs']} job(s); bare mj_step "
