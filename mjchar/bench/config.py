@@ -163,9 +163,10 @@ def full_config(seeds: int | None = None) -> BenchConfig:
 
 
 def quick_config(seeds: int | None = None) -> BenchConfig:
-    """Short durations, the push protocol at 4 phases x 2 seeds on a 50 N grid, quick
-    performance runs, 2 seeds by default: minutes on two cores (``mjchar bench --quick``)."""
-    perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=600, cost_repeats=3,
+    """The same cells, cheaper (``mjchar bench --quick``): short durations, the push protocol at
+    4 phases x 2 seeds on a 50 N grid, 3 s after each push, each curve up to its first rate below
+    90 %, quick performance runs, 2 seeds by default (docs/bench.md states what it takes)."""
+    perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=300, cost_repeats=3,
                       rollout_samples=64, rollout_steps=50, rollout_repeats=2,
                       env_steps=300, env_repeats=2, bvh_budget_s=0.15,
                       envelope_duration_s=2.0,
@@ -173,7 +174,8 @@ def quick_config(seeds: int | None = None) -> BenchConfig:
                       envelope_finer=(8000, 4000))
     c = BenchConfig(quick=True, seeds=(0, 1), stand_duration=10.0, random_push_duration=10.0,
                     push_phases=4, push_seeds=2, push_standing_cap=500.0,
-                    push_walking_cap=600.0, push_resolution=50.0, push_full_curves=False,
+                    push_walking_cap=600.0, push_resolution=50.0, push_after=3.0,
+                    push_full_curves=False,
                     walk_duration=10.0, steady_window=4.0, slope_distance=3.0,
                     slope_duration=8.0, perf=perf)
     return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))
