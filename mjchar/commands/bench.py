@@ -71,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 REFERENCE = "a 2-core machine where one core does 30,000 bare mj_step/s of the bundled humanoid"
 #: what --quick and the full run take there (measured: docs/bench.md)
 QUICK_TIME = "about 5 minutes"
-FULL_TIME = "about 1 hour"
+FULL_TIME = "about 35 minutes (estimated)"
 
 
 def _trajectory_option(name: str) -> str:
