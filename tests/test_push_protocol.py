@@ -101,3 +101,20 @@ def test_the_docs_state_the_protocol_in_the_words_of_the_code():
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "push-protocol.md").read_text()
     assert P.__doc__.strip() in doc
+
+
+def test_curves_stopped_below_90_percent_give_the_same_figures():
+    full = PushProtocol(forces=(100.0, 200.0, 300.0, 400.0), phases=2, seeds=(0,),
+                        directions=("forward", "backward"), after=1.0)
+    short = PushProtocol(**{**full.to_dict(), "forces": full.forces, "seeds": full.seeds,
+                            "directions": full.directions, "full_curves": False})
+    a = survival_rates("static_balance", full)
+    b = survival_rates("static_balance", short)
+    assert (a.largest_100_N, a.largest_90_N, a.at_cap) == \
+        (b.largest_100_N, b.largest_90_N, b.at_cap)
+    assert len(b.runs) <= len(a.runs)
+    for d, c in b.curves.items():  # each short curve ends at its first rate below 90 %
+        assert all(r >= 0.9 for r in c["rates"][:-1])
+        assert c["rates"][-1] < 0.9 or len(c["rates"]) == len(full.forces)
+        assert c["rates"] == a.curves[d]["rates"][:len(c["rates"])]
+    assert "below 90 %" in short.describe() and "below 90 %" not in full.describe()

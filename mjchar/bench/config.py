@@ -21,6 +21,11 @@ SCHEMA_NAME = "mjchar-bench"
 SCHEMA_VERSION = 1
 
 DIRECTION_NAMES = ("forward", "left", "backward", "right")
+#: the reference machine of the bench's stated run times: one core does this many bare
+#: ``mj_step`` per second of the bundled humanoid (``performance.raw``), and it has
+#: ``REFERENCE_CORES`` cores
+REFERENCE_STEPS_PER_S = 30_000
+REFERENCE_CORES = 2
 #: keys of a run's result that are timings (the rest is physics, identical for equal seeds)
 TIMING_KEYS = ("wall_s", "steps_per_s")
 
@@ -81,8 +86,9 @@ class BenchConfig:
     push_walking_cap: float = 800.0
     push_resolution: float = 50.0
     push_after: float = 5.0
+    push_after_walking: float | None = None
     push_warmup: float = 4.0
-    push_processes: int = 0
+    push_full_curves: bool = True
     walk_duration: float = 30.0
     steady_window: float = 10.0
     slope_degrees: float = 5.0
@@ -109,6 +115,9 @@ class BenchConfig:
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise BenchError(f"{name} must be a positive number, got {v!r}")
         self._check_gait_gaits()
+        w = self.push_after_walking
+        if w is not None and not (isinstance(w, int | float) and math.isfinite(w) and w > 0):
+            raise BenchError(f"push_after_walking must be a positive number or None, got {w!r}")
         if not (0 < abs(self.slope_degrees) < 45):
             raise BenchError(f"slope_degrees must be in (0, 45), got {self.slope_degrees}")
         bad = [d for d in self.push_directions if d not in DIRECTION_NAMES]
@@ -118,8 +127,6 @@ class BenchConfig:
         for name in ("push_phases", "push_seeds"):
             if getattr(self, name) < 1:
                 raise BenchError(f"{name} must be at least 1")
-        if self.push_processes < 0:
-            raise BenchError("push_processes must be >= 0 (0: one per core)")
         return self
 
     def _check_gait_gaits(self) -> None:
@@ -142,10 +149,12 @@ class BenchConfig:
         """The push protocol of the push-search cells (``mode``: the controller's push mode,
         ``"standing"`` or ``"walking"``: the grid's cap differs)."""
         cap = self.push_walking_cap if mode == "walking" else self.push_standing_cap
+        after = (self.push_after_walking if mode == "walking"
+                 and self.push_after_walking is not None else self.push_after)
         return PushProtocol.grid(cap, min(self.push_resolution, cap), phases=self.push_phases,
                                  seeds=tuple(range(self.push_seeds)),
-                                 directions=tuple(self.push_directions), after=self.push_after,
-                                 warmup=self.push_warmup)
+                                 directions=tuple(self.push_directions), after=after,
+                                 warmup=self.push_warmup, full_curves=self.push_full_curves)
 
     def to_dict(self) -> dict:
         return json_ready(asdict(self))
@@ -160,9 +169,11 @@ def full_config(seeds: int | None = None) -> BenchConfig:
 
 
 def quick_config(seeds: int | None = None) -> BenchConfig:
-    """Short durations, the push protocol at 4 phases x 2 seeds on a 50 N grid, quick
-    performance runs, 2 seeds by default: minutes on two cores (``mjchar bench --quick``)."""
-    perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=600, cost_repeats=3,
+    """The same cells, cheaper (``mjchar bench --quick``): short durations, the push protocol at
+    4 phases x 2 seeds on a 50 N grid, 3 s after a push while walking (5 s standing: the PD
+    trackers fall unpushed within 5 s), each curve up to its first rate below 90 %, quick
+    performance runs, 2 seeds by default (docs/bench.md states what it takes)."""
+    perf = PerfConfig(raw_steps=2000, raw_repeats=3, cost_steps=300, cost_repeats=3,
                       rollout_samples=64, rollout_steps=50, rollout_repeats=2,
                       env_steps=300, env_repeats=2, bvh_budget_s=0.15,
                       envelope_duration_s=2.0,
@@ -170,7 +181,8 @@ def quick_config(seeds: int | None = None) -> BenchConfig:
                       envelope_finer=(8000, 4000))
     c = BenchConfig(quick=True, seeds=(0, 1), stand_duration=10.0, random_push_duration=10.0,
                     push_phases=4, push_seeds=2, push_standing_cap=500.0,
-                    push_walking_cap=600.0, push_resolution=50.0,
+                    push_walking_cap=600.0, push_resolution=50.0, push_after_walking=3.0,
+                    push_full_curves=False,
                     walk_duration=10.0, steady_window=4.0, slope_distance=3.0,
                     slope_duration=8.0, perf=perf)
     return c if seeds is None else replace(c, seeds=tuple(range(_count(seeds))))

@@ -26,6 +26,11 @@ The built-in scenarios:
   its own defaults).
 
 Replays without a saved trajectory get a "not available" row instead of a crash.
+
+The cells run in parallel (:func:`run_matrix`, ``jobs`` worker processes of a
+:class:`~mjchar.bench.parallel.JobPool`): an ordinary cell is one job, a push-search cell one
+job per run of its protocol (its force levels one after another, each level's runs at once),
+the most expensive cells first (:func:`cell_cost`). The results do not depend on ``jobs``.
 """
 
 from __future__ import annotations
@@ -33,8 +38,10 @@ from __future__ import annotations
 import math
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future, as_completed
 from dataclasses import asdict
 from pathlib import Path
 
@@ -53,6 +60,7 @@ from mjchar.controllers.core.scenarios.push_search import (
 )
 
 from .config import SHARED_BVH, BenchConfig, BenchError, relative_path
+from .parallel import JobPool, default_jobs
 
 
 # -- the matrix: read from the controller registry -----------------------------------------------
@@ -194,10 +202,12 @@ class BenchContext:
     """What the cells share: the pristine model, the trajectories, the settings, videos."""
 
     def __init__(self, config: BenchConfig, trajectories: dict[str, Path],
-                 video_dir: Path | None, log: Callable[[str], None]):
+                 video_dir: Path | None, log: Callable[[str], None],
+                 threads: int | None = None):
         from mjchar.controllers.core.character import Character
 
         self.config = config
+        self.threads = threads  # for controllers with threads of their own (None: their default)
         self.settings = asdict(config)  # what the scenarios' bench settings read
         self.base_model = Character().model  # pristine; every run copies it
         self.trajectories = trajectories
@@ -213,6 +223,8 @@ class BenchContext:
         clip; the bench's walking speed for walkers that can also stand)."""
         spec = _spec(name)
         factory = factory_options(spec, scenario, self.config)
+        if self.threads is not None and takes_threads(spec):
+            factory["threads"] = self.threads
         if spec.kind == "replay":
             factory["trajectory"] = self.trajectories[name]
         return RunSpec(name, scenario, model=self.base_model, motion=self.track_motion,
@@ -235,6 +247,12 @@ class BenchContext:
         if self.video_dir is None:
             return None
         return _LazyVideo(self.video_dir / f"{controller}_{scenario}.mp4", self.config.fps)
+
+
+def takes_threads(spec: ControllerSpec) -> bool:
+    """Whether the controller runs threads of its own, sized by a ``threads`` option (the
+    MPC's rollouts); results do not depend on it."""
+    return spec.tunables is not None and any(t.name == "threads" for t in spec.tunables())
 
 
 def default_track_motion() -> Path:
@@ -287,34 +305,28 @@ def _run_one(ctx: BenchContext, cell_video: list, variant: str, seed, reference,
 
 
 def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
-    """All runs of one cell (a list of run records, see docs/bench.md): the scenario's bench
-    settings give the runs, the run builder builds each."""
+    """All runs of one ordinary cell (a list of run records, see docs/bench.md): the
+    scenario's bench settings give the runs, the run builder builds each (a protocol's cell
+    runs through :func:`_push_search`)."""
     vid = ctx.video(name, scenario)
     cell_video = [vid] if vid is not None else []
-
-    def progress(msg: str) -> None:
-        ctx.log(f"  {name} / {scenario}: {msg}")
-
     sspec = scenario_registry.get(scenario)
-    if sspec.protocol:
-        runs = [_push_search(ctx, cell_video, name, progress)]
-    else:
-        probe = ctx.describe(name, scenario).build()
-        bench_runs = sspec.bench(ctx.settings, probe.controller)
-        runs = []
-        for br in bench_runs:
-            built = ctx.describe(name, scenario, {k: v for k, v in br.options.items()
-                                                  if k != "seed" and v is not None},
-                                 br.options.get("seed", br.seed)).build()
-            label = (ctx.trajectories[name].name if _spec(name).kind == "replay"
-                     else ctx.track_motion.name if built.reference is not None else br.label)
-            reference = built.reference if built.reference is not None else _stored(built)
+    probe = ctx.describe(name, scenario).build()
+    bench_runs = sspec.bench(ctx.settings, probe.controller)
+    runs = []
+    for br in bench_runs:
+        built = ctx.describe(name, scenario, {k: v for k, v in br.options.items()
+                                              if k != "seed" and v is not None},
+                             br.options.get("seed", br.seed)).build()
+        label = (ctx.trajectories[name].name if _spec(name).kind == "replay"
+                 else ctx.track_motion.name if built.reference is not None else br.label)
+        reference = built.reference if built.reference is not None else _stored(built)
 
-            def go(cb, built=built):
-                built.frame_callback = cb
-                return execute(built)
+        def go(cb, built=built):
+            built.frame_callback = cb
+            return execute(built)
 
-            runs.append(_run_one(ctx, cell_video, label, br.seed, reference, go))
+        runs.append(_run_one(ctx, cell_video, label, br.seed, reference, go))
     for run in runs:
         run["result"]["controller"] = name  # e.g. "replay" -> the row's name
     return runs
@@ -349,29 +361,84 @@ def factory_options(spec, scenario: str, config: BenchConfig) -> dict:
     return {}
 
 
-def _push_search(ctx: BenchContext, cell_video: list, name: str, progress) -> dict:
+def _push_search(pool: JobPool, priority: float, job: tuple, name: str, progress) -> tuple:
     """The push protocol's survival rates for ``name`` (``run["push"]``, every run recorded),
     plus one filmed run at the weakest direction's largest force with rate 100 % (phase 0,
-    the first seed)."""
-    cfg = ctx.config
+    the first seed); every run is a job of ``pool``. Returns ``(runs, videos)``."""
+    cfg = job[0]
     spec = _spec(name)
     protocol = cfg.push_protocol(spec.push)
     run = RunSpec(name, "push-search", options=factory_options(spec, "push-search", cfg))
-    rates = survival_rates(run, protocol, processes=cfg.push_processes, progress=progress)
+    tag = f"{name} / push-search"
+    rates = survival_rates(run, protocol, progress=progress,
+                           mapper=pool.mapper(priority, tag))
     weakest = min(protocol.directions, key=lambda d: rates.largest_100_N.get(d, 0.0))
     force = 0.0 if rates.falls_unpushed else rates.largest_100_N[weakest]
     task = PushTask(run, weakest, force, 0.0, protocol.seeds[0], protocol)
+    largest = None if rates.falls_unpushed else dict(rates.largest_100_N)
+    record, videos = pool.submit(priority, film_push, job, name, task, largest,
+                                 tag=tag).result()
+    record["push"] = rates.to_dict()
+    return [record], videos
+
+
+def film_push(job: tuple, name: str, task: PushTask, largest: dict | None) -> tuple:
+    """A push-search cell's filmed run (a job: runs in a worker); ``(record, videos)``."""
+    ctx = _job_context(job)
+    cell_video = [v] if (v := ctx.video(name, "push-search")) is not None else []
 
     def film(cb):
         r, _ = simulate_push(task, frame_callback=cb)
         r.scenario = "push-search"
-        r.max_push_by_direction_N = None if rates.falls_unpushed else dict(rates.largest_100_N)
+        r.max_push_by_direction_N = largest
         return r
 
-    record = _run_one(ctx, cell_video, f"{weakest} {force:g} N, phase 0 (filmed)",
-                      protocol.seeds[0], None, film)
-    record["push"] = rates.to_dict()
-    return record
+    record = _run_one(ctx, cell_video, f"{task.direction} {task.force:g} N, phase 0 (filmed)",
+                      task.seed, None, film)
+    record["result"]["controller"] = name
+    return record, ctx.videos
+
+
+def _job_context(job: tuple) -> BenchContext:
+    """The context of a job, ``job`` = ``(config, trajectories, video_dir, threads)``."""
+    config, trajectories, video_dir, threads = job
+    return BenchContext(config, trajectories, video_dir, lambda msg: None, threads)
+
+
+def run_cell(job: tuple, name: str, scenario: str) -> tuple:
+    """One ordinary cell (a job: runs in a worker): ``(runs, videos, wall_s, error)``, where
+    ``error`` is ``None`` or the exception's text."""
+    t0 = time.perf_counter()
+    ctx = _job_context(job)
+    try:
+        runs, error = _run_cell(ctx, name, scenario), None
+    except Exception as e:  # reported in the table; the other cells still run
+        runs, error = [], f"{type(e).__name__}: {e}"
+    return runs, ctx.videos, time.perf_counter() - t0, error
+
+
+#: rough cost per physics step over a bare mj_step (the bench's measured step-cost ratios) of
+#: the controllers far from the PD trackers' 1.5-2: only orders the cells (longest first)
+STEP_COST_HINTS = {"mpc": 400.0, "ipm": 9.0, "simbicon": 3.3, "static_balance": 2.9}
+
+
+def cell_cost(name: str, scenario: str, config: BenchConfig) -> float:
+    """A rough cost of a cell, in bare ``mj_step`` calls: its simulated time over its time step
+    times the controller's step cost (:data:`STEP_COST_HINTS`, else 2); a push search counts
+    half its grid in every direction. It only orders the cells, the longest first."""
+    spec = _spec(name)
+    c = config
+    seeds = len(c.seeds)
+    sim = {"stand": c.stand_duration, "random-push": c.random_push_duration * seeds,
+           "walk": c.walk_duration * seeds, "slopes": 2 * c.slope_duration * seeds,
+           "track": c.track_duration or 4.0}.get(scenario, c.stand_duration)
+    if scenario_registry.get(scenario).protocol:
+        p = c.push_protocol(spec.push)
+        before = p.warmup + 3.0 if spec.push == "walking" else p.first_moment + 1.0
+        runs = len(p.seeds) + len(p.directions) * p.phases * len(p.seeds) * len(p.forces) / 2
+        sim = runs * (before + p.push_duration + p.after)
+    dt = registry.default_timestep(name) or 0.002
+    return sim / dt * STEP_COST_HINTS.get(name, 2.0)
 
 
 def summarise_cell(runs: list[dict]) -> dict:
@@ -408,16 +475,33 @@ def progress_bar(total: int, enabled: bool, desc: str):
 
 def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
                trajectories: dict[str, Path] | None = None, video_dir: Path | None = None,
-               progress: bool = True) -> tuple[dict, list[dict], list[dict]]:
+               progress: bool = True, jobs: int | None = None, cpu: dict | None = None
+               ) -> tuple[dict, list[dict], list[dict]]:
     """Run every cell; returns ``(controllers, cells, videos)`` records of the JSON document.
+
+    The cells run on ``jobs`` worker processes (default: one per core), the most expensive
+    first (:func:`cell_cost`); the records come back in the order of ``cells`` and do not depend
+    on ``jobs``. A controller with threads of its own (the MPC) gets ``cores // jobs`` of them.
+    ``cpu``, when given, receives the CPU seconds of each cell's jobs (``"controller /
+    scenario"`` -> s).
 
     A controller that is not available gets cells with status ``"not available"``; a cell whose
     run raises gets status ``"error"`` (its message in ``reason``) and the others still run.
     """
     config.check()
     trajectories = dict(trajectories or {})
+    jobs = default_jobs() if jobs is None else int(jobs)
+    if jobs < 1:
+        raise BenchError(f"jobs must be at least 1, got {jobs}")
+    pool = JobPool(jobs)  # before the progress bar's thread: the workers are forked now
     bar = progress_bar(len(cells), progress, "bench")
-    log = (lambda msg: bar.write(msg, file=sys.stderr)) if progress else (lambda msg: None)
+    lock = threading.Lock()
+
+    def log(msg: str) -> None:
+        if progress:
+            with lock:
+                bar.write(msg, file=sys.stderr)
+
     ctx = BenchContext(config, trajectories, video_dir, log)
     names = list(dict.fromkeys(c for c, _ in cells))
     controllers = {}
@@ -437,32 +521,66 @@ def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
                 controllers[n].update(available=False, reason=str(e))
         if ok and controllers[n]["timestep_s"] is None:
             controllers[n]["timestep_s"] = float(ctx.base_model.opt.timestep)
-    out = []
+    threads = max(1, default_jobs() // jobs)
+    job = (config, trajectories, video_dir, threads)
     expected = set(expected_cells())
-    for name, scenario in cells:
-        bar.set_description(f"{name} / {scenario}")
-        cell = {"controller": name, "scenario": scenario, "status": "ok", "reason": None,
-                "expected_to_survive": (name, scenario) in expected, "wall_s": 0.0,
-                "runs": [], "summary": summarise_cell([])}
-        if not controllers[name]["available"]:
-            cell["status"], cell["reason"] = "not available", controllers[name]["reason"]
-        else:
-            t0 = time.perf_counter()
+    out: list[dict] = []
+    pending: dict[Future, int] = {}
+    with pool:
+        for i, (name, scenario) in enumerate(cells):
+            out.append({"controller": name, "scenario": scenario, "status": "ok",
+                        "reason": None, "expected_to_survive": (name, scenario) in expected,
+                        "wall_s": 0.0, "runs": [], "summary": summarise_cell([])})
+            if not controllers[name]["available"]:
+                out[i]["status"], out[i]["reason"] = "not available", controllers[name]["reason"]
+        order = sorted((i for i, c in enumerate(out) if c["status"] == "ok"),
+                       key=lambda i: -cell_cost(cells[i][0], cells[i][1], config))
+        for i in order:
+            name, scenario = cells[i]
+            cost = cell_cost(name, scenario, config)
+            if scenario_registry.get(scenario).protocol:
+                fut: Future = Future()
+
+                def coordinate(fut=fut, name=name, scenario=scenario, cost=cost):
+                    t0 = time.perf_counter()
+                    try:
+                        runs, vids = _push_search(
+                            pool, cost, job, name,
+                            lambda msg, n=name, s=scenario: log(f"  {n} / {s}: {msg}"))
+                        fut.set_result((runs, vids, time.perf_counter() - t0, None))
+                    except Exception as e:
+                        fut.set_result(([], [], time.perf_counter() - t0,
+                                        f"{type(e).__name__}: {e}"))
+
+                threading.Thread(target=coordinate, daemon=True,
+                                 name=f"bench-{name}-{scenario}").start()
+            else:
+                fut = pool.submit(cost, run_cell, job, name, scenario,
+                                  tag=f"{name} / {scenario}")
+            pending[fut] = i
+        videos: dict[int, list] = {}
+        for fut in as_completed(pending):
+            i = pending[fut]
+            cell = out[i]
+            name, scenario = cells[i]
             try:
-                cell["runs"] = _run_cell(ctx, name, scenario)
-            except Exception as e:  # report it in the table, keep benchmarking the rest
-                cell["status"] = "error"
-                cell["reason"] = f"{type(e).__name__}: {e}"
-                log(f"  {name} / {scenario}: ERROR {cell['reason']}")
-            cell["wall_s"] = time.perf_counter() - t0
-            cell["summary"] = summarise_cell(cell["runs"])
-            s = cell["summary"]
+                runs, videos[i], cell["wall_s"], error = fut.result()
+            except Exception as e:  # a worker that died
+                runs, videos[i], error = [], [], f"{type(e).__name__}: {e}"
+            for run in runs:
+                run["result"]["controller"] = name  # e.g. "replay" -> the row's name
+            cell["runs"] = runs
+            if error is not None:
+                cell["status"], cell["reason"] = "error", error
+                log(f"  {name} / {scenario}: ERROR {error}")
+            cell["summary"] = s = summarise_cell(runs)
             if cell["status"] == "ok":
                 log(f"{name} / {scenario}: {s['survived']}/{s['runs']} without a fall "
                     f"({cell['wall_s']:.1f} s)")
-        out.append(cell)
-        bar.update()
+            with lock:
+                bar.update()
     bar.close()
-    return controllers, out, ctx.videos
-
-
+    if cpu is not None:
+        cpu.update(pool.cpu_seconds())
+    vids = [v for i in sorted(videos) for v in videos[i]]
+    return controllers, out, vids

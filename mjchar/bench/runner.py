@@ -8,6 +8,7 @@ import copy
 import json
 import os
 import platform
+import resource
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,6 +19,8 @@ from mjchar.bvh.io.files import write_text
 from mjchar.perf.timing import load_average
 
 from .config import (
+    REFERENCE_CORES,
+    REFERENCE_STEPS_PER_S,
     ROOT,
     SCHEMA_NAME,
     SCHEMA_VERSION,
@@ -28,6 +31,7 @@ from .config import (
     relative_path,
 )
 from .matrix import default_track_motion, find_trajectories, run_matrix, select_cells
+from .parallel import default_jobs
 from .performance import run_performance
 from .report import (
     TABLE_NOTES,
@@ -75,7 +79,7 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
               videos: bool = False, performance: bool = True, plots: bool = True,
               trajectories: dict[str, Path] | None = None, progress: bool = True,
               command: Sequence[str] | None = None, skeletons=None,
-              matrix: bool = True) -> dict:
+              matrix: bool = True, jobs: int | None = None) -> dict:
     """Run the matrix (and the performance section), write ``results.json``, the plots and the
     videos into ``out_dir`` (nothing is written when it is ``None``); returns the document.
 
@@ -94,9 +98,12 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
             ``out_dir/skeletons``), or ``None``.
         matrix: run the controller x scenario matrix (and with it the performance and gait
             sections); ``False`` with ``skeletons`` runs the skeletons section alone.
+        jobs: worker processes of the matrix (default: one per core); the results do not
+            depend on it.
     """
     config.check()
     t_start = time.perf_counter()
+    cpu_start = _cpu_seconds()
     cells = select_cells(controllers, scenarios) if matrix else []
     if not matrix:
         performance = False
@@ -128,9 +135,14 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         "track_motion": relative_path(default_track_motion()),
     }
     t0 = time.perf_counter()
+    jobs = default_jobs() if jobs is None else int(jobs)
+    cells_cpu: dict[str, float] = {}
     doc["controllers"], doc["cells"], vids = run_matrix(
-        cells, config, trajectories=trajectories, video_dir=video_dir, progress=progress)
-    timings = {"matrix_s": time.perf_counter() - t0}
+        cells, config, trajectories=trajectories, video_dir=video_dir, progress=progress,
+        jobs=jobs, cpu=cells_cpu)
+    for c in doc["cells"]:
+        c["cpu_s"] = cells_cpu.get(f"{c['controller']} / {c['scenario']}", 0.0)
+    timings = {"matrix_s": time.perf_counter() - t0, "jobs": jobs}
     doc["performance"] = None
     if performance:
         t0 = time.perf_counter()
@@ -195,12 +207,45 @@ def run_bench(config: BenchConfig, *, controllers: Sequence[str] | None = None,
         timings["outputs_s"] = time.perf_counter() - t0
     timings["cells"] = {f"{c['controller']} / {c['scenario']}": c["wall_s"]
                         for c in doc["cells"]}
-    doc["timings"] = timings
+    timings["cells_cpu"] = {f"{c['controller']} / {c['scenario']}": c["cpu_s"]
+                            for c in doc["cells"]}
     doc["wall_s"] = time.perf_counter() - t_start
+    timings["cpu_s"] = _cpu_seconds() - cpu_start
+    timings["normalised"] = normalised(doc["wall_s"], timings["cpu_s"], doc["performance"])
+    doc["timings"] = timings
     doc["machine"]["load_average_end"] = load_average()
     if out is not None:
         write_json(doc, out / "results.json")
     return doc
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process and of its finished child processes."""
+    own, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def normalised(wall_s: float, cpu_s: float, performance: dict | None) -> dict:
+    """The run's cost on the reference machine (:data:`~mjchar.bench.config.
+    REFERENCE_STEPS_PER_S` bare ``mj_step``/s of the bundled humanoid on one core,
+    :data:`~mjchar.bench.config.REFERENCE_CORES` cores): wall and CPU seconds scaled by this
+    machine's bare rate over the reference's; ``cpu_per_core_s`` (CPU over the reference's
+    cores) is what the run takes there with nothing else running. The bare rate is the
+    performance section's C loop per CPU second, or a short measurement when it did not run."""
+    raw = (performance or {}).get("raw") or {}
+    rate = raw.get("c_loop_steps_per_cpu_s") if raw.get("available") else None
+    if not rate:
+        from mjchar.controllers.core import scenarios as S
+        from mjchar.controllers.core.character import Character
+        from mjchar.perf.physics import raw_step_rate
+
+        ch = Character()
+        rate = raw_step_rate(ch.model, S.standing_pose(ch), steps=2000,
+                             repeats=3)["c_loop_steps_per_cpu_s"]
+    scale = float(rate) / REFERENCE_STEPS_PER_S
+    return {"reference_steps_per_s": REFERENCE_STEPS_PER_S, "reference_cores": REFERENCE_CORES,
+            "bare_steps_per_s": float(rate), "wall_s": wall_s * scale,
+            "cpu_s": cpu_s * scale, "cpu_per_core_s": cpu_s * scale / REFERENCE_CORES}
 
 
 def write_json(doc: dict, path: str | os.PathLike) -> Path:
@@ -215,6 +260,7 @@ def physics_view(doc: dict) -> dict:
     for c in doc["cells"]:
         c = copy.deepcopy(c)
         c.pop("wall_s", None)
+        c.pop("cpu_s", None)
         for r in c["runs"]:
             for k in TIMING_KEYS:
                 r["result"].pop(k, None)

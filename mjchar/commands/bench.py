@@ -22,10 +22,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "a table (survival, push survival per direction, distance, speed, tracking "
                     "error, root force, step cost over mj_step) and write results.json, "
                     "table.md and PNG plots into --out. Exit status 1 when a controller "
-                    "expected to stand or walk fell (see docs/bench.md). --quick finishes in a "
-                    "few minutes on two cores.")
+                    "expected to stand or walk fell (see docs/bench.md). Run times are for "
+                    f"{REFERENCE} with nothing else running: --quick {QUICK_TIME}, the full "
+                    f"run {FULL_TIME}.")
     p.add_argument("--quick", action="store_true",
-                   help="short durations, coarse push searches, 2 seeds, quick performance runs")
+                   help=f"the same rows, cheaper: short durations, push curves measured up to "
+                        f"their first rate below 90 %%, 2 seeds, quick performance runs "
+                        f"({QUICK_TIME} on {REFERENCE}; without it {FULL_TIME})")
+    p.add_argument("--jobs", type=integer("jobs", minimum=1), metavar="N",
+                   help="worker processes running the cells (default: one per core); the "
+                        "results do not depend on it")
     p.add_argument("--controllers", nargs="+", choices=controllers, metavar="C",
                    help="controllers to run (default all): " + ", ".join(controllers))
     p.add_argument("--scenarios", nargs="+", choices=scenarios.names(), metavar="S",
@@ -59,6 +65,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run the skeletons section alone (no matrix, performance or gait)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
+
+
+#: the machine the stated run times are for (mjchar.bench.config.REFERENCE_STEPS_PER_S)
+REFERENCE = "a 2-core machine where one core does 30,000 bare mj_step/s of the bundled humanoid"
+#: what --quick and the full run take there (measured: docs/bench.md)
+QUICK_TIME = "about 5 minutes"
+FULL_TIME = "about 35 minutes (estimated)"
 
 
 def _trajectory_option(name: str) -> str:
@@ -108,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
                       out_dir=args.out, videos=args.videos, performance=not args.no_perf,
                       plots=not args.no_plots, trajectories=trajectories,
                       progress=not args.quiet, command=["mjchar", *sys.argv[1:]],
-                      skeletons=skeletons, matrix=not args.skeletons_only)
+                      skeletons=skeletons, matrix=not args.skeletons_only, jobs=args.jobs)
     if doc["skeletons"] is not None:
         from ..bench.skeletons import skeletons_markdown
 
@@ -128,11 +141,17 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nwrote {out / 'results.json'}, {out / 'table.md'}"
           + "".join(f", {out / p}" for p in doc["plots"])
           + (f", {len(doc['videos'])} video(s) in {out / 'videos'}" if doc["videos"] else ""))
-    slow = sorted(doc["timings"]["cells"].items(), key=lambda kv: -kv[1])[:3]
+    slow = sorted(doc["timings"]["cells_cpu"].items(), key=lambda kv: -kv[1])[:3]
     print(f"wall time {doc['wall_s']:.0f} s (matrix {doc['timings']['matrix_s']:.0f} s"
           + (f", performance {doc['timings']['performance_s']:.0f} s"
              if "performance_s" in doc["timings"] else "")
-          + "; slowest cells: " + ", ".join(f"{k} {v:.0f} s" for k, v in slow) + ")")
+          + "; costliest cells: " + ", ".join(f"{k} {v:.0f} CPU s" for k, v in slow) + ")")
+    t = doc["timings"]
+    n = t["normalised"]
+    print(f"CPU time {t['cpu_s']:.0f} s on {t['jobs']} job(s); bare mj_step "
+          f"{n['bare_steps_per_s']:,.0f} steps/s per core: on the reference machine "
+          f"({n['reference_steps_per_s']:,} steps/s per core) wall {n['wall_s']:.0f} s, CPU / "
+          f"{n['reference_cores']} cores {n['cpu_per_core_s']:.0f} s")
     status = B.exit_status(doc)
     if status:
         print("FAILED: a controller expected to survive fell (see above)", file=sys.stderr)

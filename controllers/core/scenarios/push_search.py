@@ -26,7 +26,9 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
 3. **A cell** (direction, force): the survival rate over ``phases`` x ``seeds`` runs.
 4. **The curve** per direction: cells at every force of the grid (``resolution``,
    ``2 resolution``, ... up to ``cap``), from the smallest; a direction stops after its first
-   force with rate 0 (no larger force changes the figures below).
+   force with rate 0 (no larger force changes the figures below), or, with ``full_curves``
+   off, after its first force with rate below 90 % (the figures are already settled there;
+   only the curve's tail is not measured).
 5. **The figures** per direction: the largest force with survival rate 100 % is the largest grid
    force ``F`` such that every grid force up to ``F`` had rate 100 % (survival need not be
    monotone in force: a failure at a smaller force caps the figure even when a larger force
@@ -34,9 +36,10 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
    already failed; a figure equal to the cap is marked ``at_cap`` (the controller may survive
    more).
 
-Runs are independent and deterministic; ``processes > 1`` spreads them over worker processes
-(identical results). Each run rebuilds the controller from the run's description
-(:class:`~mjchar.controllers.core.runs.RunSpec`), in whichever process it runs.
+Runs are independent and deterministic; ``processes > 1`` spreads them over worker processes,
+or ``mapper`` hands them to a pool of the caller's (identical results). Each run rebuilds the
+controller from the run's description (:class:`~mjchar.controllers.core.runs.RunSpec`), in
+whichever process it runs.
 """
 
 from __future__ import annotations
@@ -78,6 +81,8 @@ class PushProtocol:
         warmup: walkers: the push falls in the first stride starting after this many s.
         first_moment: standing: the first push moment (s); the others follow every 1/K s.
         perturbation: standing: largest seeded joint offset of the start pose (rad).
+        full_curves: measure each direction's curve down to rate 0; ``False``: stop after the
+            first force below 90 % (same figures, fewer runs).
     """
 
     forces: tuple[float, ...]
@@ -89,6 +94,7 @@ class PushProtocol:
     warmup: float = 4.0
     first_moment: float = 1.0
     perturbation: float = 0.02
+    full_curves: bool = True
 
     @classmethod
     def grid(cls, cap: float, resolution: float, **kw) -> PushProtocol:
@@ -148,7 +154,8 @@ class PushProtocol:
                  + ("" if steps else " and no step"))
         return (f"{self.push_duration:g} s pushes {where}, {self.after:g} s after the push; "
                 f"rate over {self.phases} x {len(self.seeds)} seeds; grid "
-                f"{self.resolution:g}-{self.cap:g} N in {self.resolution:g} N steps")
+                f"{self.resolution:g}-{self.cap:g} N in {self.resolution:g} N steps"
+                + ("" if self.full_curves else ", each curve up to its first rate below 90 %"))
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -277,8 +284,8 @@ class PushRates:
 
 
 def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | None = None,
-                   processes: int = 1, progress: Callable[[str], None] | None = None
-                   ) -> PushRates:
+                   processes: int = 1, progress: Callable[[str], None] | None = None,
+                   mapper: Callable[[Callable, list], list] | None = None) -> PushRates:
     """Measure a controller with ``protocol``: the unpushed check, then the survival-rate curve
     per direction over the force grid, and the figures.
 
@@ -287,6 +294,8 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
             does not matter), or a registered controller's name, built on ``model`` (``None``:
             the bundled humanoid; an MJCF path or an ``MjModel``) with the factory ``options``.
         processes: worker processes (``0``: one per core); results do not depend on it.
+        mapper: ``mapper(run_push, tasks) -> records`` in order, to run the runs elsewhere (the
+            bench's job pool); ``processes`` is then ignored.
         progress: called with one line per finished force level.
     """
     from ..runs import RunSpec
@@ -299,9 +308,16 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
     controller = spec.name
     out = PushRates(controller, protocol, spec.push, spec.steps)
     workers = (os.cpu_count() or 1) if processes == 0 else max(1, int(processes))
-    pool = ProcessPoolExecutor(workers) if workers > 1 else None
-    run_all = (lambda tasks: list(pool.map(run_push, tasks))) if pool else \
-        (lambda tasks: [run_push(t) for t in tasks])
+    pool = ProcessPoolExecutor(workers) if workers > 1 and mapper is None else None
+    if mapper is not None:
+        def run_all(tasks):
+            return list(mapper(run_push, tasks))
+    elif pool is not None:
+        def run_all(tasks):
+            return list(pool.map(run_push, tasks))
+    else:
+        def run_all(tasks):
+            return [run_push(t) for t in tasks]
     try:
         def task(direction: str, force: float, phase: float, seed: int) -> PushTask:
             return PushTask(run, direction, force, phase, int(seed), protocol)
@@ -327,7 +343,7 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
                 rate = sum(r["survived"] for r in mine) / len(mine)
                 curves[d]["forces_N"].append(float(f))
                 curves[d]["rates"].append(rate)
-                if rate == 0.0:
+                if rate == 0.0 or (not protocol.full_curves and rate < 0.9 - 1e-12):
                     active.remove(d)
             if progress is not None:
                 progress(f"{controller} {f:g} N: " + ", ".join(
