@@ -1,4 +1,5 @@
-"""Every number README.md states is backed by a test of the claims tier (``tests/test_claims.py``).
+"""Every number README.md states is backed by a test of the claims tier (``tests/test_claims.py``,
+and the tests of ``tests/test_real_*.py`` marked ``claims``).
 
 :data:`CLAIMS` maps each figure-bearing phrase of the README to the claims test that asserts it;
 this (fast) test fails when the README gains a number no phrase covers, when a listed phrase is
@@ -13,6 +14,8 @@ import re
 from pathlib import Path
 
 import test_claims as C
+import test_real_ipm as RI
+import test_real_simbicon as RS
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -31,6 +34,11 @@ CLAIMS = {
     "recovers 150 N pushes by stepping": C.test_ipm_recovers_150_N_pushes_by_stepping,
     "replay walk60 within 5 cm and 3.5 cm": C.test_saved_trajectories_replay_walk60,
     "tracks walk60 within 2.5 cm": C.test_mpc_tracks_walk60_within_2_5_cm,
+    "static balance stands 30 s,": RS.test_static_balance_stands_30s_on_a_real_export,
+    "SIMBICON walks 60 s,": RS.test_simbicon_walks_60s_on_a_real_export,
+    "and IPM walks 60 s": RI.test_ipm_walks_60_s_at_1_mps_on_a_real_export,
+    "at 1.0 m/s within 0.15 m/s, each with no root force":
+        RI.test_ipm_walks_60_s_at_1_mps_on_a_real_export,
     "| SIMBICON natural | 121 | 0.59 | 0.115 | 7.3 | 19.4 | 0.86 |":
         C.test_the_walkers_gait_figures_at_1_2_m_s,
     "| IPM stepping | 120 | 0.57 | 0.139 | 1.8 | 32.7 | 0.80 |":
@@ -86,9 +94,18 @@ def test_every_number_in_the_readme_is_a_claim_with_a_test():
                        + "; ".join(f"{line}" for _, line in loose))
 
 
+def _marks(test) -> set[str]:
+    """The names of the marks on a test function and on its module."""
+    import sys
+
+    module = getattr(sys.modules[test.__module__], "pytestmark", [])
+    module = module if isinstance(module, list) else [module]
+    return {m.name for m in [*getattr(test, "pytestmark", []), *module]}
+
+
 def test_every_claim_test_is_in_the_claims_tier():
     for test in set(CLAIMS.values()):
-        assert test.__module__ == "test_claims" and callable(test)
+        assert callable(test) and "claims" in _marks(test), test.__name__
     assert C.pytestmark.name == "claims"
 
 
