@@ -1,5 +1,6 @@
-"""Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent), and the
-bundled humanoid, its walk reference and a two-thread executor for the sampling tests."""
+"""Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent, a failure
+under CI), and the bundled humanoid, its walk reference and a two-thread executor for the
+sampling tests."""
 
 from __future__ import annotations
 
@@ -17,23 +18,40 @@ SHARED_CLIPS = ["walk60.bvh", "idle.bvh", "walk_forward.bvh", "walk_and_turn_rig
 SHARED_REAL = ROOT.parent / "shared" / "data" / "real"
 
 
+#: how a user gets the shared data (said by every skip and failure for its absence)
+GET_THE_DATA = ("put the mjchar workplace's shared/data folder (bvh/ and real/) next to the "
+                "repository, as ../shared/data")
+
+
+def in_ci() -> bool:
+    """Whether the tests run under CI (the ``CI`` environment variable set, as CI services do;
+    ``.ci/run`` sets it): missing shared data is then a failure, never a skip."""
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
+def missing_data(what: str, path: Path) -> None:
+    """Stop the calling test for want of ``path``: a failure under CI (CI always has the data,
+    a missing folder there is a broken checkout), else a skip saying how to get it."""
+    if in_ci():
+        pytest.fail(f"CI is set but {what} {path} is missing: {GET_THE_DATA}", pytrace=False)
+    pytest.skip(f"{what} not found at {path}: {GET_THE_DATA} to run this test")
+
+
 def shared_clip(name: str) -> Path:
-    """Path of a shared clip; skips the calling test with a clear message when it is absent."""
+    """Path of a shared clip; skips the calling test with a clear message when it is absent
+    (fails under CI)."""
     path = SHARED_BVH / name
     if not path.is_file():
-        pytest.skip(f"shared motion data not found at {path} (a clone outside the mjchar "
-                    f"workplace has no ../shared/data); this test needs it")
+        missing_data("the shared motion clip", path)
     return path
 
 
 def real_export(name: str) -> Path:
     """Path of a real export in ../shared/data/real; skips the calling test with a clear
-    message when it is absent."""
+    message when it is absent (fails under CI)."""
     path = SHARED_REAL / name
     if not path.is_file():
-        pytest.skip(f"real export not found at {path} (../shared/data/real holds the real "
-                    f"exports of more rig families; a clone outside the mjchar workplace has "
-                    f"none); this test needs it")
+        missing_data("the real export", path)
     return path
 
 
