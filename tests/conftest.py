@@ -116,3 +116,12 @@ def zoo_humanoids(tmp_path_factory) -> dict[float, str]:
         convert(bvh.loads(bvh.dumps(rig.motion)), total_mass=rig.mass_kg).save(xml)
         out[rig.height_m] = str(xml)
     return out
+
+
+def assert_no_root_help(result) -> None:
+    """The check behind every "no root force" claim: the run got no force and no torque from
+    outside its joint actuators beyond its declared pushes (``Result.unaided``: the root-help
+    check of ``controllers/core/root_help.py``)."""
+    assert result.unaided, (f"{result.controller} / {result.scenario} got help from outside: "
+                            f"force up to {result.root_force_max_N:.3g} N, torque up to "
+                            f"{result.root_torque_max_Nm:.3g} N m")

@@ -10,8 +10,12 @@ the CLI, the benchmarks and the environments:
   simulated joint (body origin) and the same joint in the reference *as projected into the
   model* (the model's kinematics of the reference qpos), in m; the **root error** is the same for
   the root body alone.
-- **root force**: the magnitude of the external force the controller applied to the root (hand of
-  god), averaged over control steps; zero for controllers that stand on their own feet.
+- **root force / torque**: the root-help check (:mod:`.root_help`): per control step the largest
+  force (N) and torque (N m) the character got from outside its joint actuators and the run did
+  not declare as a push: the hand of god's root wrench, ``qfrc_applied``, actuator and gravity
+  compensation forces on the root's dofs, ``xfrc_applied`` on any body beyond the scheduled
+  pushes; averaged and maximised over the run. Both maxima are exactly zero for a controller
+  that stands on its own feet (:meth:`Result.unaided`).
 - **distance / speed**: horizontal displacement of the root from start to end (or to the fall),
   and that over the simulated time.
 - **foot travel**: largest horizontal displacement of either foot sole site from where it
@@ -27,6 +31,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .character import Character
+from .root_help import RootHelp
 
 #: fraction of the standing root height below which the character has fallen
 FALL_HEIGHT_FRACTION = 0.55
@@ -69,7 +74,14 @@ class Result:
     push_N: float | None = None
     push_direction_deg: float | None = None
     max_push_by_direction_N: dict | None = None
+    root_torque_max_Nm: float = 0.0
     extra: dict = field(default_factory=dict)
+
+    @property
+    def unaided(self) -> bool:
+        """No force and no torque from outside in any step, beyond the declared pushes (the
+        root-help check: the claim "no root force")."""
+        return self.root_force_max_N == 0.0 and self.root_torque_max_Nm == 0.0
 
     def to_dict(self) -> dict:
         """A JSON-serialisable dict (non-finite floats become ``None``)."""
@@ -105,7 +117,7 @@ class Result:
                          f"{self.root_error_m:.4f} m")
         lines.append(f"  root force mean {self.root_force_mean_N:.1f} N (max "
                      f"{self.root_force_max_N:.1f} N), root torque mean "
-                     f"{self.root_torque_mean_Nm:.1f} N m")
+                     f"{self.root_torque_mean_Nm:.1f} N m (max {self.root_torque_max_Nm:.1f} N m)")
         if self.push_N is not None:
             where = ("random directions" if self.push_direction_deg is None
                      else f"towards {self.push_direction_deg:g} deg")
@@ -172,6 +184,7 @@ class Recorder:
         self._feet = (character.site_id("left_foot"), character.site_id("right_foot"))
         self.foot_travel = 0.0
         self.start_com_z = float(character.state.com()[2])
+        self.help = RootHelp(character)
         self.com_min_z = self.start_com_z
         self._sample(character)
 
@@ -188,14 +201,10 @@ class Recorder:
         self._next_sample = character.time + self.sample_dt - 1e-9
 
     def record(self, character: Character) -> None:
-        """Record the step just taken (root wrench of the last action, positions when due)."""
-        if character.actuation.root_wrench_applied:
-            w = character.actuation.root_wrench
-            self.root_force.append(float(np.linalg.norm(w[:3])))
-            self.root_torque.append(float(np.linalg.norm(w[3:])))
-        else:  # no wrench: the norms of zero vectors
-            self.root_force.append(0.0)
-            self.root_torque.append(0.0)
+        """Record the step just taken (the outside help it got, positions when due)."""
+        force, torque = self.help.measure()
+        self.root_force.append(force)
+        self.root_torque.append(torque)
         self.root = character.state.root_position
         if character.time >= self._next_sample:
             self._sample(character)
@@ -231,5 +240,6 @@ class Recorder:
         rt = np.asarray(self.root_torque) if self.root_torque else np.zeros(1)
         return {"distance_m": d, "root_force_mean_N": float(rf.mean()),
                 "root_force_max_N": float(rf.max()), "root_torque_mean_Nm": float(rt.mean()),
+                "root_torque_max_Nm": float(rt.max()),
                 "foot_travel_m": self.foot_travel,
                 "com_drop_m": self.start_com_z - self.com_min_z}

@@ -47,6 +47,8 @@ class PushSchedule:
     Attributes:
         scheduled: the scheduled :class:`Push` es, in order.
         applied: some force is currently written into ``xfrc_applied``.
+        written: ``(nbody, 6)`` what the pushes wrote into ``xfrc_applied`` (zeros while
+            none acts): the root-help check tells a declared push from outside help by it.
     """
 
     def __init__(self, data: mujoco.MjData, body_id: Callable[[str], int]):
@@ -54,6 +56,7 @@ class PushSchedule:
         self._lookup = body_id
         self.scheduled: list[Push] = []
         self.applied = False
+        self.written = np.zeros_like(data.xfrc_applied)
         self._body_id: dict[str, int] = {}
 
     def add(self, body: str, force, duration: float, start: float | None = None) -> Push:
@@ -80,6 +83,7 @@ class PushSchedule:
         self.scheduled = []
         if self.applied:
             self._data.xfrc_applied[:] = 0
+            self.written[:] = 0
             self.applied = False
 
     def any_between(self, t0: float, t1: float) -> bool:
@@ -88,11 +92,13 @@ class PushSchedule:
 
     def apply(self, t: float) -> None:
         """Write the sum of the pushes active at time ``t`` (s) into ``xfrc_applied``."""
-        xf = self._data.xfrc_applied
+        xf, written = self._data.xfrc_applied, self.written
         xf[:] = 0
         on = False
         for p in self.scheduled:
             if p.start <= t < p.end:
                 xf[self._body_id[p.body], :3] += p.force
                 on = True
+        if on or self.applied:
+            written[:] = xf
         self.applied = on

@@ -1,0 +1,89 @@
+"""The root-help check: every force and torque from outside the character's own joint actuators
+that a run did not declare, measured after each control step.
+
+A controller that "needs no root force" must get no help from outside in any form. The check
+reads, after each step, what acted during it:
+
+- the root wrench of the last action (the hand of god, ``character.actuation.root_wrench``),
+  force and torque;
+- ``qfrc_applied`` on the root's 6 dofs (force on the 3 translations, torque on the 3
+  rotations), whoever wrote it;
+- actuator forces on the root's dofs (``qfrc_actuator``: a model with a motor on its root) and,
+  on a model with gravity compensation, ``qfrc_gravcomp`` on them (the net lift on the body);
+- ``xfrc_applied`` on every body, force and torque, minus what the declared pushes
+  (``character.pushes``) wrote there: a scenario's push is part of its protocol, not help.
+
+:meth:`RootHelp.measure` gives the largest force (N) and the largest torque (N m) among these;
+both are 0 exactly when nothing helped. Each check is a sum of absolute values (MuJoCo's
+``mju_L1``), the norms are taken only when one is not zero.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+
+def _l1(x: np.ndarray) -> float:
+    """Sum of the absolute values of the 1-D float64 array ``x`` (``mju_L1`` on a contiguous
+    vector, numpy otherwise)."""
+    try:
+        return mujoco.mju_L1(x)
+    except TypeError:
+        return float(np.abs(x).sum())
+
+
+def _norm3(v: np.ndarray) -> float:
+    x, y, z = v.tolist()
+    return math.sqrt(x * x + y * y + z * z)
+
+
+class RootHelp:
+    """Measures the outside help a character gets in one step (see the module docstring).
+
+    Args:
+        character: the :class:`~mjchar.controllers.core.character.Character` watched (its
+            model, data, root dofs, actuation and push schedule).
+    """
+
+    def __init__(self, character):
+        m = character.model
+        self._data = character.data
+        self._actuation = character.actuation
+        self._pushes = character.pushes
+        first = int(character.root_dofs[0])  # a free joint's 6 dofs are consecutive
+        self._root = slice(first, first + 6)
+        self._gravcomp = bool(np.any(m.body_gravcomp)) and hasattr(self._data, "qfrc_gravcomp")
+
+    def _generalised(self) -> list[np.ndarray]:
+        """The root dofs' rows of every generalised force from outside the joint actuators."""
+        d, r = self._data, self._root
+        rows = [d.qfrc_applied[r], d.qfrc_actuator[r]]
+        if self._gravcomp:
+            rows.append(d.qfrc_gravcomp[r])
+        return rows
+
+    def external_wrenches(self) -> np.ndarray:
+        """``(nbody, 6)`` ``xfrc_applied`` (world force N, torque N m) beyond the declared
+        pushes."""
+        xf = self._data.xfrc_applied
+        return xf - self._pushes.written if self._pushes.applied else xf
+
+    def measure(self) -> tuple[float, float]:
+        """``(force N, torque N m)``: the largest undeclared outside force and torque on the
+        character during the last step; ``(0.0, 0.0)`` when it had no help."""
+        force = torque = 0.0
+        act = self._actuation
+        if act.root_wrench_applied:
+            w = act.root_wrench
+            force, torque = _norm3(w[:3]), _norm3(w[3:])
+        for g in self._generalised():
+            if _l1(g) != 0.0:
+                force, torque = max(force, _norm3(g[:3])), max(torque, _norm3(g[3:]))
+        xf = self.external_wrenches()
+        if _l1(xf.reshape(-1)) != 0.0:
+            force = max(force, float(np.linalg.norm(xf[:, :3], axis=1).max()))
+            torque = max(torque, float(np.linalg.norm(xf[:, 3:], axis=1).max()))
+        return force, torque
