@@ -109,13 +109,35 @@ def test_every_claim_test_is_in_the_claims_tier():
     assert C.pytestmark.name == "claims"
 
 
-def test_ci_runs_the_readmes_test_command_then_the_claims_tier():
-    """`.ci/run` runs exactly the README's second set-up command, then `pytest -m claims`."""
+def _ci_commands() -> list[str]:
+    lines = (README.parent / ".ci" / "run").read_text().splitlines()
+    return [line for line in lines
+            if line and not line.startswith(("#", "set ", "cd ", "export ", "test "))]
+
+
+def test_ci_runs_the_readmes_test_command_then_the_slow_and_claims_tiers():
+    """`.ci/run` runs exactly the README's second set-up command, then `pytest -m slow` and
+    `pytest -m claims`, each on both cores, with CI set."""
     readme = README.read_text()
     setup = re.search(r"## Quick start.*?```bash\n(.*?)```", readme, re.S).group(1)
     commands = [line for line in setup.splitlines() if line and not line.startswith("#")]
     assert len(commands) == 2, "the quick start has exactly two set-up commands"
-    ci = (README.parent / ".ci" / "run").read_text().splitlines()
-    ci = [line for line in ci if line and not line.startswith(("#", "set ", "cd "))]
-    assert ci[0] == commands[1]
-    assert ci[1].startswith("python -m pytest -q -m claims")
+    assert commands[1].endswith("python -m pytest -q -n 2 -p xdist")
+    ci = _ci_commands()
+    assert ci == [commands[1], "python -m pytest -q -m slow -n 2 -p xdist",
+                  "python -m pytest -q -m claims -n 2 -p xdist"]
+    assert 'export CI="${CI:-true}"' in (README.parent / ".ci" / "run").read_text()
+
+
+def test_ci_stops_at_once_without_the_shared_data(tmp_path):
+    """A clone with no ../shared/data: `.ci/run` fails before installing anything, saying why."""
+    import shutil
+    import subprocess
+
+    repo = tmp_path / "clone"
+    (repo / ".ci").mkdir(parents=True)
+    shutil.copy(README.parent / ".ci" / "run", repo / ".ci" / "run")
+    p = subprocess.run(["bash", str(repo / ".ci" / "run")], capture_output=True, text=True,
+                       timeout=60, env={"PATH": "/usr/bin:/bin"})
+    assert p.returncode == 1 and not (repo / ".venv").exists()
+    assert "../shared/data" in p.stderr and len(p.stderr.splitlines()) == 1
