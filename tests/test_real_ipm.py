@@ -117,20 +117,27 @@ def test_a_knee_flexing_to_negative_angles_is_refused_naming_it():
 
 
 # -- claims: the walks and the tracks --------------------------------------------------------
+#: the README's figures for the real exports: IPM walks WALK_S s at SPEED_MPS within SPEED_TOL
+WALK_S, SPEED_MPS, SPEED_TOL = 60.0, 1.0, 0.15
+
+
 @pytest.mark.claims
 @pytest.mark.parametrize("name", REAL)
 def test_ipm_walks_60_s_at_1_mps_on_a_real_export(models, name):
-    r = run("ipm", "walk", model=models(name), duration=60.0, speed=1.0, steady_window=10.0)
+    r = run("ipm", "walk", model=models(name), duration=WALK_S, speed=SPEED_MPS,
+            steady_window=10.0)
     assert not r.fell, (r.fall_time_s, r.fall_reason)
-    assert r.extra["steady_speed_mps"] == pytest.approx(1.0, abs=0.15)
+    assert r.extra["steady_speed_mps"] == pytest.approx(SPEED_MPS, abs=SPEED_TOL)
     assert_no_root_help(r)
 
 
 #: the CMU clip at its header's frame time (0.04 s; the data's README says it is probably wrong)
 #: is a jog in slow motion: 1.5 s on one foot while the root travels 0.75 m over it at an even
 #: 0.5 m/s. The MPC tracks it without a fall and without root force, 9.1 cm off (the root 8.3 cm;
-#: docs/mpc.md, real exports)
+#: docs/mpc.md, real exports): it has its own bound, the walks theirs (docs/claims.md)
 SLOW_JOG = "cmu_daz_02_03.bvh"
+#: mean joint error bounds (m) of the MPC on the first 3 s: the walks, the slow jog
+MPC_WALK_M, MPC_SLOW_JOG_M = 0.06, 0.12
 
 
 @pytest.mark.claims
@@ -139,6 +146,4 @@ def test_mpc_tracks_the_first_3_s_of_a_real_export(models, name):
     r = run("mpc", "track", model=models(name), motion=real_export(name), duration=3.0)
     assert not r.fell, (r.fall_time_s, r.fall_reason)
     assert_no_root_help(r)
-    if name == SLOW_JOG and r.tracking_error_m >= 0.06:
-        pytest.xfail(f"a jog in slow motion: {100 * r.tracking_error_m:.1f} cm")
-    assert r.tracking_error_m < 0.06
+    assert r.tracking_error_m < (MPC_SLOW_JOG_M if name == SLOW_JOG else MPC_WALK_M)

@@ -20,6 +20,8 @@ from mjchar.bvh.mjcf import convert
 from mjchar.controllers import run
 
 REAL = ("xsens_mvn_walk.bvh", "cmu_daz_02_03.bvh", "emilya_walk.bvh")
+#: the README's figures for the real exports: static balance stands, SIMBICON walks (s)
+STAND_S, WALK_S = 30.0, 60.0
 STRUCTURE_RIGS = ("cmu-asf-yup", "daz-cm-yup-face", "lafan1-anon-cm-yup", "mixamo7-cm-yup-gimbal")
 
 
@@ -34,14 +36,14 @@ def real_body(request, tmp_path_factory) -> str:
 
 @pytest.mark.claims
 def test_static_balance_stands_30s_on_a_real_export(real_body):
-    r = run("static_balance", "stand", model=real_body, duration=30.0)
+    r = run("static_balance", "stand", model=real_body, duration=STAND_S)
     assert not r.fell, (real_body, r.fall_time_s, r.fall_reason)
     assert_no_root_help(r)
 
 
 @pytest.mark.claims
 def test_simbicon_walks_60s_on_a_real_export(real_body):
-    r = run("simbicon", "walk", model=real_body, duration=60.0)
+    r = run("simbicon", "walk", model=real_body, duration=WALK_S)
     assert not r.fell, (real_body, r.fall_time_s, r.fall_reason)
     assert_no_root_help(r)
     assert r.distance_m > 40.0  # walking (0.9-1.2 m/s), not standing or shuffling
