@@ -49,27 +49,31 @@ class RootHelp:
     """
 
     def __init__(self, character):
-        m = character.model
-        self._data = character.data
+        m, d = character.model, character.data
         self._actuation = character.actuation
         self._pushes = character.pushes
         first = int(character.root_dofs[0])  # a free joint's 6 dofs are consecutive
-        self._root = slice(first, first + 6)
-        self._gravcomp = bool(np.any(m.body_gravcomp)) and hasattr(self._data, "qfrc_gravcomp")
+        root = slice(first, first + 6)
+        # views into MjData's buffers (fixed for the data's life): no lookups per step
+        self._rows = [d.qfrc_applied[root]]
+        if self._actuators_may_reach_root(m, int(m.dof_jntid[first])):
+            self._rows.append(d.qfrc_actuator[root])
+        if np.any(m.body_gravcomp) and hasattr(d, "qfrc_gravcomp"):
+            self._rows.append(d.qfrc_gravcomp[root])
+        self._xfrc = d.xfrc_applied
+        self._xfrc_flat = self._xfrc.reshape(-1)
 
-    def _generalised(self) -> list[np.ndarray]:
-        """The root dofs' rows of every generalised force from outside the joint actuators."""
-        d, r = self._data, self._root
-        rows = [d.qfrc_applied[r], d.qfrc_actuator[r]]
-        if self._gravcomp:
-            rows.append(d.qfrc_gravcomp[r])
-        return rows
+    @staticmethod
+    def _actuators_may_reach_root(m: mujoco.MjModel, root_joint: int) -> bool:
+        """Whether some actuator can act on the root's dofs: one on the root joint, or one with a
+        transmission other than a joint (a tendon or a site may span the root)."""
+        joint = m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT
+        return bool(np.any(~joint) or np.any(m.actuator_trnid[joint, 0] == root_joint))
 
     def external_wrenches(self) -> np.ndarray:
         """``(nbody, 6)`` ``xfrc_applied`` (world force N, torque N m) beyond the declared
         pushes."""
-        xf = self._data.xfrc_applied
-        return xf - self._pushes.written if self._pushes.applied else xf
+        return self._xfrc - self._pushes.written if self._pushes.applied else self._xfrc
 
     def measure(self) -> tuple[float, float]:
         """``(force N, torque N m)``: the largest undeclared outside force and torque on the
@@ -79,11 +83,13 @@ class RootHelp:
         if act.root_wrench_applied:
             w = act.root_wrench
             force, torque = _norm3(w[:3]), _norm3(w[3:])
-        for g in self._generalised():
+        for g in self._rows:
             if _l1(g) != 0.0:
                 force, torque = max(force, _norm3(g[:3])), max(torque, _norm3(g[3:]))
-        xf = self.external_wrenches()
-        if _l1(xf.reshape(-1)) != 0.0:
-            force = max(force, float(np.linalg.norm(xf[:, :3], axis=1).max()))
-            torque = max(torque, float(np.linalg.norm(xf[:, 3:], axis=1).max()))
+        pushed = self._pushes.applied
+        if pushed or _l1(self._xfrc_flat) != 0.0:
+            xf = self.external_wrenches()
+            if not pushed or xf.any():
+                force = max(force, float(np.linalg.norm(xf[:, :3], axis=1).max()))
+                torque = max(torque, float(np.linalg.norm(xf[:, 3:], axis=1).max()))
         return force, torque
