@@ -45,7 +45,7 @@ SAMCON_REPLAY_CM, CMAES_REPLAY_CM = 5.0, 4.0
 MPC_WALK60_CM, MPC_SEEDS = 3.5, (0, 1, 2)
 #: the gait table's columns and their tolerances (the spread over seeds, docs/claims.md)
 GAIT_COLUMNS = ("cadence /min", "step m", "width m", "lean deg", "knee deg", "slip cm/step")
-GAIT_TOLERANCE = (3.0, 0.03, 0.015, 1.0, 2.0, 0.3)
+GAIT_TOLERANCE = (8.0, 0.02, 0.01, 0.2, 1.5, 0.3)
 
 
 def _protocol(force: float) -> PushProtocol:
@@ -138,7 +138,7 @@ def test_saved_trajectories_replay_walk60(name, bar_cm):
 # mpc: "tracks walk60 within 3.5 cm"
 @pytest.mark.parametrize("seed", MPC_SEEDS)
 def test_mpc_tracks_walk60(seed):
-    r = run("mpc", "track", motion=shared_clip("walk60.bvh"), seed=seed)
+    r = run("mpc", "track", motion=shared_clip("walk60.bvh"), params={"seed": seed})
     assert not r.fell and r.tracking_error_m < MPC_WALK60_CM / 100
     assert_no_root_help(r)
 
