@@ -138,7 +138,7 @@ def test_saved_trajectories_replay_walk60(name, bar_cm):
 # mpc: "tracks walk60 within 3.5 cm"
 @pytest.mark.parametrize("seed", MPC_SEEDS)
 def test_mpc_tracks_walk60(seed):
-    r = run("mpc", "track", motion=shared_clip("walk60.bvh"), params={"seed": seed})
+    r = RunSpec("mpc", "track", motion=shared_clip("walk60.bvh"), options={"seed": seed}).execute()
     assert not r.fell and r.tracking_error_m < MPC_WALK60_CM / 100
     assert_no_root_help(r)
 
