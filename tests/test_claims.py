@@ -42,7 +42,7 @@ WALK_S, IPM_SPEED_MPS, IPM_SPEED_TOL = 60.0, 1.0, 0.15
 #: the saved SAMCON and CMA-ES trajectories replay walk60 (the clip itself) within (cm)
 SAMCON_REPLAY_CM, CMAES_REPLAY_CM = 5.0, 4.0
 #: the MPC tracks walk60 within (cm), at each of MPC_SEEDS
-MPC_WALK60_CM, MPC_SEEDS = 3.5, (0, 1, 2)
+MPC_WALK60_CM, MPC_SEEDS = 4.0, (0, 1, 2)
 #: the gait table's columns and their tolerances (the spread over seeds, docs/claims.md)
 GAIT_COLUMNS = ("cadence /min", "step m", "width m", "lean deg", "knee deg", "slip cm/step")
 GAIT_TOLERANCE = (8.0, 0.02, 0.01, 0.2, 1.5, 0.3)
@@ -135,7 +135,7 @@ def test_saved_trajectories_replay_walk60(name, bar_cm):
     assert_no_root_help(r)
 
 
-# mpc: "tracks walk60 within 3.5 cm"
+# mpc: "tracks walk60 within 4 cm"
 @pytest.mark.parametrize("seed", MPC_SEEDS)
 def test_mpc_tracks_walk60(seed):
     r = RunSpec("mpc", "track", motion=shared_clip("walk60.bvh"), options={"seed": seed}).execute()
