@@ -45,9 +45,11 @@ def run(args: argparse.Namespace) -> int:
 
     from mjchar import bvh
     from mjchar.bvh.mjcf import ConversionError, convert
+    from mjchar.bvh.mjcf.roles import load_roles
     from mjchar.bvh.rigs import units
 
     motion = bvh.load(args.file)
+    load_roles(args.roles)  # a roles file that cannot be read is an error, not a note
     sk = motion.skeleton
     if motion.n_frames:
         points = bvh.forward_kinematics(motion).positions.reshape(-1, 3)
