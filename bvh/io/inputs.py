@@ -146,11 +146,15 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
                 line = before.count(b"\n") + before.count(b"\r") - before.count(b"\r\n") + 1
                 raise error(f"this is binary data, not {expected} text (a NUL byte at byte "
                             f"{nul}): is it the right file?", line)
-            rest = fh.read(max_bytes + 1 - len(head))
+            if stat.S_ISREG(st.st_mode):  # read into one buffer of the file's size
+                raw = bytearray(max(st.st_size, len(head)))
+                raw[:len(head)] = head
+                got = len(head) + fh.readinto(memoryview(raw)[len(head):])
+                del raw[got:]  # a file that shrank meanwhile
+            else:
+                raw = head + fh.read(max_bytes + 1 - len(head))
     except OSError as e:
         raise error(f"cannot read the {what}: {e.strerror or e}", None) from None
-    raw = head + rest
-    del rest
     if len(raw) > max_bytes:  # a pipe or a device: no size to check beforehand
         raise error(f"the input goes on past {limit} (a device or an endless stream?)", None)
     if encoding is not None:
