@@ -8,8 +8,8 @@ Every text file mjchar reads (BVH clips, roles and gains files) comes through :f
   limit, so nothing reads for ever;
 - the first bytes are checked against formats users mistake for the expected one (FBX, C3D,
   glTF, archives, compressed files, images, NumPy files, Git LFS pointers...) and the message
-  says what the file is and what to do (:func:`sniff`); other binary content (NUL bytes) is
-  refused as binary;
+  says what the file is and what to do (:func:`sniff`); other binary content (NUL bytes among
+  many control bytes) is refused as binary;
 - text is UTF-8 (with or without a byte-order mark), UTF-16 or UTF-32 with a byte-order mark;
   anything else is read as Latin-1 when the caller allows it (BVH files from old tools), and is
   refused otherwise.
@@ -102,6 +102,19 @@ def sniff(head: bytes, expected: str = "BVH") -> str | None:
     return None
 
 
+_CONTROL_BYTES = bytes(c for c in range(32) if c not in b"\t\n\r\x0b\x0c") + b"\x7f"
+
+
+def _binary(head: bytes) -> bool:
+    """Whether leading bytes are binary data rather than text: NUL bytes among more than 1 %
+    control bytes, or a NUL at the very start (a stray NUL in a text file is left to the
+    parser, which names its line and what it is in)."""
+    if b"\x00" not in head:
+        return False
+    controls = len(head) - len(head.translate(None, _CONTROL_BYTES))
+    return head[:1] == b"\x00" or controls > 0.01 * len(head)
+
+
 def _bom_encoding(head: bytes) -> str | None:
     for bom, enc in _BOMS:
         if head.startswith(bom):
@@ -140,7 +153,7 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
             if found is not None:
                 raise error(found, 1)
             encoding = _bom_encoding(head)
-            nul = head.find(b"\x00") if encoding is None else -1
+            nul = head.find(b"\x00") if encoding is None and _binary(head) else -1
             if nul >= 0:
                 before = head[:nul]
                 line = before.count(b"\n") + before.count(b"\r") - before.count(b"\r\n") + 1
