@@ -353,8 +353,8 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
         raise
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, RuntimeError,
             NotImplementedError, zlib.error) as e:
-        raise TrajectoryError(f"{p}: not a saved mjchar trajectory (not a readable .npz "
-                              f"archive: {e.__class__.__name__})") from None
+        raise TrajectoryError(f"{p}: not a saved mjchar trajectory (not an .npz archive, or "
+                              f"a damaged one: {e.__class__.__name__})") from None
     if not isinstance(data, dict) or str(data.get("format", "")) != FORMAT:
         raise TrajectoryError(f"{p}: not a saved mjchar trajectory (no {FORMAT!r} marker; "
                               "write one with `mjchar samcon` or `mjchar trajopt`)")
