@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.errors import SkeletonError, name_list
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
@@ -82,7 +82,7 @@ class Skeleton:
             return self.names.index(name)
         except ValueError:
             raise SkeletonError(
-                f"unknown joint {name!r}; joints are: {', '.join(self.names)}"
+                f"unknown joint {name!r}; joints are: {name_list(self.names)}"
             ) from None
 
     def children(self, j: int) -> list[int]:

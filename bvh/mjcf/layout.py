@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mjchar.bvh.errors import name_list
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf.info import ConversionError
 from mjchar.bvh.rigs.naming import DETAIL_ROLES, Recognition
@@ -106,7 +107,7 @@ def _expand(names: list[str] | None, defaults: list[int], sk: Skeleton, what: st
             close = [x for x in sk.names if n.lower() in x.lower() or x.lower() in n.lower()]
             hint = f" (did you mean {', '.join(close[:5])}?)" if close else ""
             raise ConversionError(f"{what}: unknown joint {n!r}{hint}; joints are: "
-                                  + ", ".join(sk.names))
+                                  + name_list(sk.names))
     return out
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 import tomllib
 
+from mjchar.bvh.errors import name_list
 from mjchar.bvh.io.inputs import read_text
 from mjchar.bvh.mjcf.info import ConversionError
 
@@ -87,7 +88,7 @@ def check_roles(roles: dict[str, object], names: list[str], where: str = "roles"
                 bad.append(f"{role} = {v!r}")
     if bad:
         raise ConversionError(f"{where} names joints the skeleton does not have: "
-                              + ", ".join(bad) + "; joints are: " + ", ".join(names))
+                              + name_list(bad) + "; joints are: " + name_list(names))
 
 
 def missing_roles_error(missing: list[str], names: list[str], found: dict,
@@ -99,4 +100,4 @@ def missing_roles_error(missing: list[str], names: list[str], found: dict,
         "missing essential roles: " + ", ".join(missing) + why + f"; recognised: {have}; "
         "map them in a roles file (mjchar convert --roles roles.toml) with lines like "
         + ", ".join(f'{r} = "<joint>"' for r in missing[:2])
-        + "; joints are: " + ", ".join(names))
+        + "; joints are: " + name_list(names))
