@@ -566,7 +566,7 @@ def _parse_frames(text: str, first_line: int, n_frames: int, frames_line: int, n
         line += chunk.count("\n") + chunk.count("\r") - chunk.count("\r\n")
         pos = end
     if row < n_frames:
-        last = line - 1 if n_text > start and text[-1] in "\r\n" else line
+        last = line - 1 if n_text == start or text[-1] in "\r\n" else line
         raise BVHError(f"expected {n_frames} frames (as 'Frames:' on line {frames_line} says), "
                        f"found {row}: the file ends early", line=max(last, first_line - 1, 1),
                        path=path)
