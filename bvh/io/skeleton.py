@@ -97,6 +97,15 @@ class Skeleton:
             j = int(self.parents[j])
         return out[::-1]
 
+    def in_subtree(self, j: int) -> np.ndarray:
+        """``(J,)`` bool: joint ``j`` and every joint below it (one pass over the parents)."""
+        inside = np.zeros(self.n_joints, dtype=bool)
+        inside[j] = True
+        parents = self.parents.tolist()
+        for k in range(j + 1, self.n_joints):
+            inside[k] = inside[parents[k]]
+        return inside
+
     def has_position_channels(self) -> np.ndarray:
         """``(J,)`` bool: which joints carry position channels."""
         return np.array([any(c in POSITION_CHANNELS for c in ch) for ch in self.channels])
