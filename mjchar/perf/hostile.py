@@ -1,11 +1,12 @@
 """Cost of pathological but valid input: ``python -m mjchar.perf.hostile``.
 
-Makes, in a temporary folder, a 5,000-joint chain and a 50 MB clip of repeated frames (the
-bundled walk's frames over and over), runs ``mjchar info`` and ``mjchar convert`` on each in a
-process of its own, and prints a table of each process's CPU seconds and peak resident memory
-(``getrusage`` of the process itself), beside the same for the bundled walk (the baseline: what
-importing mjchar and MuJoCo costs) and the file's size. ``--joints`` and ``--megabytes`` change
-the sizes.
+Makes, in a temporary folder, a 5,000-joint chain, the bundled walk with a 2,000-joint tail
+hanging from its head (a body the converter builds, dropping the tail) and a 50 MB clip of
+repeated frames (the bundled walk's frames over and over), runs ``mjchar info`` and ``mjchar
+convert`` on each in a process of its own, and prints a table of each process's CPU seconds
+and peak resident memory (``getrusage`` of the process itself), beside the same for the bundled
+walk (the baseline: what importing mjchar and MuJoCo costs) and the file's size. ``--joints``,
+``--tail`` and ``--megabytes`` change the sizes.
 """
 
 from __future__ import annotations
@@ -46,6 +47,30 @@ def chain(n_joints: int) -> str:
     return "\n".join(parts) + "\n"
 
 
+def with_tail(n_joints: int) -> str:
+    """The bundled walk with a chain of ``n_joints`` joints (1 mm apart, no rotation) below its
+    head joint."""
+    import numpy as np
+
+    from mjchar import bvh
+
+    m = bvh.load(motion_path("walk"))
+    sk = m.skeleton
+    head = next(j for j, n in enumerate(sk.names) if "head" in n.lower())
+    n = sk.n_joints
+    names = sk.names + [f"tail{k}" for k in range(n_joints)]
+    parents = np.concatenate([sk.parents, [head], np.arange(n, n + n_joints - 1)])
+    offsets = np.concatenate([sk.offsets, np.tile([0.0, 0.1, 0.0], (n_joints, 1))])
+    channels = sk.channels + [("Zrotation", "Xrotation", "Yrotation")] * n_joints
+    tail_sk = bvh.Skeleton(names, parents, offsets, channels, sk.end_site_parents,
+                           sk.end_site_offsets)
+    f = m.n_frames
+    pos = np.concatenate([m.local_positions, np.broadcast_to(offsets[n:], (f, n_joints, 3))],
+                         axis=1)
+    rot = np.concatenate([m.rotations, np.tile([1.0, 0, 0, 0], (f, n_joints, 1))], axis=1)
+    return bvh.dumps(bvh.Motion(tail_sk, m.frame_time, pos, rot))
+
+
 def repeated(megabytes: float) -> str:
     """The bundled walk with its frames repeated to about ``megabytes`` MB."""
     head, _, rest = motion_path("walk").read_text().partition("MOTION")
@@ -66,14 +91,17 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m mjchar.perf.hostile",
                                 description=__doc__.splitlines()[0])
     p.add_argument("--joints", type=int, default=5000, help="joints of the chain (5000)")
+    p.add_argument("--tail", type=int, default=2000, help="joints of the walk's tail (2000)")
     p.add_argument("--megabytes", type=float, default=50.0, help="size of the long clip (50)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         files = {"bundled walk": motion_path("walk"),
                  f"{args.joints}-joint chain": d / "chain.bvh",
+                 f"bundled walk with a {args.tail}-joint tail": d / "tail.bvh",
                  f"{args.megabytes:g} MB of repeated frames": d / "long.bvh"}
         files[f"{args.joints}-joint chain"].write_text(chain(args.joints))
+        files[f"bundled walk with a {args.tail}-joint tail"].write_text(with_tail(args.tail))
         files[f"{args.megabytes:g} MB of repeated frames"].write_text(repeated(args.megabytes))
         print("| file | size MB | command | exit | CPU s | peak memory MB |")
         print("|---|---|---|---|---|---|")
