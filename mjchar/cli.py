@@ -80,6 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     command = "mjchar"
+    _printable_paths()
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -113,6 +114,18 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+
+
+def _printable_paths() -> None:
+    """Let standard output print any file name given on the command line: a name that is not
+    valid text in the locale (undecodable bytes, kept by Python as surrogates) is written back
+    as its bytes instead of stopping the command with an encoding error."""
+    reconfigure = getattr(sys.stdout, "reconfigure", None)
+    if reconfigure is not None:
+        try:
+            reconfigure(errors="surrogateescape")
+        except (ValueError, OSError):  # a stream that cannot change: leave it
+            pass
 
 
 def _quiet_stdout() -> None:

@@ -168,6 +168,8 @@ def _make_files(d: Path) -> None:
     (d / "latin1_name.bvh").write_bytes(walk.replace("JOINT lHip", "JOINT lH\xe9", 1)
                                         .encode("latin-1"))
     w("chain_300.bvh", _chain(300))
+    (d / os.fsdecode(b"w\xff.bvh")).write_text(walk)  # names that are not valid UTF-8
+    (d / os.fsdecode(b"m\xff.xml")).write_text(model)
     # roles and gains files
     b("binary.dat", bytes(range(256)) * 40)
     b("roles_utf16_bom.toml", 'left_knee = "lKnee"\n'.encode("utf-16"))
@@ -286,6 +288,10 @@ def _cases(d: Path) -> list[tuple[str, list[str], int, str]]:
         ("bvh_nan_value", ["info", p("nan_value.bvh")], 2, "finite number"),
         ("bvh_huge_value", ["info", p("huge_value.bvh")], 2, "cannot describe a pose"),
         ("bvh_chain_300", ["info", p("chain_300.bvh")], 0, ""),
+        ("name_not_utf8_convert", ["convert", p(os.fsdecode(b"w\xff.bvh")), "-o",
+                                   os.fsdecode(b"o\xff.xml")], 0, ""),
+        ("name_not_utf8_model", ["run", "pd", "--model", p(os.fsdecode(b"m\xff.xml"))], 2,
+         "not valid UTF-8"),
         # roles files
         ("roles_deep", ["convert", walk, "-o", "o.xml", "--roles", p("roles_deep.toml")], 2,
          "nests too deeply"),

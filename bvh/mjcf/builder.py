@@ -287,6 +287,8 @@ def _load_source(source) -> tuple[Motion | None, Skeleton, str]:
     if isinstance(source, (str, os.PathLike)):
         motion = load(source)
         stem = os.path.splitext(os.path.basename(os.fspath(source)))[0] or "humanoid"
+        # a file name that is not valid text (bytes undecodable in the locale) still names it
+        stem = stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
         return motion, motion.skeleton, stem
     raise ConversionError(
         f"cannot convert a {type(source).__name__}: expected a Motion, a Skeleton or a BVH path")

@@ -72,6 +72,12 @@ def load_mjcf(path: str | os.PathLike, error: Callable[[str], Exception]):
                     f"number (MuJoCo would put a value of its own in its place): give a finite "
                     f"value")
     try:
+        path.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = path.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+        raise error(f"{shown}: the path is not valid UTF-8, which MuJoCo cannot open: rename "
+                    f"the file (or its folder)") from None
+    try:
         model = mujoco.MjModel.from_xml_path(path)
     except ValueError as e:
         raise error(f"{path}: MuJoCo cannot load it: {mujoco_message(str(e))}") from None
