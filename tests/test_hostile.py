@@ -21,6 +21,7 @@ from __future__ import annotations
 import gzip
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -168,6 +169,8 @@ def _make_files(d: Path) -> None:
     (d / "latin1_name.bvh").write_bytes(walk.replace("JOINT lHip", "JOINT lH\xe9", 1)
                                         .encode("latin-1"))
     w("chain_300.bvh", _chain(300))
+    w("frame_time_tiny.bvh", re.sub(r"Frame Time:\s*\S+", "Frame Time: 1e-300", walk))
+    os.mkfifo(d / "a_pipe.xml")
     (d / os.fsdecode(b"w\xff.bvh")).write_text(walk)  # names that are not valid UTF-8
     (d / os.fsdecode(b"m\xff.xml")).write_text(model)
     # roles and gains files
@@ -288,6 +291,9 @@ def _cases(d: Path) -> list[tuple[str, list[str], int, str]]:
         ("bvh_nan_value", ["info", p("nan_value.bvh")], 2, "finite number"),
         ("bvh_huge_value", ["info", p("huge_value.bvh")], 2, "cannot describe a pose"),
         ("bvh_chain_300", ["info", p("chain_300.bvh")], 0, ""),
+        ("bvh_frame_time_tiny", ["run", "mpc", "--motion", p("frame_time_tiny.bvh"),
+                                 "--duration", "0.1"], 2, "not a frame time"),
+        ("output_is_a_pipe", ["convert", walk, "-o", p("a_pipe.xml")], 2, "device or pipe"),
         ("name_not_utf8_convert", ["convert", p(os.fsdecode(b"w\xff.bvh")), "-o",
                                    os.fsdecode(b"o\xff.xml")], 0, ""),
         ("name_not_utf8_model", ["run", "pd", "--model", p(os.fsdecode(b"m\xff.xml"))], 2,

@@ -11,9 +11,10 @@ zero-length bones and any units or up axis (kept as they are in the file; see
 Numbers follow the plain decimal grammar ``[+-]digits[.digits][(e|E)[+-]digits]`` (``.5`` and
 ``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. Numbers that cannot
 describe a human are rejected too, naming the line (:data:`MAX_OFFSET`, :data:`MAX_FRAME_TIME`,
-:data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous (a 2 m body in millimetres
-has offsets near 500, a root travelling 10 km in millimetres positions of 1e7) but stop the
-1e30 that would build a 1e30 m body or a frame time that makes a clip last for ages.
+:data:`MIN_FRAME_TIME`, :data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous
+(a 2 m body in millimetres has offsets near 500, a root travelling 10 km in millimetres
+positions of 1e7) but stop the 1e30 that would build a 1e30 m body or a frame time that makes
+a clip last for ages.
 Input that could exhaust the machine is refused up front, in one line: a file over
 :data:`MAX_FILE_BYTES`, a hierarchy over :data:`MAX_HEADER_CHARS` characters or
 :data:`MAX_JOINTS` joints, a frame line far longer than its channels need, and files of other
@@ -54,8 +55,11 @@ _FRAME_TIME_RE = re.compile(r"\s*Frame\s+Time\s*:\s*(\S+)\s*\Z", re.IGNORECASE)
 _CHANNEL_BY_LOWER = {c.lower(): c for c in VALID_CHANNELS}
 #: largest |OFFSET| component, in file units: 1e5 mm is 100 m, far beyond any body, in any unit
 MAX_OFFSET = 1e5
-#: largest frame time in seconds (0.1 fps); the smallest is anything above 0
+#: largest frame time in seconds (0.1 fps)
 MAX_FRAME_TIME = 10.0
+#: smallest frame time in seconds (10 000 fps, beyond any motion capture; a smaller one makes
+#: velocities overflow)
+MIN_FRAME_TIME = 1e-4
 #: largest |rotation channel| in degrees (about 280 turns: unwrapped angles of long clips pass)
 MAX_ROTATION = 1e5
 #: largest |position channel| in file units (10 km in millimetres)
@@ -272,6 +276,10 @@ def _parse_frame_time_line(line: str, line_no: int, path: str | None) -> float:
     if value > MAX_FRAME_TIME:
         raise BVHError(f"Frame Time {m.group(1)} s is not a frame time (expected at most "
                        f"{MAX_FRAME_TIME:g} s between frames)", line=line_no, path=path)
+    if value < MIN_FRAME_TIME:
+        raise BVHError(f"Frame Time {m.group(1)} s is not a frame time (expected at least "
+                       f"{MIN_FRAME_TIME:g} s, {1 / MIN_FRAME_TIME:,.0f} frames per second)",
+                       line=line_no, path=path)
     return value
 
 
