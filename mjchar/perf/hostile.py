@@ -60,7 +60,7 @@ def with_tail(n_joints: int) -> str:
     n = sk.n_joints
     names = sk.names + [f"tail{k}" for k in range(n_joints)]
     parents = np.concatenate([sk.parents, [head], np.arange(n, n + n_joints - 1)])
-    offsets = np.concatenate([sk.offsets, np.tile([0.0, 0.1, 0.0], (n_joints, 1))])
+    offsets = np.concatenate([sk.offsets, np.tile([0.0, 0.001, 0.0], (n_joints, 1))])
     channels = sk.channels + [("Zrotation", "Xrotation", "Yrotation")] * n_joints
     tail_sk = bvh.Skeleton(names, parents, offsets, channels, sk.end_site_parents,
                            sk.end_site_offsets)
