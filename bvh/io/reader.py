@@ -75,8 +75,10 @@ MAX_HEADER_WORDS = 40 * 10_000
 _HEADER_SCAN_CHARS = 4 * 2**20
 #: most joints in a skeleton (rigs with fingers and a face have a few hundred)
 MAX_JOINTS = 10_000
-#: frame text is parsed in chunks of about this many characters (whole lines)
-_CHUNK_CHARS = 2 * 2**20
+#: frame text is parsed in chunks of about this many characters (whole lines): just under 1 MB,
+#: so the fast parser's work arrays fit its reused per-thread arrays (a 50 MB clip parses twice
+#: as fast as in one piece)
+_CHUNK_CHARS = 2**20 - 64
 _CONTROL_RE = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 _NUM = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
 _EOL = r"[ \t]*(?:\r\n|\r|\n)"
