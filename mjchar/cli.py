@@ -45,10 +45,21 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+def _printable(c: str) -> str:
+    """A character as printed in an error line: itself, a space for a line break or tab, an
+    escape (``\\x00``, ``\\udcff``) for anything else a terminal would not show."""
+    if c.isprintable():
+        return c
+    if c.isspace():
+        return " "
+    return c.encode("unicode_escape").decode("ascii")
+
+
 def one_line(message: str, limit: int = MAX_MESSAGE) -> str:
-    """``message`` on one line (line breaks and control characters become spaces, runs of
-    blanks one space), cut to ``limit`` characters with a note of how many were left out."""
-    text = " ".join("".join(c if c.isprintable() else " " for c in message).split())
+    """``message`` on one line (line breaks become spaces, runs of blanks one space, other
+    control characters escapes), cut to ``limit`` characters with a note of how many were left
+    out."""
+    text = " ".join("".join(map(_printable, message)).split())
     if len(text) > limit:
         text = f"{text[:limit - 40].rstrip()} ... ({len(text) - limit + 40} more characters)"
     return text
