@@ -485,6 +485,21 @@ def test_a_5000_joint_chain_is_read_in_linear_time(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_body_with_a_2000_joint_tail_converts_in_linear_time(tmp_path):
+    """The bundled walk with a 2,000-joint chain below its head: the converter's whole path
+    (roles, canonical rest, bodies kept, geometry) within the case's 60 s and 1 GB (it took
+    50 s with walks up from every joint)."""
+    from mjchar.perf.hostile import with_tail
+
+    path = tmp_path / "tail.bvh"
+    path.write_text(with_tail(2000))
+    for argv in (["info", str(path)], ["convert", str(path), "-o", str(tmp_path / "t.xml")]):
+        p = _limited(argv, tmp_path)
+        assert p.returncode == 0 and "Traceback" not in p.stderr, p.stderr[-2000:]
+    assert "(1960 more)" in p.stdout  # the dropped tail, listed in part
+
+
+@pytest.mark.slow
 def test_a_50_mb_clip_is_read_within_the_memory_limit(tmp_path):
     """A 50 MB file of repeated frames: info and convert under 1 GB (777 MB, 15 times the
     file, before frames were read in chunks)."""
