@@ -7,6 +7,15 @@ whole family with one ``except``. Errors about input files carry the file and li
 from __future__ import annotations
 
 
+def name_list(names, limit: int = 30) -> str:
+    """``names`` joined by commas for a message, at most ``limit`` of them and then how many
+    more (a 5,000-joint skeleton's error stays readable)."""
+    names = [str(n) for n in names]
+    if len(names) <= limit:
+        return ", ".join(names)
+    return ", ".join(names[:limit]) + f", ... ({len(names) - limit} more)"
+
+
 class MjcharError(Exception):
     """Base class of every exception mjchar raises on purpose."""
 

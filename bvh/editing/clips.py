@@ -24,7 +24,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mjchar.bvh.editing.interpolation import resample
-from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.errors import SkeletonError, name_list
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.rigs.units import guess_up_axis
@@ -126,7 +126,7 @@ def mirror_pairs(skeleton: Skeleton, pairs: dict[str, str] | None = None) -> np.
         for n in (a, b):
             if n not in names:
                 raise EditingError(
-                    f"pairs names unknown joint {n!r}; joints are: {', '.join(names)}")
+                    f"pairs names unknown joint {n!r}; joints are: {name_list(names)}")
         explicit[a], explicit[b] = b, a
     partner = np.arange(skeleton.n_joints)
     for j, name in enumerate(names):

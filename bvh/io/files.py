@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import uuid
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -34,6 +35,7 @@ class PendingFile:
 
     def __init__(self, path: str | os.PathLike):
         self.path = Path(path)
+        _check_not_special(self.path, "the output")
         self.tmp = self.path.with_name(
             f".{self.path.stem}.{uuid.uuid4().hex[:12]}.partial{self.path.suffix}")
         # created as a plain open() would create the target (0666 less the umask), exclusively
@@ -86,6 +88,18 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     return Path(path)
 
 
+def _check_not_special(p: Path, flag: str) -> None:
+    """Refuse a target that exists and is not a regular file (a device such as ``/dev/null``
+    or ``/dev/full``, a pipe, a socket): moving a finished file into place would replace it."""
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        return  # missing (or unreadable: the write itself will say so)
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+        raise OutputError(f"{flag} {p} is a device or pipe, not a file: mjchar writes files "
+                          f"beside their target and moves them into place; give a file path")
+
+
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """Whether two paths name the same file (the same resolved path, or the same file through a
     link when both exist)."""
@@ -119,6 +133,7 @@ def check_output(path: str | os.PathLike, *, inputs: Iterable = (), flag: str = 
         raise OutputError(f"{flag} {path}: folder {folder} does not exist")
     if p.is_dir():
         raise OutputError(f"{flag} {path} is a folder: give a file path")
+    _check_not_special(p, flag)
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"{flag} {path}: folder {folder} is not writable")
     if p.exists() and not os.access(p, os.W_OK):

@@ -17,6 +17,8 @@ from mjchar.bvh.rotations import (
 )
 
 _AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
+#: frames converted at a time from Euler angles to quaternions
+_FRAME_BLOCK = 4096
 
 
 @dataclass
@@ -150,13 +152,18 @@ class Motion:
                 cols.append(rot_cols)
         if pj:
             pos[:, pj, pa] = values[:, pc]
-        if len(groups) == 1 and len(next(iter(groups.values()))[0]) == skeleton.n_joints:
-            (order, (js, cols)), = groups.items()  # the usual file: one order on every joint
-            rot = quat_from_euler(values[:, np.array(cols)], order)
-        else:
-            rot = quat_identity((n_f, skeleton.n_joints))
+        # in blocks of frames: the conversion's work arrays stay small for long clips
+        rot = quat_identity((n_f, skeleton.n_joints))
+        everywhere = (len(groups) == 1
+                      and len(next(iter(groups.values()))[0]) == skeleton.n_joints)
+        for a in range(0, n_f, _FRAME_BLOCK):
+            block = values[a:a + _FRAME_BLOCK]
             for order, (js, cols) in groups.items():
-                rot[:, js] = quat_from_euler(values[:, np.array(cols)], order)
+                q = quat_from_euler(block[:, np.array(cols)], order)
+                if everywhere:  # the usual file: one order on every joint
+                    rot[a:a + _FRAME_BLOCK] = q
+                else:
+                    rot[a:a + _FRAME_BLOCK, js] = q
         _fix_continuity_inplace(rot)
         return cls(skeleton, frame_time, pos, rot, values.copy() if copy else values)
 

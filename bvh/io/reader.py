@@ -11,9 +11,17 @@ zero-length bones and any units or up axis (kept as they are in the file; see
 Numbers follow the plain decimal grammar ``[+-]digits[.digits][(e|E)[+-]digits]`` (``.5`` and
 ``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. Numbers that cannot
 describe a human are rejected too, naming the line (:data:`MAX_OFFSET`, :data:`MAX_FRAME_TIME`,
-:data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous (a 2 m body in millimetres
-has offsets near 500, a root travelling 10 km in millimetres positions of 1e7) but stop the
-1e30 that would build a 1e30 m body or a frame time that makes a clip last for ages.
+:data:`MIN_FRAME_TIME`, :data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous
+(a 2 m body in millimetres has offsets near 500, a root travelling 10 km in millimetres
+positions of 1e7) but stop the 1e30 that would build a 1e30 m body or a frame time that makes
+a clip last for ages.
+Input that could exhaust the machine is refused up front, in one line: a file over
+:data:`MAX_FILE_BYTES`, a hierarchy over :data:`MAX_HEADER_CHARS` characters or
+:data:`MAX_JOINTS` joints, a frame line far longer than its channels need, and files of other
+formats (FBX, C3D, glTF, archives, binary data: :mod:`mjchar.bvh.io.inputs` says what they are
+and what to do). Joint names with control characters (a NUL byte) are refused naming the line.
+Frames are read in chunks of whole lines into one preallocated array, so reading takes about
+the file's size in memory once, plus the values.
 ``Frames: 0`` is a skeleton without motion (accepted: the converter builds models from such
 files). The frame section is
 converted with a vectorised decimal parser whose results are bit-identical to Python's
@@ -26,12 +34,13 @@ from __future__ import annotations
 
 import os
 import re
-import threading
 from math import isfinite
 
 import numpy as np
 
 from mjchar.bvh.errors import BVHError, MjcharError
+from mjchar.bvh.io.fast_frames import fast_frames as _fast_frames
+from mjchar.bvh.io.inputs import read_text
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import VALID_CHANNELS, Skeleton
 
@@ -46,12 +55,31 @@ _FRAME_TIME_RE = re.compile(r"\s*Frame\s+Time\s*:\s*(\S+)\s*\Z", re.IGNORECASE)
 _CHANNEL_BY_LOWER = {c.lower(): c for c in VALID_CHANNELS}
 #: largest |OFFSET| component, in file units: 1e5 mm is 100 m, far beyond any body, in any unit
 MAX_OFFSET = 1e5
-#: largest frame time in seconds (0.1 fps); the smallest is anything above 0
+#: largest frame time in seconds (0.1 fps)
 MAX_FRAME_TIME = 10.0
+#: smallest frame time in seconds (10 000 fps, beyond any motion capture; a smaller one makes
+#: velocities overflow)
+MIN_FRAME_TIME = 1e-4
 #: largest |rotation channel| in degrees (about 280 turns: unwrapped angles of long clips pass)
 MAX_ROTATION = 1e5
 #: largest |position channel| in file units (10 km in millimetres)
 MAX_POSITION = 1e7
+#: largest BVH file, in bytes (a 10-minute 120 fps clip of 60 joints is about 60 MB)
+MAX_FILE_BYTES = 256 * 2**20
+#: longest hierarchy (the text before the 'MOTION' line), in characters (indentation included:
+#: a chain 10 000 joints deep, indented one tab per level, is 50 MB)
+MAX_HEADER_CHARS = 64 * 2**20
+#: most words in a hierarchy (a joint takes about 15; end sites 8)
+MAX_HEADER_WORDS = 40 * 10_000
+#: a file without a 'MOTION' line is checked for errors in this much of its start only
+_HEADER_SCAN_CHARS = 4 * 2**20
+#: most joints in a skeleton (rigs with fingers and a face have a few hundred)
+MAX_JOINTS = 10_000
+#: frame text is parsed in chunks of about this many characters (whole lines): just under 1 MB,
+#: so the fast parser's work arrays fit its reused per-thread arrays (a 50 MB clip parses twice
+#: as fast as in one piece)
+_CHUNK_CHARS = 2**20 - 64
+_CONTROL_RE = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 _NUM = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
 _EOL = r"[ \t]*(?:\r\n|\r|\n)"
 _HIER_START_RE = re.compile(r"\s*HIERARCHY" + _EOL)
@@ -66,13 +94,6 @@ _HIER_ITEM_RE = re.compile(rf"""\s*(?:
     \s*\}}{_EOL}
   | (?P<close>\}}){_EOL}
 )""", re.VERBOSE)
-_MAX_FAST_DIGITS = 15  # integer mantissas below 1e15 < 2**53 are exact in float64
-_POW10 = 10.0 ** np.arange(26)  # exact up to 1e22; larger ones only serve rows redone by float()
-_POW10_INT = np.array([10**k for k in range(17)], dtype=np.uint64)
-_ASCII_ZEROS = np.uint64(0x3030303030303030)
-# the vectorised frame parser's view of a byte: digits stay, separators / signs / dots become
-# '0', anything else (which sends the text to the per-token path) 'x'
-_AS_DIGITS = bytes(c if 48 <= c <= 57 else 48 if c in b" \t\r\n.-+" else 120 for c in range(256))
 
 
 # -- public API ----------------------------------------------------------------------------------
@@ -111,15 +132,9 @@ def read_channels(path: str | os.PathLike) -> tuple[Skeleton, float, np.ndarray]
 
 
 def _read_text(path: str) -> str:
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-    except OSError as e:
-        raise BVHError(f"cannot read file: {e.strerror or e}", path=path) from None
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        return raw.decode("latin-1")
+    return read_text(path, what="BVH file", max_bytes=MAX_FILE_BYTES, expected="BVH",
+                     error=lambda reason, line: BVHError(reason, line=line, path=path),
+                     latin1=True)
 
 
 def _is_number(tok: str) -> bool:
@@ -146,7 +161,7 @@ def _find_motion(text: str) -> re.Match | None:
         if m is not None:
             break
         i = text.find("MOTION", i + 6)
-    end = m.start() if m else len(text)
+    end = min(m.start() if m else len(text), MAX_HEADER_CHARS)
     if "motion" in text[:end].lower():  # another spelling may come first: the general search
         m = _MOTION_RE.search(text)
     return m
@@ -154,11 +169,25 @@ def _find_motion(text: str) -> re.Match | None:
 
 def _parse_unchecked(text: str, path: str | None) -> tuple[Skeleton, float, np.ndarray]:
     m = _find_motion(text)
-    if m is None:  # no MOTION line: parse the hierarchy to report what is missing where
-        lines = _BREAK_RE.split(text)
-        if len(lines) > 1 and not lines[-1]:
-            lines.pop()  # the text after the final line break is not a line
-        _parse_hierarchy(lines, None, path)
+    if m is None or m.start() > MAX_HEADER_CHARS:
+        # no MOTION line (soon enough): parse the hierarchy to report what is missing where
+        too_long = len(text) > _HEADER_SCAN_CHARS
+        lines = _BREAK_RE.split(text[:_HEADER_SCAN_CHARS])
+        if too_long or (len(lines) > 1 and not lines[-1]):
+            lines.pop()  # the text after the final line break is not a (whole) line
+        if too_long:
+            _check_header_lines(lines, path)
+        else:
+            _parse_hierarchy(lines, None, path)
+        if m is not None:
+            raise BVHError(f"the hierarchy goes on for more than {MAX_HEADER_CHARS // 2**20} MB "
+                           f"before its 'MOTION' line: a BVH hierarchy is far shorter (at most "
+                           f"{MAX_JOINTS} joints are read)", line=1, path=path)
+        n_lines = text.count("\n") + text.count("\r") - text.count("\r\n")
+        if text[-1:] not in ("\n", "\r"):
+            n_lines += 1
+        raise BVHError("expected a line reading 'MOTION' after the hierarchy, found the end of "
+                       "the file", line=max(n_lines, 1), path=path)
         raise BVHError("expected a line reading 'MOTION' after the hierarchy, found the end of "
                        "the file", line=max(len(lines), 1), path=path)
     head = text[:m.start()]  # ends with a line break (or is empty)
@@ -187,21 +216,36 @@ def _parse_unchecked(text: str, path: str | None) -> tuple[Skeleton, float, np.n
         raise BVHError(f"file ends early: expected 'Frame Time: seconds' after 'Frames:' (line "
                        f"{frames_line})", line=line_no, path=path)
     frame_time = _parse_frame_time_line(found[1][1], found[1][0], path)
-    values = _parse_frames(text[pos:], found[1][0] + 1, n_frames, frames_line,
-                           skeleton.n_channels, path)
-    _check_channel_values(skeleton, values, text[pos:], found[1][0] + 1, path)
+    values = _parse_frames(text, found[1][0] + 1, n_frames, frames_line, skeleton.n_channels,
+                           path, start=pos, skeleton=skeleton)
     return skeleton, frame_time, values
 
 
-def _check_channel_values(skeleton: Skeleton, values: np.ndarray, body: str, first_line: int,
-                          path: str | None) -> None:
+def _check_header_lines(lines: list[str], path: str | None) -> None:
+    """Parse a hierarchy cut at :data:`_HEADER_SCAN_CHARS` for its first error, if any (an error
+    about where the text stops is not one: the text was cut)."""
+    try:
+        _parse_hierarchy(lines, None, path)
+    except BVHError as e:
+        if "found the end of the file" not in e.reason:
+            raise
+
+
+def _channel_limits(skeleton: Skeleton) -> np.ndarray:
+    """``(C,)`` the largest magnitude of each channel (:data:`MAX_ROTATION` or
+    :data:`MAX_POSITION`)."""
+    return np.array([MAX_ROTATION if c.endswith("rotation") else MAX_POSITION
+                     for chans in skeleton.channels for c in chans])
+
+
+def _check_channel_values(skeleton: Skeleton, limits: np.ndarray, values: np.ndarray, body: str,
+                          first_line: int, path: str | None, row0: int = 0) -> None:
     """A :class:`BVHError` naming the first frame value beyond :data:`MAX_ROTATION` degrees
     (rotation channels) or :data:`MAX_POSITION` file units (position channels), in file order.
-    ``body`` is the frame text, ``first_line`` its first line's number."""
+    ``values`` are the frames ``row0 ...`` read from ``body``, whose first line is line
+    ``first_line``; ``limits`` from :func:`_channel_limits`."""
     if values.size == 0:
         return
-    limits = np.array([MAX_ROTATION if c.endswith("rotation") else MAX_POSITION
-                       for chans in skeleton.channels for c in chans])
     if bool(np.all(values.max(axis=0) <= limits)) and bool(np.all(values.min(axis=0) >= -limits)):
         return
     row, col = np.argwhere(np.abs(values) > limits)[0]
@@ -212,7 +256,7 @@ def _check_channel_values(skeleton: Skeleton, values: np.ndarray, body: str, fir
             else f"file units (expected within +-{MAX_POSITION:g}, 10 km in millimetres)")
     lines = _BREAK_RE.split(body)
     frame_lines = [first_line + i for i, ln in enumerate(lines) if ln.strip()]
-    raise BVHError(f"value {col + 1} of frame {row + 1} ({channel} of joint "
+    raise BVHError(f"value {col + 1} of frame {row0 + row + 1} ({channel} of joint "
                    f"{skeleton.names[joint]!r}) is {values[row, col]:g} {what}: it cannot "
                    f"describe a pose", line=frame_lines[row], path=path)
 
@@ -234,6 +278,10 @@ def _parse_frame_time_line(line: str, line_no: int, path: str | None) -> float:
     if value > MAX_FRAME_TIME:
         raise BVHError(f"Frame Time {m.group(1)} s is not a frame time (expected at most "
                        f"{MAX_FRAME_TIME:g} s between frames)", line=line_no, path=path)
+    if value < MIN_FRAME_TIME:
+        raise BVHError(f"Frame Time {m.group(1)} s is not a frame time (expected at least "
+                       f"{MIN_FRAME_TIME:g} s, {1 / MIN_FRAME_TIME:,.0f} frames per second)",
+                       line=line_no, path=path)
     return value
 
 
@@ -249,6 +297,9 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
         parts = ln.split()
         texts.extend(parts)
         tok_lines.extend([i] * len(parts))
+        if len(texts) > MAX_HEADER_WORDS:
+            raise BVHError(f"the hierarchy holds more than {MAX_HEADER_WORDS} words by this "
+                           f"line: more than the {MAX_JOINTS} joints read", line=i, path=path)
     n_tok = len(texts)
     # where the header stops: the MOTION line, or the last line of a file that has none
     stop_line = motion_line if motion_line is not None else max(len(lines), 1)
@@ -308,6 +359,9 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
 
     def joint(kw: int, parent: int) -> None:
         nonlocal pos
+        if len(names) >= MAX_JOINTS:
+            raise err(f"more than {MAX_JOINTS} joints: far more than a body has (a rig with "
+                      f"fingers and a face has a few hundred)", kw)
         parts = []
         while pos < n_tok and tok_lines[pos] == tok_lines[kw] and texts[pos] != "{":
             parts.append(texts[pos])
@@ -315,6 +369,10 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
         if not parts:
             raise err(f"expected a joint name after {texts[kw]}", kw)
         name = " ".join(parts)
+        bad = _CONTROL_RE.search(name)
+        if bad:
+            raise err(f"joint name {name[:60]!r} holds a control character (U+"
+                      f"{ord(bad.group()):04X}): names are printable text; remove it", kw)
         if name in name_lines:
             raise err(f"duplicate joint name {name!r} (first defined on line {name_lines[name]})",
                       kw)
@@ -439,7 +497,7 @@ def _hierarchy_fast(head: str) -> Skeleton | None:
         pos = m.end()
         kw, name, ox, oy, oz, n, chan_text, ex, ey, ez, close = m.groups()
         if kw is not None:
-            if (kw == "ROOT") != root:
+            if (kw == "ROOT") != root or len(names) >= MAX_JOINTS:
                 return None
             root = False
             off = [float(ox), float(oy), float(oz)]
@@ -467,7 +525,8 @@ def _hierarchy_fast(head: str) -> Skeleton | None:
                 return None
             es_offsets.append(off)
             es_parents.append(stack[-1])
-    if head[pos:].strip() or len(set(names)) != len(names):
+    if (head[pos:].strip() or len(set(names)) != len(names)
+            or any(_CONTROL_RE.search(n) for n in names)):
         return None
     return Skeleton(names, np.array(parents, dtype=int),
                     np.array(offsets, dtype=float).reshape(-1, 3), channels,
@@ -476,198 +535,76 @@ def _hierarchy_fast(head: str) -> Skeleton | None:
 
 
 # -- the frame section ---------------------------------------------------------------------------
-def _parse_frames(body: str, first_line: int, n_frames: int, frames_line: int, n_ch: int,
-                  path: str | None) -> np.ndarray:
-    """``(n_frames, n_ch)`` values from the text after the 'Frame Time' line.
+def _parse_frames(text: str, first_line: int, n_frames: int, frames_line: int, n_ch: int,
+                  path: str | None, start: int = 0, skeleton: Skeleton | None = None
+                  ) -> np.ndarray:
+    """``(n_frames, n_ch)`` values from ``text[start:]``, the text after the 'Frame Time' line.
 
-    ``first_line`` is the line number of the body's first line; ``frames_line`` the line of
-    'Frames:' (for messages).
+    ``first_line`` is the line number of that text's first line; ``frames_line`` the line of
+    'Frames:' (for messages). The text is read in chunks of whole lines (about
+    :data:`_CHUNK_CHARS`) into one preallocated array, so the work arrays stay small whatever
+    the file's size; with ``skeleton`` given, values beyond :data:`MAX_ROTATION` or
+    :data:`MAX_POSITION` are refused chunk by chunk.
     """
-    if n_ch > 0 and n_frames > 0:
-        values = _fast_frames(body, n_frames, n_ch)
-        if values is not None:
-            return values
-    return _slow_frames(body, first_line, n_frames, frames_line, n_ch, path)
+    n_text = len(text)
+    if n_ch == 0:  # frames are empty lines: count them
+        if n_text - start > _CHUNK_CHARS:
+            raise BVHError(f"a skeleton without channels has empty frame lines, found "
+                           f"{(n_text - start) // 2**20} MB of frame text", line=first_line,
+                           path=path)
+        return _slow_frames(text[start:], first_line, n_frames, frames_line, n_ch, path)
+    # every value takes at least two characters (a digit and a separator): a bound on the rows
+    # that a huge 'Frames:' count cannot push past
+    values = np.empty((min(n_frames, (n_text - start) // (2 * n_ch) + 1), n_ch))
+    limits = _channel_limits(skeleton) if skeleton is not None else None
+    max_line = 64 * n_ch + 4096
+    row, line, pos = 0, first_line, start
+    while pos < n_text:
+        end = _chunk_end(text, pos)
+        if end - pos > _CHUNK_CHARS and end - pos > max_line:
+            raise BVHError(f"a frame line of {end - pos} characters: far too long for {n_ch} "
+                           f"channel values", line=line, path=path)
+        chunk = text[pos:end]
+        got = _fast_frames(chunk, None, n_ch)
+        if got is None or row + len(got) > n_frames:
+            got = _slow_frames(chunk, line, n_frames, frames_line, n_ch, path, row0=row,
+                               final=False)
+        values[row:row + len(got)] = got
+        if limits is not None:
+            _check_channel_values(skeleton, limits, got, chunk, line, path, row0=row)
+        row += len(got)
+        line += chunk.count("\n") + chunk.count("\r") - chunk.count("\r\n")
+        pos = end
+    if row < n_frames:
+        last = line - 1 if n_text == start or text[-1] in "\r\n" else line
+        raise BVHError(f"expected {n_frames} frames (as 'Frames:' on line {frames_line} says), "
+                       f"found {row}: the file ends early", line=max(last, first_line - 1, 1),
+                       path=path)
+    return values
 
 
-class _Scratch(threading.local):
-    """Per-thread work arrays reused from call to call.
-
-    Parsing a clip needs a few temporaries the size of the text; allocating them afresh on
-    every call makes the C allocator hand memory back to the system and fault it in again,
-    which costs as much as the parsing itself on some machines. Arrays up to
-    ``_SCRATCH_MAX_BYTES`` are kept (six of them: a few MB per thread at most); larger ones
-    are not.
-    """
-
-    def __init__(self) -> None:
-        self.arrays: dict[str, np.ndarray] = {}
-
-    def get(self, name: str, n: int, dtype: str | type) -> np.ndarray:
-        """A work array of ``n`` elements of ``dtype`` (contents undefined)."""
-        a = self.arrays.get(name)
-        if a is None or a.dtype != np.dtype(dtype) or a.size < n:
-            a = np.empty(n, dtype)
-            if a.nbytes <= _SCRATCH_MAX_BYTES:
-                self.arrays[name] = a
-        return a[:n]
-
-
-_SCRATCH = _Scratch()
-_SCRATCH_MAX_BYTES = 1 << 20
-
-
-def _swar8(v: np.ndarray) -> np.ndarray:
-    """In place: each uint64 of ``v`` holding 8 ASCII digits little-endian (first character =
-    most significant digit) becomes their integer value, by the classic multiply-and-shift
-    ("SWAR") folding of digit pairs, then quads, then the 8. Returns ``v``."""
-    v -= _ASCII_ZEROS
-    v &= np.uint64(0x0F0F0F0F0F0F0F0F)
-    v *= np.uint64(2561)
-    v >>= np.uint64(8)
-    v &= np.uint64(0x00FF00FF00FF00FF)
-    v *= np.uint64(6553601)
-    v >>= np.uint64(16)
-    v &= np.uint64(0x0000FFFF0000FFFF)
-    v *= np.uint64(42949672960001)
-    v >>= np.uint64(32)
-    return v
-
-
-def _fast_frames(body: str, n_frames: int, n_ch: int) -> np.ndarray | None:
-    """Vectorised parse of well-formed frame text; ``None`` when anything is unusual or wrong.
-
-    Accepts ASCII text made of space/tab/CR/LF separated tokens of the form
-    ``[+-]digits[.digits]`` (at least one digit, at most one dot), ``n_ch`` tokens on each
-    non-blank line and ``n_frames`` such lines. Every byte below '0' (separators, signs, dots)
-    is read as the digit 0, so the 16 bytes ending at a token's last character form a 16-digit
-    integer (two 8-byte words, converted by :func:`_swar8`) whose last ``len(token)`` digits are
-    the token with its dot as a 0; dropping that 0 gives the exact integer mantissa, which
-    divided by ``10**decimals`` (exact operands) is the correctly rounded value ``float()`` gives.
-    """
-    try:
-        raw = body.encode("ascii")
-    except UnicodeEncodeError:
-        return None
-    # every byte as a digit: separators, signs and dots read as '0', anything else as 'x'
-    digits = raw.translate(_AS_DIGITS)
-    if b"x" in digits:
-        return None  # exponents, nan/inf, other whitespace or garbage: the per-token path decides
-    work = _SCRATCH
-    b = np.frombuffer(raw, dtype=np.uint8)
-    n = len(b)
-    # tokens: maximal runs of non-separators, [starts, ends)
-    solid = work.get("solid", n + 2, bool)
-    solid[0] = solid[-1] = False
-    np.greater(b, 32, out=solid[1:-1])
-    flags = work.get("flags", n + 1, bool)
-    np.not_equal(solid[1:], solid[:-1], out=flags)
-    bounds = np.flatnonzero(flags)
-    starts, ends = bounds[0::2], bounds[1::2]
-    # byte classes, one at a time in the same work array
-    is_ = flags[:n]
-    n_signs = int(np.count_nonzero(np.equal(b, 45, out=is_)))
-    n_signs += int(np.count_nonzero(np.equal(b, 43, out=is_)))
-    n_dots = int(np.count_nonzero(np.equal(b, 46, out=is_)))
-    dots = np.flatnonzero(is_) if n_dots != len(starts) or n_dots == 0 else None
-    # line breaks: LF, CRLF or a lone CR
-    breaks = np.flatnonzero(np.equal(b, 13, out=is_))  # CRs
-    if not len(breaks):
-        breaks = np.flatnonzero(np.equal(b, 10, out=is_))  # LF only
-    elif breaks[-1] + 1 < n and int(np.count_nonzero(np.equal(b, 10, out=is_))) == len(breaks) \
-            and bool(np.all(b[breaks + 1] == 10)):
-        pass  # CRLF only: the CRs mark the breaks
-    else:  # mixed, or lone CRs: a CR not followed by LF and every LF
-        lone = np.equal(b, 13, out=is_).copy()
-        lone[:-1] &= b[1:] != 10
-        breaks = np.flatnonzero(lone | (b == 10))
-    # tokens per line: only whole, well-formed frames take this path
-    per_line = np.diff(np.searchsorted(starts, np.concatenate([breaks, [n]])), prepend=0)
-    rows = per_line[per_line > 0]
-    if len(rows) != n_frames or np.any(rows != n_ch):
-        return None
-    n_tok = len(starts)
-    lens = np.subtract(ends, starts, out=work.get("lens", n_tok, np.intp))
-    first = b[starts]
-    neg = first == 45
-    signed = neg | (first == 43)
-    if int(np.count_nonzero(signed)) != n_signs:
-        return None  # a sign that is not a token's first character
-    # decimal points: at most one per token. Common case: every token has the same number of
-    # decimals (a fixed "%.Nf" writer); then a '.' sits N bytes before each token's end, and if
-    # the text holds no other dots, each token holds exactly that one.
-    first_dot = raw.find(b".", int(starts[0]), int(ends[0]))
-    fixed = -1 if first_dot < 0 else int(ends[0]) - 1 - first_dot
-    if not (n_dots == n_tok and fixed >= 0 and bool(np.all(lens > fixed))
-            and bool(np.all(b[ends - (1 + fixed)] == 46))):
-        fixed = -1
-        if dots is None:
-            dots = np.flatnonzero(b == 46)
-    if fixed >= 0:
-        has_dot, all_dots, decimals = True, True, None
-    elif n_dots == n_tok and bool(np.all(dots >= starts)) and bool(np.all(dots < ends)):
-        has_dot, all_dots, decimals = True, True, ends - 1 - dots
-    else:
-        owner = np.searchsorted(starts, dots, side="right") - 1
-        if len(owner) > 1 and np.any(np.diff(owner) == 0):
-            return None
-        all_dots = False
-        has_dot = np.zeros(n_tok, dtype=bool)
-        has_dot[owner] = True
-        decimals = np.zeros(n_tok, dtype=np.intp)
-        decimals[owner] = ends[owner] - 1 - dots
-    # digits per token: at least 1 ('-', '.', '-.' are not numbers), at most 15 for an exact
-    # float64 mantissa (longer tokens are redone with float() below)
-    lo, hi = int(lens.min()), int(lens.max())
-    redo = np.zeros(0, dtype=np.intp)
-    if lo <= 2 or hi > _MAX_FAST_DIGITS:
-        n_dig = lens - signed - has_dot
-        if np.any(n_dig < 1):
-            return None
-        redo = np.flatnonzero((n_dig > _MAX_FAST_DIGITS) | (lens > 16))
-    # the 16 bytes ending at each token's end, as two little-endian words (the few tokens
-    # ending in the first 16 bytes have no such window: they are redone with float() too)
-    first_full = int(np.searchsorted(ends, 16))
-    windows = np.ndarray((max(n - 15, 0),), dtype="V16", buffer=digits, strides=(1,))
-    at = np.subtract(ends, 16, out=work.get("at", n_tok, np.intp))
-    at[:first_full] = 0
-    pairs = windows[at] if n >= 16 else np.zeros(n_tok, dtype="V16")
-    halves = _swar8(pairs.view("<u8"))  # digits 1-8, 9-16, 1-8, 9-16 ... of the windows
-    whole = np.multiply(halves[0::2], np.uint64(100_000_000), out=work.get("whole", n_tok, "<u8"))
-    whole += halves[1::2]
-    np.minimum(lens, 16, out=lens)
-    whole %= np.take(_POW10_INT, lens, out=halves[0::2])  # the token, its dot read as a 0
-    # drop the 0 standing for the dot: (whole - tail) / 10 + tail, tail = the decimals
-    # (decimals > 15 only occur in over-long tokens, redone below: clamp to stay in the tables)
-    if fixed >= 0:  # fixed decimals: a scalar divisor (much faster)
-        tail = np.remainder(whole, _POW10_INT[min(fixed, 16)], out=halves[1::2])
-        p10 = _POW10[min(fixed, 16)]
-    else:
-        decimals = np.minimum(decimals, 16)
-        tail = np.remainder(whole, _POW10_INT[decimals], out=halves[1::2])
-        p10 = _POW10[decimals]
-    mant = whole.copy() if not all_dots else None
-    whole -= tail
-    whole //= np.uint64(10)
-    whole += tail
-    if mant is not None:  # tokens without a dot keep their integer
-        whole = np.where(has_dot, whole, mant)
-    values = np.divide(whole, p10)  # exact integer / exact power of ten: correctly rounded
-    sign = np.multiply(neg, -2.0, out=work.get("sign", n_tok, np.float64))
-    sign += 1.0
-    values *= sign
-    for r in range(first_full):
-        values[r] = float(raw[starts[r]:ends[r]])
-    for r in redo:  # too long for an exact 15-digit mantissa: let Python round it
-        values[r] = float(raw[starts[r]:ends[r]])
-    if len(redo) and not np.all(np.isfinite(values[redo])):
-        return None
-    return values.reshape(n_frames, n_ch)
+def _chunk_end(text: str, pos: int) -> int:
+    """End (exclusive) of the chunk of whole lines starting at ``pos``: just after the last line
+    break within :data:`_CHUNK_CHARS` characters (never between the CR and LF of a CRLF), or the
+    end of the first line when that line is longer, or the end of the text."""
+    n = len(text)
+    if n - pos <= _CHUNK_CHARS:
+        return n
+    lim = pos + _CHUNK_CHARS
+    i = text.rfind("\n", pos, lim)
+    if i < 0:
+        i = text.rfind("\r", pos, lim - 1)  # a CR with its next character inside the chunk
+    if i >= 0:
+        return i + 1
+    m = _BREAK_RE.search(text, lim - 1)
+    return m.end() if m else n
 
 
 def _slow_frames(body: str, first_line: int, n_frames: int, frames_line: int, n_ch: int,
-                 path: str | None) -> np.ndarray:
-    """Token by token, in line order; raises BVHError at the first offending line."""
+                 path: str | None, row0: int = 0, final: bool = True) -> np.ndarray:
+    """Token by token, in line order; raises BVHError at the first offending line. ``row0``
+    frames came before ``body``; ``final``: ``body`` is the rest of the file (fewer frames
+    than declared is an error)."""
     lines = _BREAK_RE.split(body) if body else []
     if lines and not lines[-1]:
         lines.pop()  # the text after the final line break is not a line
@@ -679,20 +616,24 @@ def _slow_frames(body: str, first_line: int, n_frames: int, frames_line: int, n_
             continue
         line_no = first_line + i
         last_line = line_no
-        if len(rows) >= n_frames:
+        if row0 + len(rows) >= n_frames:
             raise BVHError(f"more frame lines than the {n_frames} that 'Frames:' (line "
                            f"{frames_line}) declares", line=line_no, path=path)
         if len(toks) != n_ch:
             raise BVHError(f"expected {n_ch} channel values on this frame line (frame "
-                           f"{len(rows) + 1}), found {len(toks)}", line=line_no, path=path)
+                           f"{row0 + len(rows) + 1}), found {len(toks)}", line=line_no,
+                           path=path)
         row = []
         for c, tok in enumerate(toks, start=1):
             v = float(tok) if _is_number(tok) else None
             if v is None or not np.isfinite(v):
-                raise BVHError(f"expected a finite number as value {c} of frame {len(rows) + 1}, "
-                               f"found {tok!r}", line=line_no, path=path)
+                raise BVHError(f"expected a finite number as value {c} of frame "
+                               f"{row0 + len(rows) + 1}, found {tok[:40]!r}", line=line_no,
+                               path=path)
             row.append(v)
         rows.append(row)
+    if not final and n_ch > 0:
+        return np.array(rows, dtype=float).reshape(len(rows), n_ch)
     if len(rows) < n_frames and n_ch > 0:
         end_line = first_line + len(lines) - 1 if lines else first_line - 1
         raise BVHError(f"expected {n_frames} frames (as 'Frames:' on line {frames_line} says), "

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjchar.bvh.errors import SkeletonError
+from mjchar.bvh.errors import SkeletonError, name_list
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
@@ -82,7 +82,7 @@ class Skeleton:
             return self.names.index(name)
         except ValueError:
             raise SkeletonError(
-                f"unknown joint {name!r}; joints are: {', '.join(self.names)}"
+                f"unknown joint {name!r}; joints are: {name_list(self.names)}"
             ) from None
 
     def children(self, j: int) -> list[int]:
@@ -96,6 +96,15 @@ class Skeleton:
             out.append(int(j))
             j = int(self.parents[j])
         return out[::-1]
+
+    def in_subtree(self, j: int) -> np.ndarray:
+        """``(J,)`` bool: joint ``j`` and every joint below it (one pass over the parents)."""
+        inside = np.zeros(self.n_joints, dtype=bool)
+        inside[j] = True
+        parents = self.parents.tolist()
+        for k in range(j + 1, self.n_joints):
+            inside[k] = inside[parents[k]]
+        return inside
 
     def has_position_channels(self) -> np.ndarray:
         """``(J,)`` bool: which joints carry position channels."""

@@ -40,6 +40,7 @@ from scipy.spatial.transform import Rotation
 from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.io import load
 from mjchar.bvh.io.files import write_text
+from mjchar.bvh.io.inputs import read_text
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import tables as T
@@ -65,6 +66,8 @@ from mjchar.bvh.rotations import from_rotation
 JOINT_MODELS = ("hinge", "full", "ball")
 #: the heaviest body the converter builds (kg): ten tonnes, beyond any character
 MAX_MASS_KG = 1e4
+#: largest gains file read, in bytes
+MAX_GAINS_BYTES = 2**20
 
 
 # ------------------------------------------------------------------------------------------------
@@ -284,6 +287,8 @@ def _load_source(source) -> tuple[Motion | None, Skeleton, str]:
     if isinstance(source, (str, os.PathLike)):
         motion = load(source)
         stem = os.path.splitext(os.path.basename(os.fspath(source)))[0] or "humanoid"
+        # a file name that is not valid text (bytes undecodable in the locale) still names it
+        stem = stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
         return motion, motion.skeleton, stem
     raise ConversionError(
         f"cannot convert a {type(source).__name__}: expected a Motion, a Skeleton or a BVH path")
@@ -329,13 +334,16 @@ def _load_gains(gains) -> dict:
         return {}
     if isinstance(gains, (str, os.PathLike)):
         path = os.fspath(gains)
+        text = read_text(path, what="gains file", max_bytes=MAX_GAINS_BYTES, expected="JSON",
+                         error=lambda reason, line: ConversionError(f"gains file {path}: "
+                                                                    f"{reason}"))
         try:
-            with open(path, encoding="utf-8") as fh:
-                gains = json.load(fh)
-        except OSError as e:
-            raise ConversionError(f"cannot read gains file {path}: {e.strerror or e}") from None
+            gains = json.loads(text)
         except json.JSONDecodeError as e:
             raise ConversionError(f"gains file {path} is not valid JSON: {e}") from None
+        except RecursionError:
+            raise ConversionError(f"gains file {path} nests too deeply: expected "
+                                  f"{{\"joint or role\": {{\"kp\": 300}}}}") from None
     if not isinstance(gains, dict):
         raise ConversionError("gains must map joint names or roles to {kp, kd, torque, armature}")
     out = {}

@@ -31,12 +31,12 @@ def _geometry(sk: Skeleton, rec: Recognition, sel: dict, bodies: dict[int, _Body
     pts = np.concatenate([rest, ends])
     height = float(pts[:, 2].max() - pts[:, 2].min())
     s = height / T.REFERENCE_HEIGHT if height > 0 else 1.0
-    desc = {j: _descendants(sk, j) for j in range(sk.n_joints)}
+    kids = _children_lists(sk)
 
     def subtree_points(j: int) -> np.ndarray:
-        idx = desc[j]
-        e = [k for k in range(sk.n_end_sites) if sk.end_site_parents[k] in idx or
-             sk.end_site_parents[k] == j]
+        idx = _descendants(kids, j)  # asked for a few joints only: each walk is linear
+        inside = set(idx) | {j}
+        e = [k for k in range(sk.n_end_sites) if int(sk.end_site_parents[k]) in inside]
         return np.concatenate([rest[idx], ends[e]]) if (idx or e) else np.zeros((0, 3))
 
     # where each end site hangs in the model (fused joints pass theirs on)
@@ -134,12 +134,22 @@ def _geometry(sk: Skeleton, rec: Recognition, sel: dict, bodies: dict[int, _Body
     return float(pts[:, 2].max())
 
 
-def _descendants(sk: Skeleton, j: int) -> list[int]:
-    out, stack = [], list(sk.children(j))
+def _children_lists(sk: Skeleton) -> list[list[int]]:
+    """Each joint's children, ``(J,)`` lists, in one pass over the parents."""
+    kids: list[list[int]] = [[] for _ in range(sk.n_joints)]
+    for c, p in enumerate(sk.parents.tolist()):
+        if p >= 0:
+            kids[p].append(c)
+    return kids
+
+
+def _descendants(kids: list[list[int]], j: int) -> list[int]:
+    """Joints below ``j``, sorted; ``kids`` from :func:`_children_lists`."""
+    out, stack = [], list(kids[j])
     while stack:
         c = stack.pop()
         out.append(c)
-        stack.extend(sk.children(c))
+        stack.extend(kids[c])
     return sorted(out)
 
 

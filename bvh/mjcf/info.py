@@ -139,13 +139,9 @@ class ModelInfo:
     @classmethod
     def from_xml_path(cls, path: str | os.PathLike) -> ModelInfo:
         """Read the metadata of a model file (compiles it with MuJoCo)."""
-        import mujoco
+        from mjchar.bvh.mjcf.model_file import load_mjcf
 
-        try:
-            model = mujoco.MjModel.from_xml_path(os.fspath(path))
-        except Exception as e:  # mujoco raises ValueError with the compiler message
-            raise ConversionError(f"{path}: cannot load model: {e}") from None
-        return cls.from_model(model)
+        return cls.from_model(load_mjcf(path, ConversionError))
 
     def to_dict(self) -> dict:
         """The JSON-ready metadata dictionary (inverse of :meth:`from_dict`)."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mjchar.bvh.errors import name_list
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf.info import ConversionError
 from mjchar.bvh.rigs.naming import DETAIL_ROLES, Recognition
@@ -106,7 +107,7 @@ def _expand(names: list[str] | None, defaults: list[int], sk: Skeleton, what: st
             close = [x for x in sk.names if n.lower() in x.lower() or x.lower() in n.lower()]
             hint = f" (did you mean {', '.join(close[:5])}?)" if close else ""
             raise ConversionError(f"{what}: unknown joint {n!r}{hint}; joints are: "
-                                  + ", ".join(sk.names))
+                                  + name_list(sk.names))
     return out
 
 
@@ -157,7 +158,7 @@ def _select(sk: Skeleton, rec: Recognition, joint_model: str, drop, fuse, scale:
     both = drop_set & fuse_set
     if both:
         raise ConversionError("joints both dropped and fused: "
-                              + ", ".join(sk.names[j] for j in sorted(both)))
+                              + name_list(sk.names[j] for j in sorted(both)))
     # dropping removes whole subtrees
     dropped: set[int] = set()
     for j in range(n):
@@ -175,21 +176,18 @@ def _select(sk: Skeleton, rec: Recognition, joint_model: str, drop, fuse, scale:
     if lost:
         raise ConversionError("cannot fuse leg joints (hips, knees, ankles): " + ", ".join(lost))
     removed = dropped | fuse_set
-    into = {}
-    for j in range(n):
+    into: dict[int, int] = {}  # parents come first: one pass finds each removed joint's keeper
+    for j, a in enumerate(sk.parents.tolist()):
         if j in removed:
-            a = int(sk.parents[j])
-            while a in removed:
-                a = int(sk.parents[a])
-            into[j] = a
+            into[j] = into[a] if a in removed else a
     if joint_model == "full" and fuse_set:
         warns.append("full model with fused joints: replay is exact only while their rotations "
-                     "stay identity: " + ", ".join(sk.names[j] for j in sorted(fuse_set)))
+                     "stay identity: " + name_list(sk.names[j] for j in sorted(fuse_set)))
     lengths = sk.bone_lengths() * scale
     big = [sk.names[j] for j in sorted(fuse_set) if lengths[j] >= 0.002]
     if big:
         warns.append("fused joints with non-zero length (their bone becomes rigid): "
-                     + ", ".join(big))
+                     + name_list(big))
     return {"removed": removed, "dropped": dropped, "fused": fuse_set, "into": into}
 
 
@@ -201,8 +199,7 @@ def _layout(sk: Skeleton, rec: Recognition, sel: dict, B: np.ndarray,
         if j in sel["removed"]:
             continue
         p = int(sk.parents[j])
-        while p >= 0 and p in sel["removed"]:
-            p = int(sk.parents[p])
+        p = sel["into"].get(p, p)  # the nearest kept ancestor
         name = sk.names[j]
         role = rec.joint_roles[name]
         base = rec.base_role(name)

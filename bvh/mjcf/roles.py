@@ -22,6 +22,8 @@ from __future__ import annotations
 import os
 import tomllib
 
+from mjchar.bvh.errors import name_list
+from mjchar.bvh.io.inputs import read_text
 from mjchar.bvh.mjcf.info import ConversionError
 
 SIDED = ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
@@ -33,6 +35,8 @@ ESSENTIAL_ROLES = ("pelvis",) + tuple(f"{s}_{r}" for s in ("left", "right")
                                       for r in ("hip", "knee", "ankle"))
 
 EXAMPLE = 'left_knee = "JointName"'
+#: largest roles file read, in bytes
+MAX_ROLES_BYTES = 2**20
 
 
 def load_roles(source) -> dict[str, object]:
@@ -44,14 +48,17 @@ def load_roles(source) -> dict[str, object]:
     where = "roles"
     if isinstance(source, (str, os.PathLike)):
         where = os.fspath(source)
+        text = read_text(where, what="roles file", max_bytes=MAX_ROLES_BYTES, expected="TOML",
+                         error=lambda reason, line: ConversionError(f"roles file {where}: "
+                                                                    f"{reason}"))
         try:
-            with open(where, "rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as e:
-            raise ConversionError(f"cannot read roles file {where}: {e.strerror or e}") from None
+            data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as e:
             raise ConversionError(f"roles file {where} is not valid TOML: {e}; expected lines "
                                   f"like {EXAMPLE}") from None
+        except RecursionError:
+            raise ConversionError(f"roles file {where} nests too deeply: expected lines like "
+                                  f"{EXAMPLE}") from None
     else:
         data = dict(source)
     if isinstance(data.get("roles"), dict) and len(data) == 1:
@@ -81,7 +88,7 @@ def check_roles(roles: dict[str, object], names: list[str], where: str = "roles"
                 bad.append(f"{role} = {v!r}")
     if bad:
         raise ConversionError(f"{where} names joints the skeleton does not have: "
-                              + ", ".join(bad) + "; joints are: " + ", ".join(names))
+                              + name_list(bad) + "; joints are: " + name_list(names))
 
 
 def missing_roles_error(missing: list[str], names: list[str], found: dict,
@@ -93,4 +100,4 @@ def missing_roles_error(missing: list[str], names: list[str], found: dict,
         "missing essential roles: " + ", ".join(missing) + why + f"; recognised: {have}; "
         "map them in a roles file (mjchar convert --roles roles.toml) with lines like "
         + ", ".join(f'{r} = "<joint>"' for r in missing[:2])
-        + "; joints are: " + ", ".join(names))
+        + "; joints are: " + name_list(names))

@@ -187,9 +187,9 @@ class _Geometry:
     def farthest(self, j: int) -> np.ndarray | None:
         """Unit vector to the farthest point of ``j``'s subtree (end sites included)."""
         sk = self.sk
-        pts = [self.P[k] for k in range(self.n) if k != j and j in sk.chain(k)]
-        pts += [self.ends[e] for e in range(sk.n_end_sites)
-                if j in sk.chain(int(sk.end_site_parents[e]))]
+        inside = sk.in_subtree(j)
+        pts = [self.P[k] for k in np.flatnonzero(inside) if k != j]
+        pts += [self.ends[e] for e in np.flatnonzero(inside[sk.end_site_parents])]
         if not pts:
             return None
         pts = np.asarray(pts)

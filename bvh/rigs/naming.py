@@ -299,8 +299,10 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
     if legs_by_shape:
         by_structure.append(pelvis)
     for e in trunk_ends:
-        for a in sk.chain(e)[:-1]:
-            if a in role or a == pelvis or not _is_below(sk, pelvis, a):
+        path = sk.chain(e)  # one walk up per end (a joint is below the pelvis iff it comes
+        below = path.index(pelvis) + 1 if pelvis in path else len(path)  # after it on the path)
+        for a in path[below:-1]:
+            if a in role:
                 continue
             role[a] = "neck" if "neck" in _core(names[a]) else "spine"
             if e in by_structure:  # found around a joint the shape gave
@@ -406,10 +408,6 @@ def _find(role: dict[int, str], r: str) -> int | None:
         if rr == r:
             return j
     return None
-
-
-def _is_below(sk: Skeleton, ancestor: int, j: int) -> bool:
-    return ancestor in sk.chain(j)
 
 
 def _common_ancestor(sk: Skeleton, a: int, b: int) -> int:

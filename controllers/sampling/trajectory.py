@@ -44,6 +44,7 @@ import math
 import os
 import warnings
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,6 +67,8 @@ __all__ = [
 ]
 
 FORMAT = "mjchar-trajectory"
+#: largest trajectory file, and the most its arrays may unpack to, in bytes
+MAX_TRAJECTORY_BYTES = 256 * 2**20
 FORMAT_VERSION = 1
 _REQUIRED = ("format", "version", "targets", "control_dt", "timestep", "initial_qpos",
              "initial_qvel", "warmstart_resets", "model_name", "model_hash", "actuator_names",
@@ -310,6 +313,23 @@ def _jsonable(v):
     return v
 
 
+def _check_array_sizes(z, p: Path) -> None:
+    """Refuse an archive whose arrays would unpack to more than :data:`MAX_TRAJECTORY_BYTES`
+    (a small compressed file can hold a huge array of zeros), from their headers alone."""
+    total = 0
+    for name in z.zip.namelist():
+        with z.zip.open(name) as f:
+            version = np.lib.format.read_magic(f)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            shape, _, dtype = read(f)
+        total += math.prod(shape) * dtype.itemsize
+        if total > MAX_TRAJECTORY_BYTES:
+            raise TrajectoryError(f"{p}: its arrays unpack to more than "
+                                  f"{MAX_TRAJECTORY_BYTES // 2**20} MB, far more than a "
+                                  f"trajectory holds: is it the right file?")
+
+
 def load_trajectory(path: str | os.PathLike) -> Trajectory:
     """Read a trajectory written by :meth:`Trajectory.save`.
 
@@ -321,12 +341,20 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
     p = Path(path)
     if not p.is_file():
         raise TrajectoryError(f"{p}: no such trajectory file")
+    if p.stat().st_size > MAX_TRAJECTORY_BYTES:
+        raise TrajectoryError(f"{p}: {p.stat().st_size / 2**20:.0f} MB, more than the "
+                              f"{MAX_TRAJECTORY_BYTES // 2**20} MB a trajectory file may be: is "
+                              f"it the right file?")
     try:
         with np.load(p, allow_pickle=False) as z:
+            _check_array_sizes(z, p)
             data = {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as e:
-        raise TrajectoryError(f"{p}: not a saved mjchar trajectory (not an .npz archive: "
-                              f"{e.__class__.__name__})") from None
+    except TrajectoryError:
+        raise
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, RuntimeError,
+            NotImplementedError, zlib.error) as e:
+        raise TrajectoryError(f"{p}: not a saved mjchar trajectory (not an .npz archive, or "
+                              f"a damaged one: {e.__class__.__name__})") from None
     if not isinstance(data, dict) or str(data.get("format", "")) != FORMAT:
         raise TrajectoryError(f"{p}: not a saved mjchar trajectory (no {FORMAT!r} marker; "
                               "write one with `mjchar samcon` or `mjchar trajopt`)")

@@ -26,6 +26,8 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 
+from mjchar.controllers.core.workers import quiet_worker, stop_workers
+
 
 def default_jobs() -> int:
     """One job per core this process may run on."""
@@ -61,7 +63,8 @@ class JobPool:
             # controller registered at run time), all at once, before any thread of the pool
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-            self._executor = ProcessPoolExecutor(self.jobs, mp_context=ctx)
+            self._executor = ProcessPoolExecutor(self.jobs, mp_context=ctx,
+                                                 initializer=quiet_worker)
             started = [self._executor.submit(int) for _ in range(self.jobs)]
             for f in started:
                 f.result()
@@ -137,4 +140,9 @@ class JobPool:
                 for item in self._heap:
                     item[-1].cancel()
                 self._heap.clear()
+        if exc[0] is not None and issubclass(exc[0], KeyboardInterrupt):
+            # Ctrl-C or SIGTERM: end the running jobs too, rather than wait for them
+            if self._executor is not None:
+                stop_workers()
+                self._executor.shutdown(wait=False, cancel_futures=True)
         self.close()

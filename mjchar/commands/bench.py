@@ -108,6 +108,9 @@ def run(args: argparse.Namespace) -> int:
         if path:
             if not Path(path).is_file():
                 raise B.BenchError(f"trajectory file {path} not found")
+            from mjchar.controllers.sampling.trajectory import load_trajectory
+
+            load_trajectory(path)  # a file the user named must be readable: an error, not a row
             trajectories[name] = Path(path)
     skeletons = None
     if args.skeletons or args.skeletons_only:

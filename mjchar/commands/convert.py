@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
     import json
     import os
 
+    from mjchar.bvh.errors import name_list
     from mjchar.bvh.io.files import check_output
     from mjchar.bvh.mjcf import convert
 
@@ -107,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
           f"{model.nu} actuators, joint model {args.joint_model}")
     print(f"  total mass {model.body_mass.sum():.3f} kg, up axis {info.up_axis}")
     print(f"  unit: {s['unit']}; height {s['height_m']:.3f} m")
-    print(f"  dropped: {', '.join(info.dropped) or 'none'}")
+    print(f"  dropped: {name_list(info.dropped, 40) or 'none'}")
     for w in converted.warnings:
         if w != s["height_warning"]:  # that one went to stderr
             print(f"  warning: {w}")

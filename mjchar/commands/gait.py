@@ -95,6 +95,12 @@ def run(args: argparse.Namespace) -> int:
     for flag, value in (("--plot", args.plot), ("--filmstrip", args.filmstrip)):
         if value:
             check_output(value, inputs=inputs, flag=flag, suffixes=(".png",))
+    # the reference clips first: a bad one is an error before any simulation
+    for path in args.reference:
+        if not os.path.isfile(path):
+            what = "a folder, not a clip" if os.path.isdir(path) else "no such file"
+            raise MjcharError(f"--reference {path}: {what}")
+    references = [_clip(path) for path in args.reference]
     if args.source.lower().endswith(".bvh"):
         for flag, value in (("--model", args.model), ("--duration", args.duration),
                             ("--speed", args.speed), ("--gait", args.gait),
@@ -109,11 +115,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         raise MjcharError(f"SOURCE must be a walker ({', '.join(registry.names('walker'))}) or "
                           f"a .bvh clip, got {args.source!r}")
-    walks = [walk]
-    for path in args.reference:
-        if not os.path.isfile(path):
-            raise MjcharError(f"--reference {path}: no such file")
-        walks.append(_clip(path))
+    walks = [walk, *references]
     stats, refs = walk[0], [w[0] for w in walks[1:]]
     everything = [stats, *refs]
     if args.plot:

@@ -38,6 +38,20 @@ def _role_lines(rec) -> list[str]:
     return out
 
 
+def _bounds(motion, block: int = 2048):
+    """``(lo, hi)``, the ``(3,)`` corners of the box holding every joint in every frame, in file
+    units; forward kinematics a block of frames at a time (long clips need no more memory)."""
+    import numpy as np
+
+    from mjchar import bvh
+
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for a in range(0, motion.n_frames, block):
+        points = bvh.forward_kinematics(motion[a:a + block]).positions.reshape(-1, 3)
+        lo, hi = np.minimum(lo, points.min(axis=0)), np.maximum(hi, points.max(axis=0))
+    return lo, hi
+
+
 def run(args: argparse.Namespace) -> int:
     from collections import Counter
 
@@ -45,18 +59,20 @@ def run(args: argparse.Namespace) -> int:
 
     from mjchar import bvh
     from mjchar.bvh.mjcf import ConversionError, convert
+    from mjchar.bvh.mjcf.roles import load_roles
     from mjchar.bvh.rigs import units
 
     motion = bvh.load(args.file)
+    load_roles(args.roles)  # a roles file that cannot be read is an error, not a note
     sk = motion.skeleton
     if motion.n_frames:
-        points = bvh.forward_kinematics(motion).positions.reshape(-1, 3)
+        lo, hi = _bounds(motion)
         frames = (f"{motion.n_frames} frames at {motion.fps:.2f} fps "
                   f"({motion.duration:.2f} s)")
     else:  # a skeleton without motion (the converter takes it): its rest pose
         points = sk.rest_positions()
+        lo, hi = points.min(axis=0), points.max(axis=0)
         frames = "no frames (a skeleton without motion; the bounding box is the rest pose's)"
-    lo, hi = points.min(axis=0), points.max(axis=0)
     print(f"{args.file}: {sk.n_joints} joints, {sk.n_end_sites} end sites, {frames}")
     try:  # what the converter would build at these options
         c = convert(motion, unit=args.unit, up_axis=args.up, roles=args.roles)

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from mjchar.bvh.errors import IKError, SkeletonError
+from mjchar.bvh.errors import IKError, SkeletonError, name_list
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.kinematics.ik.pose import (
@@ -158,8 +158,8 @@ class IKProblem:
                 offsets.append(skeleton.end_site_offsets[s])
             else:
                 raise IKError(f"unknown effector {e.name!r}: not a joint or end site; joints: "
-                              f"{', '.join(skeleton.names)}; end sites: "
-                              f"{', '.join(skeleton.end_site_names)}")
+                              f"{name_list(skeleton.names)}; end sites: "
+                              f"{name_list(skeleton.end_site_names)}")
         self.attach = np.array(attach, dtype=int)
         self.local_offsets = np.array(offsets, dtype=float).reshape(-1, 3)
         self.targets = np.stack([_check_finite(f"target of {e.name!r}", e.target, (3,))

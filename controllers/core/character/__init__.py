@@ -40,6 +40,8 @@ from collections.abc import Iterable
 import mujoco
 import numpy as np
 
+from mjchar.bvh.errors import name_list
+
 from ..action import Action
 from ..errors import CharacterError, SimulationDiverged
 from .actuation import ACTUATION_MODES, Actuation
@@ -255,7 +257,7 @@ class Character:
     def _check_joint(self, name: str) -> None:
         if name not in self._joint_dofs:
             raise CharacterError(f"unknown joint {name!r}; the model's joints are "
-                                 f"{', '.join(self.joint_names)}")
+                                 f"{name_list(self.joint_names)}")
 
     def joint_dofs(self, name: str) -> np.ndarray:
         """Dof indices (into qvel / qfrc) of BVH joint ``name``: ``(k,)`` int."""
@@ -284,7 +286,7 @@ class Character:
         b = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if b < 0:
             raise CharacterError(f"unknown body {name!r}; the model's joints are "
-                                 f"{', '.join(self.joint_names)}")
+                                 f"{name_list(self.joint_names)}")
         return b
 
     def site_id(self, name: str) -> int:

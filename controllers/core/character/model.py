@@ -41,7 +41,8 @@ def model_info(model: mujoco.MjModel):
 def load_model(model) -> mujoco.MjModel:
     """An ``MjModel`` the caller owns: ``None`` -> the bundled humanoid, a path -> loaded from
     the MJCF file, an ``MjModel`` -> a deep copy. Raises :class:`CharacterError` naming the file
-    when it is missing or MuJoCo cannot load it."""
+    when it is missing, MuJoCo cannot load it or its physical fields are not physical
+    (:func:`mjchar.bvh.mjcf.model_file.load_mjcf`)."""
     check_mujoco_version()
     if model is None:
         from mjchar.bvh.bundled.assets import humanoid_path
@@ -50,13 +51,12 @@ def load_model(model) -> mujoco.MjModel:
     if isinstance(model, mujoco.MjModel):
         return copy.deepcopy(model)
     if isinstance(model, (str, os.PathLike)):
+        from mjchar.bvh.mjcf.model_file import load_mjcf
+
         path = os.fspath(model)
         if not os.path.isfile(path):
             raise CharacterError(f"{path}: no such MJCF file")
-        try:
-            return mujoco.MjModel.from_xml_path(path)
-        except ValueError as e:
-            raise CharacterError(f"{path}: MuJoCo cannot load it: {e}") from None
+        return load_mjcf(path, CharacterError)
     raise CharacterError(f"model must be None, an MJCF path or an MjModel, got "
                          f"{type(model).__name__}")
 

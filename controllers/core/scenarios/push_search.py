@@ -56,6 +56,7 @@ from mjchar.bvh.errors import MjcharError
 
 from ..character import Character
 from ..metrics import Result
+from ..workers import quiet_worker, stop_workers
 from .options import MAX_FORCE, PHASES, PUSH_DURATION, SEEDS, TOLERANCE
 from .registry import ScenarioError, ScenarioSpec, register
 from .shared import DIRECTIONS, perturbed_start, standing_pose, survived
@@ -308,7 +309,8 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
     controller = spec.name
     out = PushRates(controller, protocol, spec.push, spec.steps)
     workers = (os.cpu_count() or 1) if processes == 0 else max(1, int(processes))
-    pool = ProcessPoolExecutor(workers) if workers > 1 and mapper is None else None
+    pool = (ProcessPoolExecutor(workers, initializer=quiet_worker)
+            if workers > 1 and mapper is None else None)
     if mapper is not None:
         def run_all(tasks):
             return list(mapper(run_push, tasks))
@@ -349,6 +351,12 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
                 progress(f"{controller} {f:g} N: " + ", ".join(
                     f"{d} {curves[d]['rates'][-1]:.0%}" for d in protocol.directions
                     if curves[d]["forces_N"] and curves[d]["forces_N"][-1] == f))
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: do not wait for the running pushes
+        if pool is not None:
+            stop_workers()
+            pool.shutdown(wait=False, cancel_futures=True)
+            pool = None
+        raise
     finally:
         if pool is not None:
             pool.shutdown()
