@@ -52,6 +52,7 @@ from mjchar.bvh.rigs.naming import Clip, Recognition, recognise
 from mjchar.bvh.rigs.units import (
     AXIS_VECTORS,
     UnitGuess,
+    axis_index,
     guess_up_axis,
     unit_from_stature,
     unit_name,
@@ -169,7 +170,7 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
         guess = unit_from_stature(stature)
         scale = guess.scale
         if guess.name is None:
-            warns.append(f"no known unit (m, cm, mm, in, ft, cmu) makes this body 1.0-2.3 m "
+            warns.append(f"no known unit (m, dm, cm, mm, in, ft, cmu) makes this body 1.0-2.3 m "
                          f"tall: the anatomical scale {scale:.6g} m per unit is used (a "
                          f"{guess.height_m:.2f} m stature); pass --unit if you know the file's")
     points = np.vstack([sk.rest_positions(), sk.rest_end_sites().reshape(-1, 3)])
@@ -226,7 +227,7 @@ def _stature(sk: Skeleton, rec: Recognition, up: str) -> float:
     pts = sk.rest_positions()
     if sk.n_end_sites:
         pts = np.concatenate([pts, sk.rest_end_sites()])
-    i = "xyz".index(up)
+    i = axis_index(up)
     extent = float(pts[:, i].max() - pts[:, i].min())
     legs = _leg_joints(sk, rec)
     if legs is not None:
