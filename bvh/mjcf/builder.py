@@ -253,8 +253,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     lo, hi = HEIGHT_RANGE_M
     if not lo <= height <= hi:
         height_warning = (f"the body is {height:.2f} m tall, outside {lo:.1f}-{hi:.1f} m: if the "
-                          f"unit is wrong ({unit_text}), give it with --unit (m, dm, cm, mm, in, ft, "
-                          "cmu or metres per unit)")
+                          f"unit is wrong ({unit_text}), give it with --unit (m, dm, cm, mm, in, "
+                          "ft, cmu or metres per unit)")
         warns.append(height_warning)
     summary = {
         "unit": unit_text,

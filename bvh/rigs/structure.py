@@ -212,11 +212,12 @@ def pair_legs(pair: _Pair) -> list[tuple[int, int, int]]:
 def up_axis(sk: Skeleton, legs, clip: Clip | None) -> str | None:
     """The file's up axis from the legs (``[(hip, knee, ankle)...]``), or ``None`` when it
     cannot tell: ``"y"``, or ``"-y"`` when the hips stand above the ankles towards -Y (an
-    up axis pointing down, as Azure Kinect exports have). In the rest pose: the axis along the hips-above-ankles vector when it
-    dominates. Over a clip: among the axes along which the hips stand above the ankles by at
-    least 30% of that vector on average, the one along which the body's lowest point stays on
-    a floor in most frames (a crawl or a fall has its legs along the ground for a while, its
-    lowest point on the floor throughout); ties go to the larger leg component."""
+    up axis pointing down, as Azure Kinect exports have). In the rest pose: the axis along the
+    hips-above-ankles vector when it dominates. Over a clip: among the axes along which the
+    hips stand above the ankles by at least 30% of that vector on average, the one along which
+    the body's lowest point stays on a floor in most frames (a crawl or a fall has its legs
+    along the ground for a while, its lowest point on the floor throughout); ties go to the
+    larger leg component."""
     P = _frames(sk, clip)
     v = np.zeros(3)
     for h, _, a in legs:
