@@ -113,3 +113,136 @@ def test_knee_hinge_fitted_on_the_flexion_not_the_twist(walk):
     assert naive is not None
     lateral = np.array([1.0, 0.0, 0.0])  # the file's left-right axis (Y-up, facing +Z)
     assert abs(float(naive[2] @ lateral)) < np.cos(np.radians(25.0)), naive
+
+
+# -- not a two-legged humanoid ----------------------------------------------------------------
+SIX = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+THREE = ("Zrotation", "Xrotation", "Yrotation")
+
+
+def _rig(joints: list[tuple[str, str | None, tuple]], ends: dict[str, tuple]) -> bvh.Skeleton:
+    """A skeleton from ``(name, parent, offset)`` rows (the root first) and end sites."""
+    names = [n for n, _, _ in joints]
+    parents = [-1 if p is None else names.index(p) for _, p, _ in joints]
+    offsets = np.array([o for _, _, o in joints], dtype=float)
+    channels = [SIX if p is None else THREE for _, p, _ in joints]
+    ep = [names.index(n) for n in ends]
+    eo = np.array(list(ends.values()), dtype=float).reshape(-1, 3)
+    return bvh.Skeleton(names, parents, offsets, channels, ep, eo)
+
+
+def _moving(sk: bvh.Skeleton, swing: list[str], n_frames: int = 40) -> bvh.Motion:
+    """The rest pose walking forward along +Z at 0.5 units per frame, the ``swing`` joints
+    turning +-10 degrees about X, alternately."""
+    m = bvh.Motion.rest(sk, n_frames)
+    t = np.arange(n_frames)
+    m.local_positions[:, 0, 2] += 0.5 * t
+    for i, name in enumerate(swing):
+        a = np.radians(10.0) * np.sin(2 * np.pi * t / 20 + np.pi * (i % 2))
+        m.rotations[:, sk.index(name)] = quat_from_rotvec(a[:, None] * np.array([1.0, 0, 0]))
+    return m
+
+
+def quadruped_biped_names() -> bvh.Motion:
+    """A dog rigged with 3ds Max Biped names (cm, Y-up, facing +Z): hind legs under the pelvis,
+    front legs hanging from the chest as 'arms', all four feet on the floor."""
+    rows = [("Bip01", None, (0, 60, 0)), ("Bip01 Spine", "Bip01", (0, 2, 15)),
+            ("Bip01 Spine1", "Bip01 Spine", (0, 0, 25)), ("Bip01 Neck", "Bip01 Spine1", (0, 5, 20)),
+            ("Bip01 Head", "Bip01 Neck", (0, 10, 15))]
+    for s, x in (("L", 8.0), ("R", -8.0)):
+        rows += [(f"Bip01 {s} Thigh", "Bip01", (x, -5, 0)),
+                 (f"Bip01 {s} Calf", f"Bip01 {s} Thigh", (0, -25, 0)),
+                 (f"Bip01 {s} Foot", f"Bip01 {s} Calf", (0, -25, -3)),
+                 (f"Bip01 {s} Toe0", f"Bip01 {s} Foot", (0, -5, 5)),
+                 (f"Bip01 {s} Clavicle", "Bip01 Spine1", (x / 2, 0, 0)),
+                 (f"Bip01 {s} UpperArm", f"Bip01 {s} Clavicle", (x / 2, -5, 0)),
+                 (f"Bip01 {s} Forearm", f"Bip01 {s} UpperArm", (0, -27, 0)),
+                 (f"Bip01 {s} Hand", f"Bip01 {s} Forearm", (0, -25, 0)),
+                 (f"Bip01 {s} Finger0", f"Bip01 {s} Hand", (0, -5, 4))]
+    ends = {"Bip01 Head": (0, 0, 10)} | {f"Bip01 {s} {p}": (0, 0, 4)
+                                        for s in "LR" for p in ("Toe0", "Finger0")}
+    sk = _rig(rows, ends)
+    return _moving(sk, [f"Bip01 {s} {p}" for p in ("Thigh", "UpperArm") for s in "LR"])
+
+
+def crab() -> bvh.Motion:
+    """Eight three-segment legs around a flat body, a pair of claws (m, Y-up)."""
+    rows = [("carapace", None, (0, 0.1, 0))]
+    for k in range(4):
+        for s, x in (("a", 1.0), ("b", -1.0)):
+            n = f"walker{k}{s}"
+            rows += [(f"{n}_coxa", "carapace", (0.05 * x, 0, 0.04 * (k - 1.5))),
+                     (f"{n}_merus", f"{n}_coxa", (0.08 * x, 0.03, 0)),
+                     (f"{n}_carpus", f"{n}_merus", (0.07 * x, -0.06, 0)),
+                     (f"{n}_dactyl", f"{n}_carpus", (0.03 * x, -0.07, 0))]
+    for s, x in (("a", 1.0), ("b", -1.0)):
+        rows += [(f"cheliped_{s}", "carapace", (0.03 * x, 0.01, 0.06)),
+                 (f"claw_{s}", f"cheliped_{s}", (0.02 * x, 0.0, 0.05))]
+    sk = _rig(rows, {f"walker{k}{s}_dactyl": (0, -0.005, 0) for k in range(4) for s in "ab"})
+    return _moving(sk, [f"walker{k}{s}_merus" for k in range(4) for s in "ab"])
+
+
+def hand() -> bvh.Motion:
+    """A right hand capture: the wrist and five fingers curling (cm, Y-up)."""
+    rows = [("RightHand", None, (0, 100, 0))]
+    for f, x in (("Thumb", -3.0), ("Index", -2.0), ("Middle", 0.0), ("Ring", 2.0),
+                 ("Pinky", 3.5)):
+        prev = "RightHand"
+        for k, length in enumerate((5.0, 4.0, 2.5, 2.0)[(1 if f == "Thumb" else 0):]):
+            n = f"RightHand{f}{k + 1}"
+            rows.append((n, prev, (x if k == 0 else 0.0, 0, length)))
+            prev = n
+    sk = _rig(rows, {n: (0, 0, 1.5) for n, _, _ in rows if n[-1] in "34" and
+                     not any(r[1] == n for r in rows)})
+    return _moving(sk, [n for n, _, _ in rows if n.endswith("2")])
+
+
+def upper_body() -> bvh.Motion:
+    """Hips, spine, head and two arms: a capture with no legs (cm, Y-up)."""
+    rows = [("Hips", None, (0, 100, 0)), ("Spine", "Hips", (0, 10, 0)),
+            ("Spine1", "Spine", (0, 15, 0)), ("Neck", "Spine1", (0, 20, 0)),
+            ("Head", "Neck", (0, 10, 0))]
+    for s, x in (("Left", 1.0), ("Right", -1.0)):
+        rows += [(f"{s}Shoulder", "Spine1", (5 * x, 15, 0)),
+                 (f"{s}Arm", f"{s}Shoulder", (12 * x, 0, 0)),
+                 (f"{s}ForeArm", f"{s}Arm", (28 * x, 0, 0)),
+                 (f"{s}Hand", f"{s}ForeArm", (25 * x, 0, 0))]
+    sk = _rig(rows, {"Head": (0, 18, 0), "LeftHand": (8, 0, 0), "RightHand": (-8, 0, 0)})
+    return _moving(sk, ["LeftArm", "RightArm"])
+
+
+def three_point_vr() -> bvh.Motion:
+    """A three-point VR capture: head and two hand trackers under a floor origin (m)."""
+    sk = _rig([("origin", None, (0, 0, 0)), ("hmd", "origin", (0, 1.65, 0)),
+               ("controller_left", "origin", (0.25, 1.0, 0.2)),
+               ("controller_right", "origin", (-0.25, 1.0, 0.2))],
+              {"hmd": (0, 0.1, 0), "controller_left": (0, 0, 0.1),
+               "controller_right": (0, 0, 0.1)})
+    return _moving(sk, ["controller_left", "controller_right"])
+
+
+NOT_HUMANOIDS = {"quadruped": (quadruped_biped_names, "4 limbs reaching the floor"),
+                 "crab": (crab, "8 limbs reaching the floor"),
+                 "hand": (hand, "not a humanoid"),
+                 "upper_body": (upper_body, "no legs"),
+                 "three_point_vr": (three_point_vr, "no legs")}
+
+
+@pytest.mark.parametrize("name", sorted(NOT_HUMANOIDS))
+def test_not_a_humanoid_is_refused_in_one_line(name, tmp_path, capsys):
+    from mjchar.cli import main as cli_main
+
+    make, said = NOT_HUMANOIDS[name]
+    path = tmp_path / f"{name}.bvh"
+    bvh.save(make(), path)
+    assert cli_main(["convert", str(path), "-o", str(tmp_path / "x.xml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a humanoid" in err[0] and said in err[0], err
+    assert not (tmp_path / "x.xml").exists()
+
+
+def test_quadruped_rest_pose_alone_is_refused():
+    """The quadruped's skeleton without a clip: its rest pose stands on four feet."""
+    sk = quadruped_biped_names().skeleton
+    with pytest.raises(bvh.MjcharError, match="4 limbs reaching the floor in the rest pose"):
+        convert(sk)

@@ -39,7 +39,7 @@ from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf.info import ConversionError
 from mjchar.bvh.mjcf.roles import ESSENTIAL_ROLES, check_roles, missing_roles_error
-from mjchar.bvh.rigs import structure
+from mjchar.bvh.rigs import anatomy, structure
 from mjchar.bvh.rigs.canonical import CanonicalRest, canonical_rest
 from mjchar.bvh.rigs.layouts import (
     bones_from_channels,
@@ -140,6 +140,9 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     rec = recognise(sk, given_up, roles, clip)
     up = up_axis or _up_from_legs(sk, rec, clip) or guess_up_axis(sk)
     rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
+    if not roles:
+        _check_biped(sk, AXIS_VECTORS[up], clip)
+        _check_trunk(sk, rec, AXIS_VECTORS[up], clip)
     missing = [r for r in ESSENTIAL_ROLES if r not in rec.roles]
     if missing:
         legs = [r for r in missing if r != "pelvis"]
@@ -148,7 +151,11 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
             problem = "no legs: no knee names and no two limb chains reaching the floor"
         elif problem is None and len(legs) == 3:
             problem = "one leg only"
-        raise missing_roles_error(missing, skeleton.names, rec.roles, problem)
+        err = missing_roles_error(missing, skeleton.names, rec.roles, problem)
+        if len(legs) == 6 and rec.problem is None and not roles:
+            err = ConversionError("not a humanoid: no legs (no knee names and no two limb "
+                                  "chains of thigh and shank); if it is one, " + str(err))
+        raise err
 
     # 4. the canonical rest
     can = canonical_rest(sk, rec, up, clip)
@@ -210,6 +217,43 @@ def _leg_joints(sk: Skeleton, rec: Recognition) -> list[tuple[int, int, int]] | 
             return None
         out.append(tuple(sk.index(n) for n in names))
     return out
+
+
+def _check_biped(sk: Skeleton, up: np.ndarray, clip: Clip | None) -> None:
+    """Refuse a skeleton with three or more limbs on the floor in the clip (and in its rest
+    pose, unless that says nothing): :func:`mjchar.bvh.rigs.anatomy.floor_limbs`."""
+    rest = anatomy.floor_limbs(sk, up)
+    n = anatomy.floor_limbs(sk, up, clip.positions) if clip is not None else rest
+    if n >= 3 and (clip is None or rest >= 3 or rest < 0):
+        where = "over the clip" if clip is not None else "in the rest pose"
+        raise ConversionError(f"not a humanoid: found {n} limbs reaching the floor {where} (a "
+                              "two-legged humanoid stands on two); mjchar builds bipeds only")
+
+
+def _check_trunk(sk: Skeleton, rec: Recognition, up: np.ndarray, clip: Clip | None) -> None:
+    """Refuse legs whose trunk does not stand above them (a hand's fingers taken for legs):
+    :func:`mjchar.bvh.rigs.anatomy.trunk_problem`, over the clip, or on a rest pose whose legs
+    point down."""
+    legs = []
+    for s in ("left", "right"):
+        hk = [rec.roles.get(f"{s}_{r}") for r in ("hip", "knee", "ankle")]
+        if isinstance(hk[0], str) and isinstance(hk[1], str):
+            hk[2] = hk[2] if isinstance(hk[2], str) else hk[1]
+            legs.append(tuple(sk.index(n) for n in hk))
+    pelvis = rec.roles.get("pelvis")
+    tops = [sk.index(v) for r in ("head", "left_clavicle", "right_clavicle", "left_shoulder",
+                                  "right_shoulder")
+            if isinstance(v := rec.roles.get(r), str)]
+    if not legs or not isinstance(pelvis, str):
+        return
+    P = clip.positions if clip is not None else sk.rest_positions()[None]
+    if clip is None:
+        down = np.mean([P[0, a] - P[0, h] for h, _, a in legs], axis=0)
+        if float(down @ -up) < 0.7 * max(float(np.linalg.norm(down)), 1e-12):
+            return  # a rest pose that is no standing figure says nothing
+    problem = anatomy.trunk_problem(P, legs, sk.index(pelvis), tops)
+    if problem:
+        raise ConversionError(f"not a humanoid: {problem}; mjchar builds bipeds only")
 
 
 def _up_from_legs(sk: Skeleton, rec: Recognition, clip: Clip | None) -> str | None:
