@@ -246,3 +246,32 @@ def test_quadruped_rest_pose_alone_is_refused():
     sk = quadruped_biped_names().skeleton
     with pytest.raises(bvh.MjcharError, match="4 limbs reaching the floor in the rest pose"):
         convert(sk)
+
+
+# -- glitch frames ----------------------------------------------------------------------------
+def glitched(walk: bvh.Motion, start: int, n: int, jump_m: float = 1460.0) -> bvh.Motion:
+    """The walk with its root thrown ``jump_m`` sideways for ``n`` frames from ``start``."""
+    m = walk.copy()
+    m.local_positions[start:start + n, 0, 0] += jump_m
+    return m
+
+
+def test_glitch_frames_found_from_physical_limits(walk):
+    from mjchar.bvh.rigs.glitches import find_glitches
+
+    assert not find_glitches(walk)
+    g = find_glitches(glitched(walk, 20, 5))
+    assert g.runs == [(20, 25)] and int(g.frames.sum()) == 5
+    assert g.root_jump_m == pytest.approx(1460.0, rel=1e-3)
+    m = walk.copy()  # a joint turned half a turn for two frames
+    k = m.skeleton.index("lElbow")
+    m.rotations[30:32, k] = quat_mul(m.rotations[30:32, k],
+                                     quat_from_rotvec([0.0, 3.0, 0.0]))
+    assert find_glitches(m).runs == [(30, 32)]
+
+
+def test_glitch_frames_flagged_by_the_converter(walk, tmp_path, capsys):
+    c = convert(glitched(walk, 20, 5))
+    said = [w for w in c.warnings if w.startswith("glitch frames")]
+    assert len(said) == 1 and "frames 20-24" in said[0] and "1.46e+03 m" in said[0]
+    assert not any(w.startswith("glitch") for w in convert(walk).warnings)

@@ -41,6 +41,7 @@ from mjchar.bvh.mjcf.info import ConversionError
 from mjchar.bvh.mjcf.roles import ESSENTIAL_ROLES, check_roles, missing_roles_error
 from mjchar.bvh.rigs import anatomy, structure
 from mjchar.bvh.rigs.canonical import CanonicalRest, canonical_rest
+from mjchar.bvh.rigs.glitches import find_glitches
 from mjchar.bvh.rigs.layouts import (
     bones_from_channels,
     fold_record,
@@ -185,6 +186,12 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     if span > MAX_SPAN_M:
         raise ConversionError(f"the skeleton spans {span:.3g} m at {scale:g} m per unit: not a "
                               f"body (at most {MAX_SPAN_M:g} m; check the OFFSETs or --unit)")
+    if has_motion:
+        glitches = find_glitches(work, scale)
+        if glitches:
+            warns.append(f"glitch frames: {glitches.describe()}; trackers repair short runs "
+                         "by interpolation and refuse long ones (the clip is conditioned before "
+                         "tracking)")
     noisy = {n: v * scale * 1000.0 for n, v in variation.items() if v * scale > BONE_TOLERANCE_M}
     if noisy:
         warns.append("translation channels vary (the mean is the bone): "
