@@ -275,3 +275,53 @@ def test_glitch_frames_flagged_by_the_converter(walk, tmp_path, capsys):
     said = [w for w in c.warnings if w.startswith("glitch frames")]
     assert len(said) == 1 and "frames 20-24" in said[0] and "1.46e+03 m" in said[0]
     assert not any(w.startswith("glitch") for w in convert(walk).warnings)
+
+
+# -- clip conditioning ------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def walk_info(walk):
+    return convert(walk).info
+
+
+def test_conditioning_repairs_short_glitch_runs(walk, walk_info):
+    from mjchar.bvh.reference.conditioning import condition
+    from mjchar.bvh.rigs.glitches import find_glitches
+
+    c = condition(glitched(walk, 20, 5), walk_info)
+    assert c.repaired == [(20, 25)] and not find_glitches(c.motion)
+    raw = condition(walk, walk_info).motion  # the clean clip through the same steps
+    gap = np.linalg.norm(c.motion.local_positions[20:25, 0] - raw.local_positions[20:25, 0],
+                         axis=1)
+    assert gap.max() < 0.05  # metres: the interpolated root is where the clip went
+
+
+def test_conditioning_refuses_long_glitch_runs(walk, walk_info):
+    from mjchar.bvh.reference.conditioning import ConditioningError, condition
+
+    with pytest.raises(ConditioningError, match="too long to repair") as e:
+        condition(glitched(walk, 10, 20), walk_info, "walk.bvh")  # 0.33 s
+    assert "\n" not in str(e.value) and "frames 10-29" in str(e.value)
+
+
+def test_conditioning_puts_floating_sliding_feet_on_the_floor(walk, walk_info):
+    """The walk lifted 0.15 m and made to walk in place (its feet slide back in stance, as a
+    clip lifted from video does): conditioning labels the contacts, puts the standing feet on
+    the floor and removes most of the skating."""
+    from mjchar.bvh.kinematics.fk import forward_kinematics
+    from mjchar.bvh.reference.conditioning import condition
+
+    m = walk.copy()
+    m.local_positions[:, 0, 1] += 0.15
+    m.local_positions[:, 0, 2] = m.local_positions[0, 0, 2]  # no forward travel
+    c = condition(m, walk_info)
+    assert c.contacts.any(axis=1).mean() > 0.6
+    assert c.skate_mps[0] > 0.5 and c.skate_mps[1] < 0.3 * c.skate_mps[0]
+    assert c.height_offset_m < -0.1
+    feet = [m.skeleton.index(n) for n in ("lAnkle", "lToeJoint", "rAnkle", "rToeJoint")]
+    P = forward_kinematics(c.motion).positions[:, feet, 1]
+    lowest = np.minimum(P[:, :2].min(axis=1), P[:, 2:].min(axis=1))
+    on = c.contacts.any(axis=1)
+    assert np.abs(lowest[on]).max() < 0.045 and np.median(np.abs(lowest[on])) < 0.01
+    # the clean walk is hardly touched
+    clean = condition(walk, walk_info)
+    assert clean.skate_mps[1] <= clean.skate_mps[0] + 1e-9

@@ -4,7 +4,8 @@ Optical and inertial captures lose a marker or a sensor for a few frames and wri
 metres away, or a joint turned half a turn, then come back. Such frames are found from
 physical limits, not from the clip's statistics:
 
-1. a **transition** between two consecutive frames is impossible when the root moves faster
+1. a **transition** between two consecutive frames is impossible when the root (the centroid
+   of the joints) moves faster
    than :data:`ROOT_SPEED_LIMIT` or a joint turns (relative to its parent) faster than
    :data:`JOINT_SPEED_LIMIT`;
 2. the impossible transitions cut the clip into segments; the longest is taken as good, and
@@ -23,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.kinematics.fk import forward_kinematics
 
 #: m/s: no body's root moves faster (a sprinter peaks near 12 m/s)
 ROOT_SPEED_LIMIT = 20.0
@@ -71,7 +73,8 @@ def find_glitches(motion: Motion, scale: float = 1.0) -> Glitches:
     F, dt = motion.n_frames, float(motion.frame_time)
     if F < 3 or dt <= 0:
         return Glitches(np.zeros(F, dtype=bool), [], 0.0, dt)
-    p = motion.local_positions[:, 0] * float(scale)                       # (F, 3) m
+    # the body's centroid: a static node above the pelvis (joint_Root) never moves itself
+    p = forward_kinematics(motion).positions.mean(axis=1) * float(scale)  # (F, 3) m
     q = motion.rotations                                                  # (F, J, 4)
     step = np.linalg.norm(np.diff(p, axis=0), axis=1)                     # (F-1,) m
     turn = _turn(q[1:], q[:-1]).max(axis=1)                               # (F-1,) rad
