@@ -325,3 +325,19 @@ def test_conditioning_puts_floating_sliding_feet_on_the_floor(walk, walk_info):
     # the clean walk is hardly touched
     clean = condition(walk, walk_info)
     assert clean.skate_mps[1] <= clean.skate_mps[0] + 1e-9
+
+
+def test_trackers_take_the_conditioned_clip_and_report_both_errors(walk, tmp_path):
+    """Hand-of-god on the floating clip that walks in place: the run follows the conditioned
+    clip and reports its error against the raw one too."""
+    from mjchar.controllers.core.runs import run
+
+    m = walk.copy()
+    m.local_positions[:, 0, 1] += 0.15
+    m.local_positions[:, 0, 2] = m.local_positions[0, 0, 2]
+    path = tmp_path / "inplace.bvh"
+    bvh.save(m, path)
+    r = run("hand_of_god", "track", motion=str(path), duration=0.3)
+    assert r.extra["tracking_error_raw_m"] > r.tracking_error_m
+    assert "clip conditioned" in r.extra["conditioning"]
+    assert "against the raw clip" in r.summary()

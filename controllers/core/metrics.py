@@ -123,8 +123,13 @@ class Result:
         lines.append(f"  {self.n_steps} steps of {self.timestep_s * 1000:.3g} ms in "
                      f"{self.wall_s:.2f} s wall ({self.steps_per_s:.0f} steps/s)")
         for k, v in self.extra.items():
-            lines.append(f"  {k}: {v}")
+            if k not in RAW_CLIP_KEYS:  # said above
+                lines.append(f"  {k}: {v}")
         return "\n".join(lines)
+
+
+#: ``Result.extra`` keys of a run on a conditioned clip (its error against the raw clip)
+RAW_CLIP_KEYS = ("tracking_error_raw_m", "root_error_raw_m", "conditioning")
 
 
 class FallDetector:
