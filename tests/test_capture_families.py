@@ -263,17 +263,17 @@ def test_glitch_frames_found_from_physical_limits(walk):
     g = find_glitches(glitched(walk, 20, 5))
     assert g.runs == [(20, 25)] and int(g.frames.sum()) == 5
     assert g.root_jump_m == pytest.approx(1460.0, rel=1e-3)
-    m = walk.copy()  # a joint turned half a turn for two frames
-    k = m.skeleton.index("lElbow")
+    m = walk.copy()  # a leg turned half a turn for two frames
+    k = m.skeleton.index("lHip")
     m.rotations[30:32, k] = quat_mul(m.rotations[30:32, k],
-                                     quat_from_rotvec([0.0, 3.0, 0.0]))
+                                     quat_from_rotvec([3.0, 0.0, 0.0]))
     assert find_glitches(m).runs == [(30, 32)]
 
 
 def test_glitch_frames_flagged_by_the_converter(walk, tmp_path, capsys):
     c = convert(glitched(walk, 20, 5))
     said = [w for w in c.warnings if w.startswith("glitch frames")]
-    assert len(said) == 1 and "frames 20-24" in said[0] and "1.46e+03 m" in said[0]
+    assert len(said) == 1 and "frames 20-24" in said[0] and "body jumps up to" in said[0]
     assert not any(w.startswith("glitch") for w in convert(walk).warnings)
 
 
@@ -341,3 +341,73 @@ def test_trackers_take_the_conditioned_clip_and_report_both_errors(walk, tmp_pat
     assert r.extra["tracking_error_raw_m"] > r.tracking_error_m
     assert "clip conditioned" in r.extra["conditioning"]
     assert "against the raw clip" in r.summary()
+
+
+# -- the families' joint names ----------------------------------------------------------------
+_TRUNK = ("RootJoint", "pelvis_lowerback", "lowerback_torso", "torso_head")
+_LIMB = ("Hip", "Knee", "Ankle", "ToeJoint", "Torso_Clavicle", "Shoulder", "Elbow", "Wrist")
+
+
+def _family(trunk, limb, left, right) -> dict[str, str]:
+    out = dict(zip(_TRUNK, trunk, strict=True))
+    for p, pat in zip(_LIMB, limb, strict=True):
+        out[f"l{p}"], out[f"r{p}"] = pat.format(s=left), pat.format(s=right)
+    return out
+
+
+#: joint names as the families write them (the bundled walk's joints renamed), with the unit
+#: (metres per unit) and the up axis their exports use
+FAMILIES = {
+    "azure_kinect": (_family(("PELVIS", "SPINE_NAVAL", "SPINE_CHEST", "HEAD"),
+                             ("HIP_{s}", "KNEE_{s}", "ANKLE_{s}", "FOOT_{s}", "CLAVICLE_{s}",
+                              "SHOULDER_{s}", "ELBOW_{s}", "WRIST_{s}"), "LEFT", "RIGHT"),
+                     0.001, "-y"),
+    "perception_neuron": (_family(("Hips", "Spine", "Spine2", "Head"),
+                                  ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                                   "{s}Arm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
+                          0.01, "y"),
+    "rokoko": (_family(("Hips", "Spine1", "Spine4", "Head"),
+                       ("{s}Thigh", "{s}Shin", "{s}Foot", "{s}Toe", "{s}Shoulder", "{s}Arm",
+                        "{s}ForeArm", "{s}Hand"), "Left", "Right"), 0.01, "y"),
+    "unity_humanoid": (_family(("Hips", "Spine", "Chest", "Head"),
+                               ("{s}UpperLeg", "{s}LowerLeg", "{s}Foot", "{s}Toes",
+                                "{s}Shoulder", "{s}UpperArm", "{s}LowerArm", "{s}Hand"),
+                               "Left", "Right"), 1.0, "y"),
+    "smplx": (_family(("pelvis", "spine1", "spine3", "head"),
+                      ("{s}_hip", "{s}_knee", "{s}_ankle", "{s}_foot", "{s}_collar",
+                       "{s}_shoulder", "{s}_elbow", "{s}_wrist"), "left", "right"), 1.0, "y"),
+    "smpl": (_family(("Pelvis", "Spine1", "Spine3", "Head"),
+                     ("{s}_Hip", "{s}_Knee", "{s}_Ankle", "{s}_Foot", "{s}_Collar",
+                      "{s}_Shoulder", "{s}_Elbow", "{s}_Wrist"), "L", "R"), 1.0, "y"),
+    "sfu_vicon": (_family(("Hips", "Spine", "Spine1", "Head"),
+                          ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                           "{s}Arm", "{s}ForeArm", "{s}Hand"), "Left", "Right"), 0.01, "y"),
+    "makehuman_default": (_family(("root", "spine04", "spine02", "head"),
+                                  ("upperleg01.{s}", "lowerleg01.{s}", "foot.{s}", "toe1-1.{s}",
+                                   "clavicle.{s}", "upperarm01.{s}", "lowerarm01.{s}",
+                                   "wrist.{s}"), "L", "R"), 0.1, "z"),
+    "blender_rigify": (_family(("pelvis", "spine", "chest", "head"),
+                               ("thigh.{s}", "shin.{s}", "foot.{s}", "toe.{s}", "shoulder.{s}",
+                                "upper_arm.{s}", "forearm.{s}", "hand.{s}"), "L", "R"),
+                       1.0, "z"),
+}
+_TURN = {"y": None, "-y": [0.0, 0.0, np.pi], "z": [np.pi / 2, 0.0, 0.0]}
+
+
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+def test_capture_families_convert_with_their_names_units_and_axes(family, walk):
+    from mjchar.bvh.bundled.zoo import rename
+
+    names, unit, up = FAMILIES[family]
+    turn = _TURN[up]
+    m = transform_motion(rename(walk, names), 1.0 / unit,
+                         None if turn is None else quat_from_rotvec(turn))
+    ref, c = convert(walk), convert(m)
+    assert c.info.up_axis == up and c.summary["unit_scale"] == pytest.approx(unit)
+    assert c.summary["height_m"] == pytest.approx(ref.summary["height_m"], abs=2e-3)
+    for g, role in (("lHip", "left_hip"), ("rKnee", "right_knee"), ("lAnkle", "left_ankle"),
+                    ("rToeJoint", "right_toe"), ("lShoulder", "left_shoulder"),
+                    ("rElbow", "right_elbow"), ("lWrist", "left_wrist"),
+                    ("rTorso_Clavicle", "right_clavicle"), ("torso_head", "head"),
+                    ("RootJoint", "pelvis")):
+        assert c.info.roles[role] == names[g], (family, role)

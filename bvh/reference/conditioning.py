@@ -103,7 +103,7 @@ def _repair(motion: Motion, glitches: Glitches, name: str) -> tuple[Motion, list
         if (b - a) * dt > MAX_REPAIR_S:
             raise ConditioningError(
                 f"{name}: {b - a} glitch frames in a row (frames {a}-{b - 1}, {(b - a) * dt:.2f} "
-                f"s; the root jumps up to {glitches.root_jump_m:.3g} m between frames): too long "
+                f"s; the body jumps up to {glitches.root_jump_m:.3g} m between frames): too long "
                 f"to repair (at most {MAX_REPAIR_S:g} s); cut them out of the clip")
         lo, hi = a - 1, b
         for t in range(a, b):

@@ -4,10 +4,10 @@ Optical and inertial captures lose a marker or a sensor for a few frames and wri
 metres away, or a joint turned half a turn, then come back. Such frames are found from
 physical limits, not from the clip's statistics:
 
-1. a **transition** between two consecutive frames is impossible when the root (the centroid
-   of the joints) moves faster
-   than :data:`ROOT_SPEED_LIMIT` or a joint turns (relative to its parent) faster than
-   :data:`JOINT_SPEED_LIMIT`;
+1. a **transition** between two consecutive frames is impossible when the body (the centroid
+   of its joints) moves faster than :data:`ROOT_SPEED_LIMIT`, or a joint moves relative to
+   it faster than :data:`JOINT_SPEED_LIMIT` (a limb turned half a turn; a finger or a
+   zero-length helper that flips moves nothing far, so it is no glitch);
 2. the impossible transitions cut the clip into segments; the longest is taken as good, and
    each other segment is good when it continues the last good frame before it (root and
    joints within the same limits over the elapsed time), else its frames are glitch frames.
@@ -28,8 +28,9 @@ from mjchar.bvh.kinematics.fk import forward_kinematics
 
 #: m/s: no body's root moves faster (a sprinter peaks near 12 m/s)
 ROOT_SPEED_LIMIT = 20.0
-#: rad/s: no joint turns faster relative to its parent (a pitcher's elbow peaks near 40 rad/s)
-JOINT_SPEED_LIMIT = 60.0
+#: m/s: no joint moves faster relative to the body's centroid (a pitcher's hand peaks near
+#: 20 m/s)
+JOINT_SPEED_LIMIT = 40.0
 
 
 @dataclass
@@ -40,7 +41,8 @@ class Glitches:
         frames: ``(F,)`` bool, True for a glitch frame.
         runs: ``[(start, stop), ...]`` frame ranges (``stop`` exclusive) of consecutive glitch
             frames.
-        root_jump_m: the largest distance (m) the root moves between two consecutive frames.
+        root_jump_m: the largest distance (m) the body's centroid moves between two
+            consecutive frames.
         frame_time: seconds per frame.
     """
 
@@ -53,19 +55,14 @@ class Glitches:
         return bool(self.runs)
 
     def describe(self) -> str:
-        """One phrase: ``"5 frames in 1 run (frames 120-124; the root jumps 1460 m)"``."""
+        """One phrase: ``"5 frames in 1 run (frames 120-124; the body jumps up to 1460 m
+        between frames)"``."""
         n = int(self.frames.sum())
         spans = ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in self.runs[:4])
         more = ", ..." if len(self.runs) > 4 else ""
         return (f"{n} frame{'s' if n != 1 else ''} in {len(self.runs)} "
-                f"run{'s' if len(self.runs) != 1 else ''} (frames {spans}{more}; the root jumps "
+                f"run{'s' if len(self.runs) != 1 else ''} (frames {spans}{more}; the body jumps "
                 f"up to {self.root_jump_m:.3g} m between frames)")
-
-
-def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Angles (rad) between unit quaternions ``a`` and ``b`` ``(..., 4)``."""
-    d = np.abs(np.sum(a * b, axis=-1))
-    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
 
 
 def find_glitches(motion: Motion, scale: float = 1.0) -> Glitches:
@@ -74,10 +71,11 @@ def find_glitches(motion: Motion, scale: float = 1.0) -> Glitches:
     if F < 3 or dt <= 0:
         return Glitches(np.zeros(F, dtype=bool), [], 0.0, dt)
     # the body's centroid: a static node above the pelvis (joint_Root) never moves itself
-    p = forward_kinematics(motion).positions.mean(axis=1) * float(scale)  # (F, 3) m
-    q = motion.rotations                                                  # (F, J, 4)
+    P = forward_kinematics(motion).positions * float(scale)               # (F, J, 3) m
+    p = P.mean(axis=1)                                                    # (F, 3)
+    r = P - p[:, None]                                                    # (F, J, 3)
     step = np.linalg.norm(np.diff(p, axis=0), axis=1)                     # (F-1,) m
-    turn = _turn(q[1:], q[:-1]).max(axis=1)                               # (F-1,) rad
+    turn = np.linalg.norm(np.diff(r, axis=0), axis=2).max(axis=1)         # (F-1,) m
     bad = (step > ROOT_SPEED_LIMIT * dt) | (turn > JOINT_SPEED_LIMIT * dt)
     frames = np.zeros(F, dtype=bool)
     if bad.any():
@@ -88,7 +86,7 @@ def find_glitches(motion: Motion, scale: float = 1.0) -> Glitches:
         def continues(a: int, b: int) -> bool:
             gap = abs(b - a) * dt
             return bool(np.linalg.norm(p[b] - p[a]) <= ROOT_SPEED_LIMIT * gap
-                        and _turn(q[b], q[a]).max() <= JOINT_SPEED_LIMIT * gap)
+                        and np.linalg.norm(r[b] - r[a], axis=1).max() <= JOINT_SPEED_LIMIT * gap)
 
         last = segs[best][1] - 1
         for a, b in segs[best + 1:]:
