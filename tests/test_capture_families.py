@@ -386,6 +386,10 @@ FAMILIES = {
                                   ("upperleg01.{s}", "lowerleg01.{s}", "foot.{s}", "toe1-1.{s}",
                                    "clavicle.{s}", "upperarm01.{s}", "lowerarm01.{s}",
                                    "wrist.{s}"), "L", "R"), 0.1, "z"),
+    "max_biped": (_family(("Bip01", "Bip01 Spine", "Bip01 Spine1", "Bip01 Head"),
+                          ("Bip01 {s} Thigh", "Bip01 {s} Calf", "Bip01 {s} Foot",
+                           "Bip01 {s} Toe0", "Bip01 {s} Clavicle", "Bip01 {s} UpperArm",
+                           "Bip01 {s} Forearm", "Bip01 {s} Hand"), "L", "R"), 0.0254, "z"),
     "blender_rigify": (_family(("pelvis", "spine", "chest", "head"),
                                ("thigh.{s}", "shin.{s}", "foot.{s}", "toe.{s}", "shoulder.{s}",
                                 "upper_arm.{s}", "forearm.{s}", "hand.{s}"), "L", "R"),
@@ -411,3 +415,56 @@ def test_capture_families_convert_with_their_names_units_and_axes(family, walk):
                     ("rTorso_Clavicle", "right_clavicle"), ("torso_head", "head"),
                     ("RootJoint", "pelvis")):
         assert c.info.roles[role] == names[g], (family, role)
+
+
+def azure_kinect() -> bvh.Motion:
+    """The Azure Kinect body-tracking hierarchy (32 joints: face points, hand tips and thumbs
+    included) in its camera frame: mm, +Y pointing down, walking towards the camera (-Z)."""
+    rows = [("PELVIS", None, (0, 0, 0)), ("SPINE_NAVAL", "PELVIS", (0, -180, 0)),
+            ("SPINE_CHEST", "SPINE_NAVAL", (0, -150, 0)), ("NECK", "SPINE_CHEST", (0, -200, 0)),
+            ("HEAD", "NECK", (0, -80, 0)), ("NOSE", "HEAD", (0, 0, -100)),
+            ("EYE_LEFT", "HEAD", (30, -30, -80)), ("EAR_LEFT", "HEAD", (70, -20, 0)),
+            ("EYE_RIGHT", "HEAD", (-30, -30, -80)), ("EAR_RIGHT", "HEAD", (-70, -20, 0))]
+    for s, x in (("LEFT", 1), ("RIGHT", -1)):
+        rows += [(f"CLAVICLE_{s}", "SPINE_CHEST", (30 * x, -150, 0)),
+                 (f"SHOULDER_{s}", f"CLAVICLE_{s}", (140 * x, 0, 0)),
+                 (f"ELBOW_{s}", f"SHOULDER_{s}", (280 * x, 0, 0)),
+                 (f"WRIST_{s}", f"ELBOW_{s}", (250 * x, 0, 0)),
+                 (f"HAND_{s}", f"WRIST_{s}", (80 * x, 0, 0)),
+                 (f"HANDTIP_{s}", f"HAND_{s}", (60 * x, 0, 0)),
+                 (f"THUMB_{s}", f"WRIST_{s}", (40 * x, 0, -50)),
+                 (f"HIP_{s}", "PELVIS", (90 * x, 0, 0)), (f"KNEE_{s}", f"HIP_{s}", (0, 420, 0)),
+                 (f"ANKLE_{s}", f"KNEE_{s}", (0, 400, 0)),
+                 (f"FOOT_{s}", f"ANKLE_{s}", (0, 60, -140))]
+    sk = _rig(rows, {})
+    m = bvh.Motion.rest(sk, 60)
+    t = np.arange(60)
+    m.local_positions[:, 0] = [0.0, -900.0, 2500.0]
+    m.local_positions[:, 0, 2] -= 10.0 * t
+    for i, s in enumerate(("LEFT", "RIGHT")):
+        hip = 0.3 * np.sin(2 * np.pi * t / 30 + np.pi * i)
+        knee = 0.4 * (1 + np.sin(2 * np.pi * t / 30 + np.pi * i))
+        m.rotations[:, sk.index(f"HIP_{s}")] = quat_from_rotvec(hip[:, None] * [1.0, 0, 0])
+        m.rotations[:, sk.index(f"KNEE_{s}")] = quat_from_rotvec(knee[:, None] * [1.0, 0, 0])
+    return m
+
+
+def test_azure_kinect_export_stands_up(tmp_path):
+    """The whole Azure Kinect skeleton in its camera frame (+Y down, mm): up is -y, the unit mm,
+    every role by name (face points under the head, hand tips and thumbs under the wrists),
+    a 1.69 m body standing on the floor."""
+    path = tmp_path / "kinect.bvh"
+    bvh.save(azure_kinect(), path)
+    c = convert(str(path))
+    assert c.info.up_axis == "-y" and c.summary["unit_name"] == "mm"
+    assert c.summary["height_m"] == pytest.approx(1.685, abs=0.01)
+    roles = c.info.roles
+    assert roles["left_knee"] == "KNEE_LEFT" and roles["right_elbow"] == "ELBOW_RIGHT"
+    assert roles["left_toe"] == "FOOT_LEFT" and roles["head"] == "HEAD"
+    assert roles["left_shoulder"] == "SHOULDER_LEFT" and roles["pelvis"] == "PELVIS"
+    assert not c.warnings
+    model = c.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    head = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "HEAD")
+    assert data.xpos[head, 2] > 1.3  # standing, head up
