@@ -17,10 +17,15 @@ conditioned kinematically first, in the file's own units and axes (the model's `
    is the median height of the lowest foot joint over the frames where a foot is slow.
 3. **Feet on the floor**: the whole clip is shifted so the floor is at height 0 (the height
    offset), and each frame with a foot in contact by what puts that foot's lowest point on the
-   floor (penetration and float), frames without contact interpolated between them.
+   floor (penetration and float), frames without contact interpolated between them; left as
+   it is when that is under :data:`FLOAT_MIN_M` on average.
 4. **Foot skating**: while a foot is in contact, the root is shifted horizontally so that foot
-   stays where it landed (both feet in contact: the mean of their corrections); between
-   contacts the shift is held, so the body travels by its steps.
+   (its toe joint, which stays put while the ankle rolls over it; else its ankle) stays where
+   it landed (both feet in contact: the mean of their corrections); between contacts the shift
+   is held, so the body travels by its steps (a new anchor is taken where the shift stands,
+   so the shift has no steps). Contact labels are first cleared of one-frame flickers (the
+   majority of each frame and its neighbours). Left as it is when the standing feet slide
+   slower than :data:`SKATE_MIN_MPS` on average (capture noise; a clean walk is not touched).
 
 The model's own grounding (:class:`~mjchar.bvh.reference.reference_motion.ReferenceMotion`,
 ``floor="contact"``) still puts the model's foot boxes on the floor afterwards. Trackers take
@@ -47,8 +52,16 @@ MAX_REPAIR_S = 0.25
 CONTACT_HEIGHT_M = 0.05
 #: m/s: a foot slower than this horizontally (and low) is in contact
 CONTACT_SPEED_MPS = 0.3
-#: frames: the skate and float corrections are smoothed over this many frames
+#: frames: the float correction is smoothed over this many frames (the skate correction is
+#: continuous by construction)
 SMOOTH_FRAMES = 5
+#: m/s: stance feet sliding slower than this on average are left as they are: optical and
+#: inertial captures show 0.02-0.14 m/s (the shared and real clips), from noise and from the
+#: foot rolling at heel strike and toe-off; clips lifted from video slide several times more
+SKATE_MIN_MPS = 0.15
+#: m: contact feet floating or sinking less than this on average are left as they are (the
+#: shared and real clips: 0-11 mm)
+FLOAT_MIN_M = 0.015
 
 
 class ConditioningError(ReferenceMotionError):
@@ -79,9 +92,9 @@ class Conditioned:
 
     @property
     def changed(self) -> bool:
-        """Whether the clip differs from the raw one."""
-        return bool(self.repaired) or self.height_offset_m != 0.0 or self.float_m > 0.0 \
-            or self.skate_mps[0] != self.skate_mps[1]
+        """Whether the clip differs from the raw one in more than its height (which the
+        model's grounding sets anyway)."""
+        return bool(self.repaired) or self.float_m > 0.0 or self.skate_mps[0] != self.skate_mps[1]
 
     def summary(self) -> str:
         """One line: what conditioning did."""
@@ -153,7 +166,8 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     P = fk.positions * scale                                              # (F, J, 3) m
     horiz = np.eye(3) - np.outer(up, up)
     heights = np.stack([(P[:, js] @ up).min(axis=1) for js in feet], axis=1)    # (F, 2)
-    flat = [P[:, js].mean(axis=1) @ horiz for js in feet]                        # (F, 3) each
+    # where a standing foot stays: its toe (the ankle rolls forward over it), else its ankle
+    flat = [P[:, js[-1]] @ horiz for js in feet]                                 # (F, 3) each
     speed = np.stack([np.linalg.norm(np.gradient(f, dt, axis=0), axis=1) for f in flat], axis=1)
     slow = speed < CONTACT_SPEED_MPS
     low = heights.min(axis=1)
@@ -164,6 +178,10 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     # (a clip that walks in place slides its standing foot back at the walking speed)
     other_near, other_speed = near[:, ::-1], speed[:, ::-1]
     contacts = near & (slow | ~other_near | (speed < other_speed))
+    # one-frame flickers removed: a label is the majority of its frame and its neighbours
+    c = contacts.astype(int)
+    pad = np.concatenate([c[:1], c, c[-1:]])
+    contacts = (pad[:-2] + pad[1:-1] + pad[2:]) >= 2
 
     # 3. feet on the floor: the height offset, then each contact frame's float or penetration
     offset = -floor
@@ -177,6 +195,9 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
         dz = _smooth(dz, SMOOTH_FRAMES)
     else:
         dz = np.zeros(m.n_frames)
+    float_m = float(np.abs(dz[have]).mean()) if have.any() else 0.0
+    if float_m < FLOAT_MIN_M:
+        dz, float_m = np.zeros(m.n_frames), 0.0
 
     # 4. foot skating: the root follows the feet that stand
     d = np.zeros((m.n_frames, 3))
@@ -192,16 +213,16 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
                 anchors[s] = flat[s][t] + prev
             targets.append(anchors[s] - flat[s][t])
         d[t] = np.mean(targets, axis=0) if targets else prev
-    d = _smooth(d, SMOOTH_FRAMES)
+    on = contacts
+    before_mps = float(speed[on].mean()) if on.any() else 0.0
+    if before_mps < SKATE_MIN_MPS:
+        d = np.zeros_like(d)
 
     shift = (d + (offset + dz)[:, None] * up) / scale                    # (F, 3) file units
     m.local_positions[:, 0] += shift
     after = [f + d for f in flat]
     skate_after = np.stack([np.linalg.norm(np.gradient(f, dt, axis=0), axis=1)
                             for f in after], axis=1)
-    on = contacts
-    before_mps = float(speed[on].mean()) if on.any() else 0.0
     after_mps = float(skate_after[on].mean()) if on.any() else 0.0
-    float_m = float(np.abs(dz[have]).mean()) if have.any() else 0.0
     return Conditioned(m, glitches, repaired, contacts, float(offset), float_m,
                        (before_mps, after_mps))
