@@ -468,3 +468,34 @@ def test_azure_kinect_export_stands_up(tmp_path):
     mujoco.mj_forward(model, data)
     head = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "HEAD")
     assert data.xpos[head, 2] > 1.3  # standing, head up
+
+
+def dinosaur() -> bvh.Motion:
+    """A two-legged dinosaur with Biped names (cm, Y-up, facing +Z): legs under the pelvis, a
+    level trunk and neck ahead, a tail behind, small arms."""
+    rows = [("Bip01", None, (0, 100, 0)), ("Bip01 Spine", "Bip01", (0, 5, 30)),
+            ("Bip01 Spine1", "Bip01 Spine", (0, 5, 30)),
+            ("Bip01 Neck", "Bip01 Spine1", (0, 15, 25)), ("Bip01 Head", "Bip01 Neck", (0, 10, 25)),
+            ("Bip01 Tail", "Bip01", (0, 0, -40)), ("Bip01 Tail1", "Bip01 Tail", (0, -5, -40))]
+    for s, x in (("L", 1.0), ("R", -1.0)):
+        rows += [(f"Bip01 {s} Thigh", "Bip01", (12 * x, -5, 0)),
+                 (f"Bip01 {s} Calf", f"Bip01 {s} Thigh", (0, -45, 5)),
+                 (f"Bip01 {s} Foot", f"Bip01 {s} Calf", (0, -45, -5)),
+                 (f"Bip01 {s} Toe0", f"Bip01 {s} Foot", (0, -5, 12)),
+                 (f"Bip01 {s} Clavicle", "Bip01 Spine1", (8 * x, 0, 5)),
+                 (f"Bip01 {s} UpperArm", f"Bip01 {s} Clavicle", (4 * x, -8, 3)),
+                 (f"Bip01 {s} Forearm", f"Bip01 {s} UpperArm", (0, -10, 4)),
+                 (f"Bip01 {s} Hand", f"Bip01 {s} Forearm", (0, -5, 3))]
+    sk = _rig(rows, {"Bip01 Head": (0, 0, 20), "Bip01 Tail1": (0, 0, -30)}
+              | {f"Bip01 {s} Toe0": (0, 0, 5) for s in "LR"})
+    return _moving(sk, ["Bip01 L Thigh", "Bip01 R Thigh"])
+
+
+def test_a_two_legged_animal_is_not_a_humanoid(tmp_path, capsys):
+    from mjchar.cli import main as cli_main
+
+    path = tmp_path / "dino.bvh"
+    bvh.save(dinosaur(), path)
+    assert cli_main(["convert", str(path), "-o", str(tmp_path / "x.xml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a humanoid" in err[0] and "from upright" in err[0], err

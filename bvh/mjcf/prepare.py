@@ -258,7 +258,9 @@ def _check_trunk(sk: Skeleton, rec: Recognition, up: np.ndarray, clip: Clip | No
         down = np.mean([P[0, a] - P[0, h] for h, _, a in legs], axis=0)
         if float(down @ -up) < 0.7 * max(float(np.linalg.norm(down)), 1e-12):
             return  # a rest pose that is no standing figure says nothing
-    problem = anatomy.trunk_problem(P, legs, sk.index(pelvis), tops)
+    problem = anatomy.trunk_problem(P, legs, sk.index(pelvis), tops) or anatomy.upright_problem(
+        sk.rest_positions(), None if clip is None else clip.positions, legs, sk.index(pelvis),
+        tops, up)
     if problem:
         raise ConversionError(f"not a humanoid: {problem}; mjchar builds bipeds only")
 

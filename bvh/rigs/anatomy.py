@@ -18,6 +18,12 @@ file: no roles file makes a crab walk). Two tests, each on what gravity saw:
    (within :data:`TRUNK_DEG` of opposite, on the median frame). A hand whose fingers were taken
    for legs has its "trunk" along them.
 
+3. **An upright trunk** (:func:`upright_problem`): in a rest pose whose legs hang down (within
+   :data:`LEGS_DOWN_DEG` of down), the trunk stands within :data:`UPRIGHT_DEG` of up; a rest
+   pose that is no standing figure (bones along local axes) leaves it to the clip, whose median
+   frame must have it within :data:`CLIP_UPRIGHT_DEG`. A bird, a dinosaur or a quadruped on its
+   hind legs carries its trunk level; a human is upright at rest however it moves in the clip.
+
 Legs missing altogether (no knee names, no mirror pair of limb chains) is said as "not a
 humanoid: no legs" by the caller.
 """
@@ -39,6 +45,12 @@ LIMB_REACH = 0.2
 FLAT_REST = 0.35
 #: degrees: the trunk (pelvis to head) points within this of the legs' opposite
 TRUNK_DEG = 110.0
+#: degrees: a rest pose whose hips-to-ankles direction is this close to down is a standing one
+LEGS_DOWN_DEG = 45.0
+#: degrees: the trunk of a standing rest pose is within this of up
+UPRIGHT_DEG = 45.0
+#: degrees: without a standing rest pose, the trunk of the clip's median frame is within this
+CLIP_UPRIGHT_DEG = 60.0
 
 
 def _points(sk: Skeleton, positions: np.ndarray | None) -> np.ndarray:
@@ -92,3 +104,36 @@ def trunk_problem(P: np.ndarray, legs: list[tuple[int, int, int]], pelvis: int,
         return None
     return (f"the trunk does not stand above the legs (pelvis to head {angle:.0f} deg from the "
             f"legs' direction, a biped's is near 180)")
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Degrees between the vectors ``a`` and ``b`` ``(..., 3)``."""
+    n = np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1)
+    cos = np.sum(a * b, axis=-1) / np.maximum(n, 1e-300)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def upright_problem(rest: np.ndarray, positions: np.ndarray | None,
+                    legs: list[tuple[int, int, int]], pelvis: int, tops: list[int],
+                    up: np.ndarray) -> str | None:
+    """Why the trunk is not upright (module docstring, test 3), or ``None``.
+
+    ``rest`` ``(J, 3)`` the rest pose's joint positions; ``positions`` ``(F, J, 3)`` the clip's
+    (or ``None``); ``legs`` ``[(hip, knee, ankle), ...]``; ``tops``: head and clavicles or
+    shoulders; ``up`` ``(3,)``."""
+    if not tops:
+        return None
+    up = np.asarray(up, dtype=float)
+    leg = np.mean([rest[a] - rest[h] for h, _, a in legs], axis=0)
+    if np.linalg.norm(leg) > 0 and _angle(leg, -up) <= LEGS_DOWN_DEG:
+        tilt = float(_angle(rest[tops].mean(axis=0) - rest[pelvis], up))
+        if tilt > UPRIGHT_DEG:
+            return (f"its trunk lies {tilt:.0f} deg from upright in the rest pose, where its "
+                    "legs stand (a bird, a dinosaur or a quadruped on its hind legs)")
+        return None
+    if positions is None:
+        return None
+    tilt = float(np.median(_angle(positions[:, tops].mean(axis=1) - positions[:, pelvis], up)))
+    if tilt > CLIP_UPRIGHT_DEG:
+        return f"its trunk lies {tilt:.0f} deg from upright over the clip"
+    return None
