@@ -499,3 +499,8 @@ def test_a_two_legged_animal_is_not_a_humanoid(tmp_path, capsys):
     assert cli_main(["convert", str(path), "-o", str(tmp_path / "x.xml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a humanoid" in err[0] and "from upright" in err[0], err
+
+
+def test_a_wrong_up_axis_given_is_named_in_the_refusal():
+    with pytest.raises(bvh.MjcharError, match="with --up -z: if that is not the file's up"):
+        convert(azure_kinect(), up_axis="-z")

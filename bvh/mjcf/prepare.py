@@ -142,8 +142,14 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     up = up_axis or _up_from_legs(sk, rec, clip) or guess_up_axis(sk)
     rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
     if not roles:
-        _check_biped(sk, AXIS_VECTORS[up], clip)
-        _check_trunk(sk, rec, AXIS_VECTORS[up], clip)
+        try:
+            _check_biped(sk, AXIS_VECTORS[up], clip)
+            _check_trunk(sk, rec, AXIS_VECTORS[up], clip)
+        except ConversionError as e:
+            if up_axis is None:
+                raise
+            raise ConversionError(f"{e} (with --up {up_axis}: if that is not the file's up "
+                                  "axis, give another or leave it out)") from None
     missing = [r for r in ESSENTIAL_ROLES if r not in rec.roles]
     if missing:
         legs = [r for r in missing if r != "pelvis"]
