@@ -13,15 +13,18 @@
 3. **finds the up axis and the roles**: up is the file axis along the legs (hips above ankles)
    over the clip (the rest pose without one; the clip wins because it is what gravity saw), the
    roles from names, else from the skeleton's geometry and the clip's motion
-   (:func:`mjchar.bvh.rigs.naming.recognise`), with the user's role map; the essential ones
-   (pelvis, hips, knees, ankles) are checked: one :class:`ConversionError` that lists what is
-   missing and shows how to map it;
+   (:func:`mjchar.bvh.rigs.naming.recognise`), with the user's role map; without one, a
+   skeleton that is not a two-legged humanoid (three or more limbs on the floor, a trunk not
+   above the legs or not upright: :mod:`mjchar.bvh.rigs.anatomy`) is refused in one line; the
+   essential roles (pelvis, hips, knees, ankles) are checked: one :class:`ConversionError`
+   that lists what is missing and shows how to map it (no legs at all: "not a humanoid");
 4. **gives the skeleton its canonical rest** (:func:`mjchar.bvh.rigs.canonical.canonical_rest`:
    standing, legs straight down, arms in a T-pose, the rest of the file's shape kept where it
    is a human one), built from the skeleton and its roles, not from a frame of the clip;
 5. **guesses the unit from anatomy** (unless given): the stature of the canonical rest (the
    leg bones' when it disagrees with them) snapped to a known unit, or the anatomical scale
-   when none fits (:func:`mjchar.bvh.rigs.units.unit_from_stature`).
+   when none fits (:func:`mjchar.bvh.rigs.units.unit_from_stature`); glitch frames of the clip
+   are flagged in a warning (:func:`mjchar.bvh.rigs.glitches.find_glitches`).
 
 What was done is kept in the model's metadata as ``rig``
 (:func:`mjchar.bvh.rigs.layouts.apply_record`), so
@@ -244,9 +247,10 @@ def _check_biped(sk: Skeleton, up: np.ndarray, clip: Clip | None) -> None:
 
 
 def _check_trunk(sk: Skeleton, rec: Recognition, up: np.ndarray, clip: Clip | None) -> None:
-    """Refuse legs whose trunk does not stand above them (a hand's fingers taken for legs):
+    """Refuse legs whose trunk does not stand above them (a hand's fingers taken for legs:
     :func:`mjchar.bvh.rigs.anatomy.trunk_problem`, over the clip, or on a rest pose whose legs
-    point down."""
+    point down) or is not upright (a two-legged animal:
+    :func:`mjchar.bvh.rigs.anatomy.upright_problem`)."""
     legs = []
     for s in ("left", "right"):
         hk = [rec.roles.get(f"{s}_{r}") for r in ("hip", "knee", "ankle")]
