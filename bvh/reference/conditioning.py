@@ -11,21 +11,23 @@ conditioned kinematically first, in the file's own units and axes (the model's `
    position linear, every joint's rotation slerped; at a clip end the nearest good frame is
    held); a longer run is refused in one line (:class:`ConditioningError`).
 2. **Contact labels** per frame and foot: the foot's lowest joint (ankle or toe) within
-   :data:`CONTACT_HEIGHT_M` of the clip's floor, and either slower than
-   :data:`CONTACT_SPEED_MPS` horizontally, or the only foot that low, or the slower of two
-   (a clip that walks in place slides its standing foot back at the walking speed). The floor
-   is the median height of the lowest foot joint over the frames where a foot is slow.
+   :data:`CONTACT_HEIGHT_M` of the clip's floor, neither rising nor dropping faster than
+   :data:`CONTACT_RISE_MPS`, and either slower than :data:`CONTACT_SPEED_MPS` horizontally
+   (its slowest joint), or the only foot that low, or the slower of two (a clip that walks in
+   place slides its standing foot back at the walking speed); one-frame flickers cleared. The
+   floor is the median height of the lowest foot joint over the frames where a foot is slow.
 3. **Feet on the floor**: the whole clip is shifted so the floor is at height 0 (the height
    offset), and each frame with a foot in contact by what puts that foot's lowest point on the
    floor (penetration and float), frames without contact interpolated between them; left as
    it is when that is under :data:`FLOAT_MIN_M` on average.
-4. **Foot skating**: while a foot is in contact, the root is shifted horizontally so that foot
-   (its toe joint, which stays put while the ankle rolls over it; else its ankle) stays where
-   it landed (both feet in contact: the mean of their corrections); between contacts the shift
-   is held, so the body travels by its steps (a new anchor is taken where the shift stands,
-   so the shift has no steps). Contact labels are first cleared of one-frame flickers (the
-   majority of each frame and its neighbours). Left as it is when the standing feet slide
-   slower than :data:`SKATE_MIN_MPS` on average (capture noise; a clean walk is not touched).
+4. **Foot skating**: a pivot of a foot in contact (its ankle or its toe) stands while it is at
+   its own standing height (within :data:`PIVOT_BAND_M`): the heel while the foot lands, both
+   when it is flat, the toe while it pushes off, so a rolling foot is no skating. The root is
+   shifted horizontally so that every standing pivot stays where it began to stand (several:
+   the mean of their corrections); between contacts the shift is held, so the body travels by
+   its steps (a new anchor is taken where the shift stands, so the shift has no steps). Left
+   as it is when the standing pivots slide slower than :data:`SKATE_MIN_MPS` (median: capture
+   noise; clean captures are not touched).
 
 The model's own grounding (:class:`~mjchar.bvh.reference.reference_motion.ReferenceMotion`,
 ``floor="contact"``) still puts the model's foot boxes on the floor afterwards. Trackers take
@@ -52,16 +54,20 @@ MAX_REPAIR_S = 0.25
 CONTACT_HEIGHT_M = 0.05
 #: m/s: a foot slower than this horizontally (and low) is in contact
 CONTACT_SPEED_MPS = 0.3
+#: m/s: a foot rising or dropping faster than this (lifting off, landing) is not in contact
+CONTACT_RISE_MPS = 0.25
 #: frames: the float correction is smoothed over this many frames (the skate correction is
 #: continuous by construction)
 SMOOTH_FRAMES = 5
-#: m/s: stance feet sliding slower than this on average are left as they are: optical and
-#: inertial captures show 0.02-0.14 m/s (the shared and real clips), from noise and from the
-#: foot rolling at heel strike and toe-off; clips lifted from video slide several times more
-SKATE_MIN_MPS = 0.15
+#: m: a pivot of a foot in contact (ankle or toe) stands within this of its standing height
+PIVOT_BAND_M = 0.02
+#: m/s: standing pivots sliding slower than this (median) are left as they are: optical and
+#: inertial captures show 0.003-0.1 m/s (the shared and real clips); cmu_daz_02_03, whose
+#: header frame time is 3x too long, 0.17; a clip that walks in place slides at its speed
+SKATE_MIN_MPS = 0.25
 #: m: contact feet floating or sinking less than this on average are left as they are (the
-#: shared and real clips: 0-11 mm)
-FLOAT_MIN_M = 0.015
+#: shared and real clips: 0-17 mm); the model's grounding handles the rest
+FLOAT_MIN_M = 0.02
 
 
 class ConditioningError(ReferenceMotionError):
@@ -166,9 +172,12 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     P = fk.positions * scale                                              # (F, J, 3) m
     horiz = np.eye(3) - np.outer(up, up)
     heights = np.stack([(P[:, js] @ up).min(axis=1) for js in feet], axis=1)    # (F, 2)
-    # where a standing foot stays: its toe (the ankle rolls forward over it), else its ankle
-    flat = [P[:, js[-1]] @ horiz for js in feet]                                 # (F, 3) each
-    speed = np.stack([np.linalg.norm(np.gradient(f, dt, axis=0), axis=1) for f in flat], axis=1)
+    # each foot's pivots (ankle, toe): (F, 3) horizontal positions, (F,) heights and speeds
+    piv = [[P[:, j] @ horiz for j in js] for js in feet]
+    piv_h = [[P[:, j] @ up for j in js] for js in feet]
+    piv_v = [[np.linalg.norm(np.gradient(x, dt, axis=0), axis=1) for x in side] for side in piv]
+    # a foot is as slow as its slowest pivot (the heel while it lands, the toe while it pushes)
+    speed = np.stack([np.min(side, axis=0) for side in piv_v], axis=1)           # (F, 2)
     slow = speed < CONTACT_SPEED_MPS
     low = heights.min(axis=1)
     floor = float(np.median(heights[slow])) if slow.any() else float(low.min())
@@ -176,8 +185,10 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     near = heights - floor < CONTACT_HEIGHT_M                                     # (F, 2)
     # a low foot stands when it is slow, or the only low one, or the slower of two low ones
     # (a clip that walks in place slides its standing foot back at the walking speed)
+    # and a foot that rises or drops (lifting off, landing) is not standing
+    rise = np.stack([np.abs(np.gradient(np.min(side, axis=0), dt)) for side in piv_h], axis=1)
     other_near, other_speed = near[:, ::-1], speed[:, ::-1]
-    contacts = near & (slow | ~other_near | (speed < other_speed))
+    contacts = near & (rise < CONTACT_RISE_MPS) & (slow | ~other_near | (speed < other_speed))
     # one-frame flickers removed: a label is the majority of its frame and its neighbours
     c = contacts.astype(int)
     pad = np.concatenate([c[:1], c, c[-1:]])
@@ -199,30 +210,41 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     if float_m < FLOAT_MIN_M:
         dz, float_m = np.zeros(m.n_frames), 0.0
 
-    # 4. foot skating: the root follows the feet that stand
+    # 4. foot skating: the root follows the pivots that stand. A pivot (ankle or toe) of a
+    # foot in contact stands while it is at its own standing height (within PIVOT_BAND_M of
+    # its median over the contact frames): the heel while the foot lands, both when it is
+    # flat, the toe while it pushes off; a rolling foot is no skating.
+    standing = []
+    for s in range(2):
+        rows = []
+        for h in piv_h[s]:
+            base = float(np.median(h[contacts[:, s]])) if contacts[:, s].any() else float(h.min())
+            rows.append(contacts[:, s] & (h - base < PIVOT_BAND_M))
+        standing.append(rows)
+    slide = [v for s in range(2) for k, v in enumerate(piv_v[s]) if standing[s][k].any()
+             for v in v[standing[s][k]]]
+    before_mps = float(np.median(slide)) if slide else 0.0
     d = np.zeros((m.n_frames, 3))
-    anchors: list[np.ndarray | None] = [None, None]
+    anchors: dict[tuple[int, int], np.ndarray] = {}
     for t in range(m.n_frames):
         prev = d[t - 1] if t else np.zeros(3)
         targets = []
         for s in range(2):
-            if not contacts[t, s]:
-                anchors[s] = None
-                continue
-            if anchors[s] is None:
-                anchors[s] = flat[s][t] + prev
-            targets.append(anchors[s] - flat[s][t])
+            for k, x in enumerate(piv[s]):
+                if not standing[s][k][t]:
+                    anchors.pop((s, k), None)
+                    continue
+                if (s, k) not in anchors:
+                    anchors[(s, k)] = x[t] + prev
+                targets.append(anchors[(s, k)] - x[t])
         d[t] = np.mean(targets, axis=0) if targets else prev
-    on = contacts
-    before_mps = float(speed[on].mean()) if on.any() else 0.0
     if before_mps < SKATE_MIN_MPS:
         d = np.zeros_like(d)
 
     shift = (d + (offset + dz)[:, None] * up) / scale                    # (F, 3) file units
     m.local_positions[:, 0] += shift
-    after = [f + d for f in flat]
-    skate_after = np.stack([np.linalg.norm(np.gradient(f, dt, axis=0), axis=1)
-                            for f in after], axis=1)
-    after_mps = float(skate_after[on].mean()) if on.any() else 0.0
+    after = [np.linalg.norm(np.gradient(x + d, dt, axis=0), axis=1)[standing[s][k]]
+             for s in range(2) for k, x in enumerate(piv[s])]
+    after_mps = float(np.median(np.concatenate(after))) if slide else 0.0
     return Conditioned(m, glitches, repaired, contacts, float(offset), float_m,
                        (before_mps, after_mps))
