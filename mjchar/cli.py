@@ -65,7 +65,23 @@ def one_line(message: str, limit: int = MAX_MESSAGE) -> str:
     return text
 
 
+def _signed_axes(argv: list[str]) -> list[str]:
+    """``--up -y`` as ``--up=-y``: argparse would read a value that starts with ``-`` as an
+    option."""
+    out: list[str] = []
+    for a in argv:
+        if out and out[-1] == "--up" and a in ("-x", "-y", "-z"):
+            out[-1] = f"--up={a}"
+        else:
+            out.append(a)
+    return out
+
+
 class _Parser(argparse.ArgumentParser):
+    def parse_known_args(self, args=None, namespace=None):
+        args = _signed_axes(sys.argv[1:] if args is None else list(args))
+        return super().parse_known_args(args, namespace)
+
     def error(self, message: str):  # one line, exit status 2 (argparse's own convention)
         self.exit(2, f"{self.prog}: error: {message}\n")
 

@@ -501,17 +501,18 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
 
 def test_cli_prints_the_unit_and_height_and_warns_outside_the_human_range(tmp_path, capsys):
     sk = humanoid_skeleton()
-    src = tmp_path / "dm.bvh"  # decimetres: no known unit makes it a human
-    bvh.save(bvh.Motion.rest(Skeleton(sk.names, sk.parents, sk.offsets * 10, sk.channels,
-                                      sk.end_site_parents, sk.end_site_offsets * 10), 2), src)
+    src = tmp_path / "odd.bvh"  # 8.5 units tall: no known unit makes it a human
+    k = 8.5 / 1.633
+    bvh.save(bvh.Motion.rest(Skeleton(sk.names, sk.parents, sk.offsets * k, sk.channels,
+                                      sk.end_site_parents, sk.end_site_offsets * k), 2), src)
     assert cli_main(["convert", str(src), "-o", str(tmp_path / "a.xml")]) == 0
     cap = capsys.readouterr()
-    assert "unit: 0.1" in cap.out and "no known unit fits" in cap.out
+    assert "unit: 0.2" in cap.out and "no known unit fits" in cap.out
     height = float(cap.out.split("; height ")[1].split(" m")[0])
     assert 1.6 < height < 1.9 and cap.err == ""
     assert cli_main(["convert", str(src), "-o", str(tmp_path / "b.xml"), "--unit", "in"]) == 0
     cap = capsys.readouterr()
-    assert "unit: 0.0254 m per file unit (in, given); height 0.4" in cap.out
+    assert "unit: 0.0254 m per file unit (in, given); height 0.2" in cap.out
     err = cap.err.strip().splitlines()
     assert len(err) == 1 and "outside 1.0-2.3 m" in err[0] and "--unit" in err[0]
     assert "outside" not in cap.out  # said once, on stderr

@@ -147,7 +147,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
         unit: metres per file unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``, ``"cmu"``
             (the CMU ASF unit, 1/0.45 inch) or a number; guessed from the body's size when
             ``None`` (:func:`mjchar.bvh.rigs.units.unit_from_stature`).
-        up_axis: ``"x"``, ``"y"`` or ``"z"`` of the file; guessed when ``None``.
+        up_axis: ``"x"``, ``"y"`` or ``"z"`` of the file, ``"-y"`` etc. when it points down;
+            guessed when ``None``.
         drop: joints to remove with their whole subtree. ``None`` = the defaults (hand joints
             below the wrists, ``*_End``/``Nub`` leaf markers); the word ``"default"`` in the list
             adds the defaults; ``[]`` drops nothing.
@@ -255,8 +256,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     lo, hi = HEIGHT_RANGE_M
     if not lo <= height <= hi:
         height_warning = (f"the body is {height:.2f} m tall, outside {lo:.1f}-{hi:.1f} m: if the "
-                          f"unit is wrong ({unit_text}), give it with --unit (m, cm, mm, in, ft, "
-                          "cmu or metres per unit)")
+                          f"unit is wrong ({unit_text}), give it with --unit (m, dm, cm, mm, in, "
+                          "ft, cmu or metres per unit)")
         warns.append(height_warning)
     summary = {
         "unit": unit_text,
@@ -320,7 +321,7 @@ def _check_options(total_mass, joint_model, unit, up_axis, timestep) -> dict:
     if up_axis is not None:
         up_axis = str(up_axis).lower()
         if up_axis not in AXIS_VECTORS:
-            raise ConversionError(f"up axis must be x, y or z, got {up_axis!r}")
+            raise ConversionError(f"up axis must be x, y, z, -x, -y or -z, got {up_axis!r}")
     if timestep is None:
         timestep = T.TIMESTEP
     timestep = float(timestep)

@@ -121,12 +121,34 @@ def _snap_axis(a: np.ndarray) -> tuple[str, float, np.ndarray]:
     return "xyz"[i], float(np.sign(a[i])), a
 
 
-def _flexion_from_clip(b: _Body, rotvec: np.ndarray) -> tuple[str, float, np.ndarray] | None:
+def _distal_bone(b: _Body, bodies: dict[int, _Body]) -> np.ndarray | None:
+    """``(3,)`` unit vector along the bone below a knee or an elbow at rest (MuJoCo axes), or
+    ``None`` when it has no length."""
+    kids = [bodies[c].pos for c in b.children]
+    ends = [g.b for g in b.geoms if g.kind == "capsule"]
+    tip = kids[0] if kids else (ends[0] if ends else None)
+    if tip is None or np.linalg.norm(tip - b.pos) < 1e-9:
+        return None
+    return (tip - b.pos) / np.linalg.norm(tip - b.pos)
+
+
+def _flexion_from_clip(b: _Body, rotvec: np.ndarray,
+                       bone: np.ndarray | None = None) -> tuple[str, float, np.ndarray] | None:
     """(nearest world axis, sign, exact unit axis) of a knee's or elbow's flexion hinge from
     how it turns in the clip: ``rotvec`` ``(F, 3)`` are its local rotations (relative to its
-    parent body, MuJoCo axes) as rotation vectors. The axis is the principal direction of the
-    rotation vectors, signed so that the clip's mean angle about it is positive (a knee or an
-    elbow bends one way: that way is flexion). ``None`` when it hardly turns."""
+    parent body, MuJoCo axes) as rotation vectors; ``bone`` ``(3,)`` the distal bone's rest
+    direction. The axis is fitted on the flexion, not the twist: each frame's rotation is
+    reduced to its swing, the least rotation taking the bone where the frame puts it (a knee
+    that twists while it bends moves its shank only by the swing), and the axis is the principal
+    direction of the swing vectors (angle-weighted), signed so that the clip's mean angle about
+    it is positive (a knee or an elbow bends one way: that way is flexion). Without a bone the
+    whole rotation vectors are used. ``None`` when it hardly turns."""
+    if bone is not None:
+        moved = Rotation.from_rotvec(rotvec).apply(bone)
+        axis = np.cross(bone, moved)
+        s = np.linalg.norm(axis, axis=1, keepdims=True)
+        angle = np.arctan2(s, (moved @ bone)[:, None])
+        rotvec = np.where(s > 1e-12, axis / np.maximum(s, 1e-300) * angle, 0.0)
     ang = np.linalg.norm(rotvec, axis=1)
     if len(rotvec) < 2 or np.degrees(ang.max()) < MIN_FLEXION_DEG:
         return None
@@ -184,7 +206,8 @@ def _joints(sk: Skeleton, bodies: dict[int, _Body], joint_model: str, motion: Mo
             found = None
             if fk is not None:
                 local = quat_mul(quat_conj(fk.orientations[:, b.parent]), fk.orientations[:, j])
-                found = _flexion_from_clip(b, quat_to_rotvec(local) @ B.T)
+                found = _flexion_from_clip(b, quat_to_rotvec(local) @ B.T,
+                                           _distal_bone(b, bodies))
             found = found or _flexion_from_rest(b, bodies)
             if found is not None:
                 axis, sign, vec = found

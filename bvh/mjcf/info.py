@@ -60,7 +60,8 @@ class ModelInfo:
     Attributes:
         joint_model: ``"hinge"``, ``"full"`` or ``"ball"``.
         unit_scale: metres per BVH unit.
-        up_axis: up axis of the source BVH (``"x"``, ``"y"`` or ``"z"``).
+        up_axis: up axis of the source BVH (``"x"``, ``"y"`` or ``"z"``; ``"-y"`` etc. when it
+            points down).
         basis: ``(4,)`` wxyz quaternion taking BVH world axes to MuJoCo world axes.
         offset: ``(3,)`` metres added after scaling and rotating, so that a BVH point ``p`` at rest
             is at ``unit_scale * R(basis) p + offset`` in the model's reference pose (feet on the

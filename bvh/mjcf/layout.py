@@ -77,11 +77,11 @@ class _Body:
 def _basis_matrix(rec: Recognition, up: str) -> np.ndarray:
     """Rows: the file's forward, left and up unit vectors (so ``B @ v`` is in MuJoCo axes)."""
     u = AXIS_VECTORS[up]
-    cands = [s * AXIS_VECTORS[a] for a in "xyz" if a != up for s in (1.0, -1.0)]
+    cands = [s * AXIS_VECTORS[a] for a in "xyz" if a != up[-1] for s in (1.0, -1.0)]
     if rec.left_axis is not None:
         left = max(cands, key=lambda c: float(c @ rec.left_axis))
     else:
-        left = AXIS_VECTORS["x"] if up != "x" else AXIS_VECTORS["y"]
+        left = AXIS_VECTORS["x"] if up[-1] != "x" else AXIS_VECTORS["y"]
     fwd = np.cross(left, u)
     return np.stack([fwd, left, u])
 

@@ -13,15 +13,18 @@
 3. **finds the up axis and the roles**: up is the file axis along the legs (hips above ankles)
    over the clip (the rest pose without one; the clip wins because it is what gravity saw), the
    roles from names, else from the skeleton's geometry and the clip's motion
-   (:func:`mjchar.bvh.rigs.naming.recognise`), with the user's role map; the essential ones
-   (pelvis, hips, knees, ankles) are checked: one :class:`ConversionError` that lists what is
-   missing and shows how to map it;
+   (:func:`mjchar.bvh.rigs.naming.recognise`), with the user's role map; without one, a
+   skeleton that is not a two-legged humanoid (three or more limbs on the floor, a trunk not
+   above the legs or not upright: :mod:`mjchar.bvh.rigs.anatomy`) is refused in one line; the
+   essential roles (pelvis, hips, knees, ankles) are checked: one :class:`ConversionError`
+   that lists what is missing and shows how to map it (no legs at all: "not a humanoid");
 4. **gives the skeleton its canonical rest** (:func:`mjchar.bvh.rigs.canonical.canonical_rest`:
    standing, legs straight down, arms in a T-pose, the rest of the file's shape kept where it
    is a human one), built from the skeleton and its roles, not from a frame of the clip;
 5. **guesses the unit from anatomy** (unless given): the stature of the canonical rest (the
    leg bones' when it disagrees with them) snapped to a known unit, or the anatomical scale
-   when none fits (:func:`mjchar.bvh.rigs.units.unit_from_stature`).
+   when none fits (:func:`mjchar.bvh.rigs.units.unit_from_stature`); glitch frames of the clip
+   are flagged in a warning (:func:`mjchar.bvh.rigs.glitches.find_glitches`).
 
 What was done is kept in the model's metadata as ``rig``
 (:func:`mjchar.bvh.rigs.layouts.apply_record`), so
@@ -39,8 +42,9 @@ from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf.info import ConversionError
 from mjchar.bvh.mjcf.roles import ESSENTIAL_ROLES, check_roles, missing_roles_error
-from mjchar.bvh.rigs import structure
+from mjchar.bvh.rigs import anatomy, structure
 from mjchar.bvh.rigs.canonical import CanonicalRest, canonical_rest
+from mjchar.bvh.rigs.glitches import find_glitches
 from mjchar.bvh.rigs.layouts import (
     bones_from_channels,
     fold_record,
@@ -52,6 +56,7 @@ from mjchar.bvh.rigs.naming import Clip, Recognition, recognise
 from mjchar.bvh.rigs.units import (
     AXIS_VECTORS,
     UnitGuess,
+    axis_index,
     guess_up_axis,
     unit_from_stature,
     unit_name,
@@ -139,6 +144,15 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     rec = recognise(sk, given_up, roles, clip)
     up = up_axis or _up_from_legs(sk, rec, clip) or guess_up_axis(sk)
     rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
+    if not roles:
+        try:
+            _check_biped(sk, AXIS_VECTORS[up], clip)
+            _check_trunk(sk, rec, AXIS_VECTORS[up], clip)
+        except ConversionError as e:
+            if up_axis is None:
+                raise
+            raise ConversionError(f"{e} (with --up {up_axis}: if that is not the file's up "
+                                  "axis, give another or leave it out)") from None
     missing = [r for r in ESSENTIAL_ROLES if r not in rec.roles]
     if missing:
         legs = [r for r in missing if r != "pelvis"]
@@ -147,7 +161,11 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
             problem = "no legs: no knee names and no two limb chains reaching the floor"
         elif problem is None and len(legs) == 3:
             problem = "one leg only"
-        raise missing_roles_error(missing, skeleton.names, rec.roles, problem)
+        err = missing_roles_error(missing, skeleton.names, rec.roles, problem)
+        if len(legs) == 6 and rec.problem is None and not roles:
+            err = ConversionError("not a humanoid: no legs (no knee names and no two limb "
+                                  "chains of thigh and shank); if it is one, " + str(err))
+        raise err
 
     # 4. the canonical rest
     can = canonical_rest(sk, rec, up, clip)
@@ -169,7 +187,7 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
         guess = unit_from_stature(stature)
         scale = guess.scale
         if guess.name is None:
-            warns.append(f"no known unit (m, cm, mm, in, ft, cmu) makes this body 1.0-2.3 m "
+            warns.append(f"no known unit (m, dm, cm, mm, in, ft, cmu) makes this body 1.0-2.3 m "
                          f"tall: the anatomical scale {scale:.6g} m per unit is used (a "
                          f"{guess.height_m:.2f} m stature); pass --unit if you know the file's")
     points = np.vstack([sk.rest_positions(), sk.rest_end_sites().reshape(-1, 3)])
@@ -177,6 +195,12 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     if span > MAX_SPAN_M:
         raise ConversionError(f"the skeleton spans {span:.3g} m at {scale:g} m per unit: not a "
                               f"body (at most {MAX_SPAN_M:g} m; check the OFFSETs or --unit)")
+    if has_motion:
+        glitches = find_glitches(work, scale)
+        if glitches:
+            warns.append(f"glitch frames: {glitches.describe()}; trackers repair short runs "
+                         "by interpolation and refuse long ones (the clip is conditioned before "
+                         "tracking)")
     noisy = {n: v * scale * 1000.0 for n, v in variation.items() if v * scale > BONE_TOLERANCE_M}
     if noisy:
         warns.append("translation channels vary (the mean is the bone): "
@@ -211,6 +235,46 @@ def _leg_joints(sk: Skeleton, rec: Recognition) -> list[tuple[int, int, int]] | 
     return out
 
 
+def _check_biped(sk: Skeleton, up: np.ndarray, clip: Clip | None) -> None:
+    """Refuse a skeleton with three or more limbs on the floor in the clip (and in its rest
+    pose, unless that says nothing): :func:`mjchar.bvh.rigs.anatomy.floor_limbs`."""
+    rest = anatomy.floor_limbs(sk, up)
+    n = anatomy.floor_limbs(sk, up, clip.positions) if clip is not None else rest
+    if n >= 3 and (clip is None or rest >= 3 or rest < 0):
+        where = "over the clip" if clip is not None else "in the rest pose"
+        raise ConversionError(f"not a humanoid: found {n} limbs reaching the floor {where} (a "
+                              "two-legged humanoid stands on two); mjchar builds bipeds only")
+
+
+def _check_trunk(sk: Skeleton, rec: Recognition, up: np.ndarray, clip: Clip | None) -> None:
+    """Refuse legs whose trunk does not stand above them (a hand's fingers taken for legs:
+    :func:`mjchar.bvh.rigs.anatomy.trunk_problem`, over the clip, or on a rest pose whose legs
+    point down) or is not upright (a two-legged animal:
+    :func:`mjchar.bvh.rigs.anatomy.upright_problem`)."""
+    legs = []
+    for s in ("left", "right"):
+        hk = [rec.roles.get(f"{s}_{r}") for r in ("hip", "knee", "ankle")]
+        if isinstance(hk[0], str) and isinstance(hk[1], str):
+            hk[2] = hk[2] if isinstance(hk[2], str) else hk[1]
+            legs.append(tuple(sk.index(n) for n in hk))
+    pelvis = rec.roles.get("pelvis")
+    tops = [sk.index(v) for r in ("head", "left_clavicle", "right_clavicle", "left_shoulder",
+                                  "right_shoulder")
+            if isinstance(v := rec.roles.get(r), str)]
+    if not legs or not isinstance(pelvis, str):
+        return
+    P = clip.positions if clip is not None else sk.rest_positions()[None]
+    if clip is None:
+        down = np.mean([P[0, a] - P[0, h] for h, _, a in legs], axis=0)
+        if float(down @ -up) < 0.7 * max(float(np.linalg.norm(down)), 1e-12):
+            return  # a rest pose that is no standing figure says nothing
+    problem = anatomy.trunk_problem(P, legs, sk.index(pelvis), tops) or anatomy.upright_problem(
+        sk.rest_positions(), None if clip is None else clip.positions, legs, sk.index(pelvis),
+        tops, up)
+    if problem:
+        raise ConversionError(f"not a humanoid: {problem}; mjchar builds bipeds only")
+
+
 def _up_from_legs(sk: Skeleton, rec: Recognition, clip: Clip | None) -> str | None:
     """The file axis along the legs (hips minus ankles) over the clip, else the rest pose."""
     legs = _leg_joints(sk, rec)
@@ -226,7 +290,7 @@ def _stature(sk: Skeleton, rec: Recognition, up: str) -> float:
     pts = sk.rest_positions()
     if sk.n_end_sites:
         pts = np.concatenate([pts, sk.rest_end_sites()])
-    i = "xyz".index(up)
+    i = axis_index(up)
     extent = float(pts[:, i].max() - pts[:, i].min())
     legs = _leg_joints(sk, rec)
     if legs is not None:

@@ -150,7 +150,7 @@ class _Geometry:
         lh, rh = self.idx("left_hip"), self.idx("right_hip")
         self.pair = (self.P[lh] - self.P[rh]) if lh is not None and rh is not None \
             else np.zeros(3)
-        cands = [s * AXIS_VECTORS[a] for a in "xyz" if a != up for s in (1.0, -1.0)]
+        cands = [s * AXIS_VECTORS[a] for a in "xyz" if a != up[-1] for s in (1.0, -1.0)]
         pair_h = self.pair - (self.pair @ U) * U
         self.L = max(cands, key=lambda c: float(c @ pair_h)) \
             if np.linalg.norm(pair_h) > 1e-9 * self.size else cands[0]

@@ -211,11 +211,13 @@ def pair_legs(pair: _Pair) -> list[tuple[int, int, int]]:
 
 def up_axis(sk: Skeleton, legs, clip: Clip | None) -> str | None:
     """The file's up axis from the legs (``[(hip, knee, ankle)...]``), or ``None`` when it
-    cannot tell. In the rest pose: the axis along the hips-above-ankles vector when it
-    dominates. Over a clip: among the axes along which the hips stand above the ankles by at
-    least 30% of that vector on average, the one along which the body's lowest point stays on
-    a floor in most frames (a crawl or a fall has its legs along the ground for a while, its
-    lowest point on the floor throughout); ties go to the larger leg component."""
+    cannot tell: ``"y"``, or ``"-y"`` when the hips stand above the ankles towards -Y (an
+    up axis pointing down, as Azure Kinect exports have). In the rest pose: the axis along the
+    hips-above-ankles vector when it dominates. Over a clip: among the axes along which the
+    hips stand above the ankles by at least 30% of that vector on average, the one along which
+    the body's lowest point stays on a floor in most frames (a crawl or a fall has its legs
+    along the ground for a while, its lowest point on the floor throughout); ties go to the
+    larger leg component."""
     P = _frames(sk, clip)
     v = np.zeros(3)
     for h, _, a in legs:
@@ -225,7 +227,7 @@ def up_axis(sk: Skeleton, legs, clip: Clip | None) -> str | None:
         return None
     if P.shape[0] < 2:
         i = int(np.argmax(np.abs(v)))
-        return "xyz"[i] if abs(v[i]) >= 0.8 * n else None
+        return _signed(i, v[i]) if abs(v[i]) >= 0.8 * n else None
     size = float(np.median(np.ptp(P, axis=1).max(axis=1)))
 
     def floor(i: int) -> float:
@@ -234,7 +236,12 @@ def up_axis(sk: Skeleton, legs, clip: Clip | None) -> str | None:
 
     cands = [i for i in range(3) if abs(v[i]) >= 0.3 * n]
     best = max(cands, key=lambda i: (round(floor(i), 1), abs(v[i])))
-    return "xyz"[best]
+    return _signed(best, v[best])
+
+
+def _signed(i: int, component: float) -> str:
+    """``"y"`` or ``"-y"``: file axis ``i`` signed by ``component``."""
+    return ("-" if component < 0 else "") + "xyz"[i]
 
 
 def _chirality(P: np.ndarray, legs, pelvis: int, upper: list[int]) -> tuple[np.ndarray,

@@ -6,11 +6,11 @@ human-like skeleton (standing height, head above feet).
 **Units from anatomy** (:func:`unit_from_stature`): the body's stature in file units (measured by
 the converter on its canonical standing rest, cross-checked with the leg bones) gives the
 *anatomical* scale, the metres per unit that would make it :data:`TYPICAL_HEIGHT_M` tall. It is
-snapped to the known unit (:data:`KNOWN_UNITS`: m, cm, mm, in, ft and the CMU ASF unit of
-1/0.45 inch) that puts the body inside :data:`HEIGHT_RANGE_M` (the one nearest the typical
-height in log scale when two do); when none does, the anatomical scale itself is used and the
-guess says so. Neighbouring known units are at least a factor 2.22 apart (CMU/inch), more than
-the range's 2.3/1.0 only at its very ends, so a body of 1.04-2.2 m is never in doubt.
+snapped to the known unit (:data:`KNOWN_UNITS`: m, dm, cm, mm, in, ft and the CMU ASF unit of
+1/0.45 inch) that puts the body inside :data:`HEIGHT_RANGE_M`; when two do (decimetres and the
+CMU unit are a factor 1.77 apart), the one that makes it an adult (:data:`ADULT_RANGE_M`), then
+a common unit before a rare one (:data:`RARE_UNITS`), then the one nearest the typical height
+in log scale. When none fits, the anatomical scale itself is used and the guess says so.
 """
 
 from __future__ import annotations
@@ -27,19 +27,34 @@ from mjchar.bvh.rotations import from_rotation, quat_conj, quat_mul, quat_rotate
 #: metres per unit of the CMU motion-capture ASF files: lengths are in units of 1/0.45 inch
 CMU_UNIT = 0.0254 / 0.45
 #: metres per unit for the unit names accepted by :func:`unit_scale`
-UNIT_SCALES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254, "ft": 0.3048,
-               "foot": 0.3048, "feet": 0.3048, "cmu": CMU_UNIT}
+UNIT_SCALES = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001, "in": 0.0254, "inch": 0.0254,
+               "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "cmu": CMU_UNIT}
 #: the units a body's anatomical scale snaps to (name -> metres per unit)
-KNOWN_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048, "cmu": CMU_UNIT}
+KNOWN_UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048,
+               "cmu": CMU_UNIT}
 #: metres: the stature the anatomical scale gives a body, and the range a known unit must put
 #: it in to be chosen (outside it the converter warns)
 TYPICAL_HEIGHT_M = 1.7
 HEIGHT_RANGE_M = (1.0, 2.3)
-AXIS_VECTORS = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}
+#: metres: an adult's stature; when two known units put a body in :data:`HEIGHT_RANGE_M`, the
+#: one that makes it an adult wins
+ADULT_RANGE_M = (1.4, 2.1)
+#: units seldom written (Blender scenes at 0.1 m per unit): behind the common ones in a tie
+RARE_UNITS = frozenset({"dm"})
+#: the file axes an up axis may be (a leading ``-``: the axis points down, as in an Azure Kinect
+#: export whose +Y is down)
+AXIS_VECTORS = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2],
+                "-x": -np.eye(3)[0], "-y": -np.eye(3)[1], "-z": -np.eye(3)[2]}
+
+
+def axis_index(up: str) -> int:
+    """``0``, ``1`` or ``2``: the file axis of a signed axis name (``"-y"`` -> ``1``)."""
+    return "xyz".index(up[-1])
 
 
 def unit_scale(unit: str) -> float:
-    """Metres per ``unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``, ``"cmu"``)."""
+    """Metres per ``unit`` (``"m"``, ``"dm"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``,
+    ``"cmu"``)."""
     try:
         return UNIT_SCALES[unit.lower()]
     except KeyError:
@@ -125,7 +140,13 @@ def unit_from_stature(stature: float) -> UnitGuess:
     anatomical = TYPICAL_HEIGHT_M / stature
     if not fits:
         return UnitGuess(None, anatomical, anatomical, stature)
-    name = min(fits, key=lambda u: abs(np.log(stature * KNOWN_UNITS[u] / TYPICAL_HEIGHT_M)))
+
+    def rank(u: str) -> tuple:
+        h = stature * KNOWN_UNITS[u]
+        adult = ADULT_RANGE_M[0] <= h <= ADULT_RANGE_M[1]
+        return (not adult, u in RARE_UNITS, abs(np.log(h / TYPICAL_HEIGHT_M)))
+
+    name = min(fits, key=rank)
     return UnitGuess(name, KNOWN_UNITS[name], anatomical, stature)
 
 
@@ -146,11 +167,15 @@ def up_axis_rotation(from_up: str, to_up: str = "z") -> np.ndarray:
     """wxyz quaternion ``(4,)`` of the change of basis taking ``from_up`` to ``to_up``.
 
     Y-up to Z-up is +90 degrees about X (Y -> Z, Z -> -Y), which also keeps a character facing
-    +Z in Y-up facing -Y in Z-up; callers that need a particular facing rotate further.
+    +Z in Y-up facing -Y in Z-up; callers that need a particular facing rotate further. A
+    negative axis (``"-y"``) turns by 180 degrees about a perpendicular axis where needed.
     """
     a, b = AXIS_VECTORS[from_up.lower()], AXIS_VECTORS[to_up.lower()]
     if np.allclose(a, b):
         return np.array([1.0, 0.0, 0.0, 0.0])
+    if np.allclose(a, -b):  # opposite: half a turn about another axis
+        other = np.eye(3)[(axis_index(from_up.lower()) + 1) % 3]
+        return np.array([0.0, *other])
     axis = np.cross(a, b)
     axis /= np.linalg.norm(axis)
     return np.array([np.cos(np.pi / 4), *(np.sin(np.pi / 4) * axis)])
@@ -184,4 +209,5 @@ def to_metres(motion: Motion, unit: str | float | None = None, up: str | None = 
 
 __all__ = ["unit_scale", "guess_up_axis", "guess_unit_scale", "up_axis_rotation",
            "transform_motion", "to_metres", "unit_for_height", "unit_from_stature", "unit_name",
+           "axis_index", "AXIS_VECTORS",
            "UnitGuess", "KNOWN_UNITS", "CMU_UNIT", "from_rotation", "to_rotation"]

@@ -115,6 +115,11 @@ class Result:
         if self.tracking_error_m is not None:
             lines.append(f"  tracking error {self.tracking_error_m:.4f} m (mean joint), root error "
                          f"{self.root_error_m:.4f} m")
+        if self.extra.get("tracking_error_raw_m") is not None:
+            lines.append(f"  against the raw clip: tracking error "
+                         f"{self.extra['tracking_error_raw_m']:.4f} m, root error "
+                         f"{self.extra['root_error_raw_m']:.4f} m "
+                         f"({self.extra.get('conditioning', 'conditioned')})")
         lines.append(f"  root force mean {self.root_force_mean_N:.1f} N (max "
                      f"{self.root_force_max_N:.1f} N), root torque mean "
                      f"{self.root_torque_mean_Nm:.1f} N m (max {self.root_torque_max_Nm:.1f} N m)")
@@ -130,8 +135,13 @@ class Result:
         lines.append(f"  {self.n_steps} steps of {self.timestep_s * 1000:.3g} ms in "
                      f"{self.wall_s:.2f} s wall ({self.steps_per_s:.0f} steps/s)")
         for k, v in self.extra.items():
-            lines.append(f"  {k}: {v}")
+            if k not in RAW_CLIP_KEYS:  # said above
+                lines.append(f"  {k}: {v}")
         return "\n".join(lines)
+
+
+#: ``Result.extra`` keys of a run on a conditioned clip (its error against the raw clip)
+RAW_CLIP_KEYS = ("tracking_error_raw_m", "root_error_raw_m", "conditioning")
 
 
 class FallDetector:
@@ -219,16 +229,20 @@ class Recorder:
             self.com_min_z = min(self.com_min_z,
                                  float(character.state.subtree_coms[character.root_body, 2]))
 
-    def tracking_errors(self, joint_body_index: int = 0) -> tuple[float | None, float | None]:
+    def tracking_errors(self, joint_body_index: int = 0,
+                        reference=None) -> tuple[float | None, float | None]:
         """``(mean joint error, mean root error)`` in m against the reference (``None`` without).
 
         The reference joints are the model's kinematics of the reference qpos
-        (``ReferenceMotion.body_positions``), in the Character's joint order.
+        (``ReferenceMotion.body_positions``), in the Character's joint order. ``reference``:
+        another reference on the same model to measure against (the raw clip of a conditioned
+        one); default the run's.
         """
-        if self.reference is None or not self.times:
+        reference = self.reference if reference is None else reference
+        if reference is None or not self.times:
             return None, None
         t = np.asarray(self.times)
-        ref = self.reference.body_positions(t)[:, self.reference.joint_body_ids]
+        ref = reference.body_positions(t)[:, reference.joint_body_ids]
         sim = np.asarray(self.joint_positions)
         err = np.linalg.norm(sim - ref, axis=-1)  # (T, J)
         return float(err.mean()), float(err[:, joint_body_index].mean())

@@ -233,12 +233,20 @@ def check_model_file(model) -> None:
                        f"a model written by mjchar convert (or the bundled one: no --model)")
 
 
-def load_reference(spec: RunSpec, character: Character, progress=None):
+def load_reference(spec: RunSpec, character: Character, progress=None, condition: bool = True):
     """The clip of ``spec`` as a ReferenceMotion in ``character``'s model (a clip on another
-    skeleton: a one-line :class:`RunError` naming it and the fix)."""
+    skeleton: a one-line :class:`RunError` naming it and the fix).
+
+    With ``condition`` (the default) the clip is conditioned first
+    (:func:`mjchar.bvh.reference.conditioning.condition`: glitch frames repaired or refused,
+    feet on the floor, stance-foot skating removed); when that changed it, the reference
+    carries ``conditioning`` (what was done) and ``raw_reference`` (the raw clip's
+    ReferenceMotion), so runs report their error against both."""
     from mjchar.bvh.editing.clips import leading_jumps, make_cyclic
     from mjchar.bvh.errors import ReferenceMotionError
     from mjchar.bvh.io import load
+    from mjchar.bvh.reference.conditioning import ConditioningError
+    from mjchar.bvh.reference.conditioning import condition as condition_clip
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
     source = motion_source(spec.motion)
@@ -249,12 +257,23 @@ def load_reference(spec: RunSpec, character: Character, progress=None):
     motion = motion[leading_jumps(motion):]  # a zero pose written before the capture
     if spec.loop:
         motion = make_cyclic(motion)
+    conditioned = None
+    if condition:
+        try:
+            conditioned = condition_clip(motion, character.info, str(source))
+        except ConditioningError as e:
+            raise RunError(str(e)) from None
     try:
         counter = (progress.counter("preparing the clip", "frames")
                    if hasattr(progress, "counter") else None)
-        return ReferenceMotion(character.model, motion, info=character.info,
-                               floor=spec.floor or spec.controller_spec.floor,
-                               cyclic=True if spec.loop else None, progress=counter)
+        kw = dict(info=character.info, floor=spec.floor or spec.controller_spec.floor,
+                  cyclic=True if spec.loop else None)
+        if conditioned is None or not conditioned.changed:
+            return ReferenceMotion(character.model, motion, progress=counter, **kw)
+        ref = ReferenceMotion(character.model, conditioned.motion, progress=counter, **kw)
+        ref.conditioning = conditioned
+        ref.raw_reference = ReferenceMotion(character.model, motion, **kw)
+        return ref
     except ReferenceMotionError as e:
         if isinstance(source, Path) and "lacks" in str(e):
             raise RunError(f"{source}: {str(e).replace('CLIP', str(source))}") from None

@@ -18,10 +18,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="hinge: hinge triplets, one hinge for knees/elbows, anatomical ranges "
                         "(default); full: hinge triplets everywhere, no ranges, exact replay; "
                         "ball: ball joints with motors")
-    p.add_argument("--unit", help="file unit: m, cm, mm, in, ft, cmu (the CMU ASF unit, 1/0.45 "
+    p.add_argument("--unit", help="file unit: m, dm, cm, mm, in, ft, cmu (the CMU ASF unit, 1/0.45 "
                                   "inch) or metres per unit (default: guessed from the body's "
                                   "size)")
-    p.add_argument("--up", choices=["x", "y", "z"], help="up axis of the file (default: guessed)")
+    p.add_argument("--up", choices=["x", "y", "z", "-x", "-y", "-z"],
+                   help="up axis of the file, -y when +Y points down (default: guessed)")
     p.add_argument("--drop", help="comma-separated joints to remove with their subtrees; "
                                   "'default' adds the defaults, 'none' drops nothing")
     p.add_argument("--fuse", help="comma-separated joints to merge into their parent body; "

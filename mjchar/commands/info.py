@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                      "body the converter would build)")
     p.add_argument("file", help="BVH file")
     p.add_argument("--unit", help="file unit, as for mjchar convert (default: guessed)")
-    p.add_argument("--up", choices=["x", "y", "z"], help="up axis of the file (default: guessed)")
+    p.add_argument("--up", choices=["x", "y", "z", "-x", "-y", "-z"],
+                   help="up axis of the file, -y when +Y points down (default: guessed)")
     p.add_argument("--roles", metavar="FILE.toml", help="role map, as for mjchar convert")
     p.set_defaults(func=run)
 

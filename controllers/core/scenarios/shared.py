@@ -111,6 +111,12 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
     wall = time.perf_counter() - wall0
     agg = rec.aggregates()
     track, root_err = rec.tracking_errors()
+    extra = {}
+    raw = getattr(rec.reference, "raw_reference", None)
+    if raw is not None:  # a conditioned clip: the error against the raw one too
+        raw_track, raw_root = rec.tracking_errors(reference=raw)
+        extra = {"tracking_error_raw_m": raw_track, "root_error_raw_m": raw_root,
+                 "conditioning": rec.reference.conditioning.summary()}
     sim_time = character.time
     return Result(
         controller=getattr(controller, "name", type(controller).__name__), scenario=scenario,
@@ -123,7 +129,7 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
         wall_s=wall, steps_per_s=steps / wall if wall > 0 else 0.0, timestep_s=dt,
         control_dt_s=dt * n_sub, n_steps=steps, seed=seed, diverged=diverged, fall_reason=reason,
         foot_travel_m=agg["foot_travel_m"], stepped=agg["foot_travel_m"] > STEP_DISTANCE,
-        com_drop_m=agg["com_drop_m"])
+        com_drop_m=agg["com_drop_m"], extra=extra)
 
 
 @dataclass(frozen=True)
