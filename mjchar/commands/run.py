@@ -13,6 +13,7 @@ import textwrap
 
 from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
 from .run_options import check_applicable, check_body, check_outputs, check_ranges
+from .suggest import hint
 
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
                    "right": 270.0}
@@ -170,8 +171,15 @@ def describe(args: argparse.Namespace):
     if not sspec.suits(cspec):
         spec.check()  # the builder's one-line refusal, naming the scenarios it runs
     if args.trajectory is not None and cspec.kind != "replay":
-        raise MjcharError(f"unexpected argument {args.trajectory!r}: only the replays "
+        meant = hint(args.trajectory, scenarios.names(), "--scenario ")
+        raise MjcharError(f"unexpected argument {args.trajectory!r}{meant}: only the replays "
                           f"({', '.join(registry.names('replay'))}) take a file")
+    if args.gait is not None and "gait" in cspec.options:
+        from mjchar.controllers.walking.gaits import GAITS
+
+        if args.gait not in GAITS:
+            raise MjcharError(f"unknown gait {args.gait!r}{hint(args.gait, GAITS)}; choose from "
+                              f"{', '.join(GAITS)}")
     check_applicable(args, cspec, sspec)
     check_ranges(args, cspec, sspec)
     check_outputs(args)
