@@ -115,6 +115,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--render", metavar="OUT.mp4",
                    help="write a video following the character (needs the video extra)")
     p.add_argument("--fps", type=positive("fps"), help="video frame rate (default 30)")
+    p.add_argument("--view", action="store_true",
+                   help="watch the run live in MuJoCo's viewer, in real time (needs a display; "
+                        "closing the window ends the run)")
     p.add_argument("--export-bvh", metavar="OUT.bvh",
                    help="write the simulated motion as BVH on the skeleton the model was "
                         "converted from (its joint names, channel orders, units, up axis)")
@@ -205,6 +208,10 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.controllers.core.runs import execute
 
     spec = describe(args)
+    if args.view:
+        from ..viewer import check_display
+
+        check_display()  # before the clip is prepared
     # a bar on a terminal (the clip's preparation, then simulated time), a protocol's lines
     built = spec.build(progress=None if args.json else Progress())
     ch = built.character
@@ -215,13 +222,21 @@ def run(args: argparse.Namespace) -> int:
 
         video = VideoRecorder(ch, args.render, fps=args.fps or 30.0)
     recorder = MotionRecorder() if args.export_bvh else None
-    built.frame_callback = chain_callbacks(video.capture if video else None, recorder)
+    viewer = None
+    if args.view:
+        from ..viewer import LiveViewer
+
+        viewer = LiveViewer(ch)
+    built.frame_callback = chain_callbacks(video.capture if video else None, recorder, viewer)
     try:
         result = execute(built)
     except BaseException:
         if video is not None:
             video.close(keep=False)  # an existing video at the path stays as it was
         raise
+    finally:
+        if viewer is not None:
+            viewer.close()
     if video is not None:
         video.close()
     exported = _export(args, recorder)
