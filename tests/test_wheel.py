@@ -83,6 +83,7 @@ def test_the_wheel_ships_the_assets(installed):
     for f in ("mjchar/assets/mjcf/humanoid.xml", "mjchar/assets/motions/walk.bvh",
               "mjchar/assets/motions/idle.bvh", "mjchar/assets/trajectories/samcon_walk60.npz",
               "mjchar/assets/trajectories/cmaes_walk60_1.5s.npz", "mjchar/bench/schema.json",
+              "mjchar/bench/cell_costs.json",
               "mjchar/controllers/sampling/samcon.py", "mjchar/bvh/io/reader.py",
               "mjchar/envs/imitation.py", "mjchar/commands/run.py"):
         assert f in listed, f"{f} not in the installed wheel:\n{listed}"
