@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from .dropped import dropped_lines
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -107,7 +109,8 @@ def run(args: argparse.Namespace) -> int:
           f"{model.nu} actuators, joint model {args.joint_model}")
     print(f"  total mass {model.body_mass.sum():.3f} kg, up axis {info.up_axis}")
     print(f"  unit: {s['unit']}; height {s['height_m']:.3f} m")
-    print(f"  dropped: {', '.join(info.dropped) or 'none'}")
+    for line in dropped_lines(converted):
+        print(f"  {line}")
     for w in converted.warnings:
         if w != s["height_warning"]:  # that one went to stderr
             print(f"  warning: {w}")
