@@ -12,7 +12,7 @@ parent does.
 Tiers: the default tier checks every block's kind, every path docs name, compiles every Python
 block and resolves its imports, and runs the commands that take seconds (``info``,
 ``convert``, ``params``, help, the error examples, ``run``/``gait`` with their ``--duration``
-cut to 2 s); the ``slow`` tier runs every Python program and every command as written (the
+cut to 2 s, 5 s for ``gait``); the ``slow`` tier runs every Python program and every command as written (the
 install and test-suite lines excepted: tests/test_checkout.py and CI run those).
 """
 
@@ -73,8 +73,9 @@ def _quick(cmd: str) -> str | None:
     if words[1] in ("info", "convert", "params") or "--help" in words:
         return cmd
     if words[1] in ("run", "gait") and "--duration" in words:
-        i = words.index("--duration")
-        words[i + 1] = str(min(float(words[i + 1]), 2.0))
+        i = words.index("--duration")  # gait analyses from 3 s on (--from) unless told
+        short = 2.0 if words[1] == "run" or "--from" in words else 5.0
+        words[i + 1] = str(min(float(words[i + 1]), short))
         return shlex.join(words)
     return None
 
