@@ -12,8 +12,9 @@ parent does.
 Tiers: the default tier checks every block's kind, every path docs name, compiles every Python
 block and resolves its imports, and runs the commands that take seconds (``info``,
 ``convert``, ``params``, help, the error examples, ``run``/``gait`` with their ``--duration``
-cut to 2 s, 5 s for ``gait``); the ``slow`` tier runs every Python program and every command as written (the
-install and test-suite lines excepted: tests/test_checkout.py and CI run those).
+cut to 2 s, 5 s for ``gait``); the ``slow`` tier runs every Python program and every command
+as written (the install and test-suite lines excepted: tests/test_checkout.py and CI run
+those).
 """
 
 from __future__ import annotations
