@@ -8,6 +8,7 @@ import json
 from importlib import resources
 
 from mjchar.bench.config import full_config, quick_config
+from mjchar.bench.matrix import cell_cost
 from mjchar.bench.progress import advance, expected_cost, progress_bar
 
 
@@ -22,10 +23,11 @@ def test_quick_cells_cost_what_was_measured_and_full_ones_more():
     q, f = quick_config(), full_config()
     for cell, cost in measured.items():
         name, scenario = cell.split(" / ")
-        assert expected_cost(name, scenario, q) == cost
-        assert expected_cost(name, scenario, f) >= cost * 0.999
+        assert expected_cost(name, scenario, q, cell_cost) == cost
+        assert expected_cost(name, scenario, f, cell_cost) >= cost * 0.999
     # the longest cell dwarfs the shortest, as measured (a count of cells would not)
-    assert expected_cost("simbicon", "push-search", q) > 50 * expected_cost("pd", "track", q)
+    longest = expected_cost("simbicon", "push-search", q, cell_cost)
+    assert longest > 50 * expected_cost("pd", "track", q, cell_cost)
 
 
 def test_the_bar_advances_by_cost(monkeypatch):

@@ -488,7 +488,7 @@ def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
     if jobs < 1:
         raise BenchError(f"jobs must be at least 1, got {jobs}")
     pool = JobPool(jobs)  # before the progress bar's thread: the workers are forked now
-    costs = [expected_cost(c, s, config) for c, s in cells]
+    costs = [expected_cost(c, s, config, cell_cost) for c, s in cells]
     bar = progress_bar(costs, progress, "bench")
     lock = threading.Lock()
 

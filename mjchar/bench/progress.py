@@ -28,10 +28,11 @@ def _measured() -> dict[str, float]:
     return dict(json.loads(text)["quick"])
 
 
-def expected_cost(name: str, scenario: str, config) -> float:
-    """Reference CPU seconds the cell ``name / scenario`` takes under ``config``."""
+def expected_cost(name: str, scenario: str, config, cell_cost) -> float:
+    """Reference CPU seconds the cell ``name / scenario`` takes under ``config``;
+    ``cell_cost(name, scenario, config)`` is the rough step count
+    (:func:`~mjchar.bench.matrix.cell_cost`)."""
     from .config import quick_config
-    from .matrix import cell_cost
 
     measured = _measured().get(f"{name} / {scenario}")
     rough = cell_cost(name, scenario, config)
