@@ -74,8 +74,9 @@ def _quick(cmd: str) -> str | None:
     if words[1] in ("info", "convert", "params") or "--help" in words:
         return cmd
     if words[1] in ("run", "gait") and "--duration" in words:
-        i = words.index("--duration")  # gait analyses from 3 s on (--from) unless told
-        short = 2.0 if words[1] == "run" or "--from" in words else 5.0
+        i = words.index("--duration")  # gait analyses from --from on (3 s by default)
+        start = float(words[words.index("--from") + 1]) if "--from" in words else 3.0
+        short = 2.0 if words[1] == "run" else start + 2.0
         words[i + 1] = str(min(float(words[i + 1]), short))
         return shlex.join(words)
     return None
