@@ -26,6 +26,7 @@ from mjchar import __version__
 from mjchar.bvh.errors import MjcharError
 
 from .commands import COMMANDS
+from .commands.suggest import argparse_message
 
 #: exit status of a command whose standard output was closed before it finished (128 + SIGPIPE)
 EXIT_BROKEN_PIPE = 141
@@ -83,6 +84,7 @@ class _Parser(argparse.ArgumentParser):
         return super().parse_known_args(args, namespace)
 
     def error(self, message: str):  # one line, exit status 2 (argparse's own convention)
+        message = argparse_message(message, self._option_string_actions)
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -99,6 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # subcommand not built yet
             raise
         module.register(sub)
+    parser.commands = sub.choices  # each subcommand's parser, for its own error messages
     return parser
 
 
@@ -110,7 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     _printable_paths()
     try:
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # the subcommand's error: `mjchar run: error: unrecognized arguments: ...`
+            parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
         command = f"mjchar {args.command}"
         try:
             code = int(args.func(args) or 0)

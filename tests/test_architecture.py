@@ -138,8 +138,10 @@ def test_import_mjchar_registers_the_envs_and_stays_light():
     code = ("import sys, mjchar, gymnasium as gym; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('mjchar', 'mujoco'))); "
             "print(gym.spec('mjchar/Imitation-v0').entry_point)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=ROOT.parent).stdout.splitlines()
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       cwd=ROOT.parent)
+    assert r.returncode == 0, f"exit status {r.returncode}; stderr:\n{r.stderr}"
+    out = r.stdout.splitlines()
     assert out[0] == "['mjchar', 'mjchar.envs']"
     assert out[1] == "mjchar.envs.imitation:ImitationEnv"
 

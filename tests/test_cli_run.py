@@ -122,7 +122,7 @@ def test_summary_of_a_push(capsys):
     assert main(["run", "static_balance", "--scenario", "push", "--push", "50",
                  "--direction", "backward", "--duration", "2.5"]) == 0
     out = capsys.readouterr().out
-    assert "static_balance / push" in out and "without falling" in out
+    assert "static_balance / push: no fall in 2.5 s" in out
     assert "push 50.0 N, towards 180 deg" in out
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import test_claims as C
 import test_real_ipm as RI
 import test_real_simbicon as RS
+import test_tour as T
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -61,6 +62,7 @@ CLAIMS = {
         C.test_the_walkers_gait_figures_at_1_2_m_s,
     "own time step (SIMBICON's 1 ms) is applied when it is made":
         C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "## A tour in 30 seconds": T.test_the_tour_takes_the_times_it_states,
 }
 
 #: README pattern -> the bounds its numbers must equal, in order (the tests' constants)
@@ -113,7 +115,6 @@ NOT_CLAIMS = {
     r"et al\. \d{4}": "the year of a cited paper",
     r"torch==2\.13\.0": "a package version",
     r"Apache License 2\.0": "the licence's name",
-    r"## A tour in 60 seconds": "a heading",
     r"DeepMimic-style imitation of a clip, 30 Hz": "the env's documented control rate, a default",
     r"frames 0\.1 s apart": "a picture's caption",
     r"--duration \d+|--speed 1\.2|--speed 1\.0|--push 100|--heading 90|speed=1\.2|duration=20\.0":

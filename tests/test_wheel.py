@@ -59,12 +59,20 @@ def installed(tmp_path_factory) -> Installed:
     pytest.importorskip("build", reason="building the wheel needs `build` (the test extra)")
     inst = Installed(tmp_path_factory.mktemp("wheel"))
     # python -m build: the sdist, then the wheel built from the sdist (so the sdist is complete)
-    _run([sys.executable, "-m", "build", "--outdir", inst.dist, ROOT], inst.work, inst.env)
+    built = _run([sys.executable, "-m", "build", "--outdir", inst.dist, ROOT], inst.work,
+                 inst.env)
+    inst.build_output = built.stdout + built.stderr
     venv.EnvBuilder(with_pip=True, clear=True).create(inst.venv)
     wheels = sorted(inst.dist.glob("mjchar-*.whl"))
     assert len(wheels) == 1, wheels
     inst.run(inst.python, "-m", "pip", "install", "-q", wheels[0])
     return inst
+
+
+def test_the_build_prints_no_setuptools_warning(installed):
+    """No "Package would be ignored" (data folders), no deprecation: a clean build log."""
+    for warning in ("would be ignored", "SetuptoolsDeprecationWarning", "SetuptoolsWarning"):
+        assert warning not in installed.build_output, installed.build_output
 
 
 def test_twine_accepts_the_sdist_and_the_wheel(installed):
@@ -83,6 +91,7 @@ def test_the_wheel_ships_the_assets(installed):
     for f in ("mjchar/assets/mjcf/humanoid.xml", "mjchar/assets/motions/walk.bvh",
               "mjchar/assets/motions/idle.bvh", "mjchar/assets/trajectories/samcon_walk60.npz",
               "mjchar/assets/trajectories/cmaes_walk60_1.5s.npz", "mjchar/bench/schema.json",
+              "mjchar/bench/cell_costs.json",
               "mjchar/controllers/sampling/samcon.py", "mjchar/bvh/io/reader.py",
               "mjchar/envs/imitation.py", "mjchar/commands/run.py"):
         assert f in listed, f"{f} not in the installed wheel:\n{listed}"
@@ -114,7 +123,9 @@ def test_pyproject_lists_every_package():
         for init in (ROOT / folder).rglob("__init__.py"):
             rel = init.parent.relative_to(ROOT / folder).parts
             found.add(".".join([name, *rel]))
-    assert set(tool["packages"]) == found
+    data = {f"mjchar.assets.{d.name}" for d in (ROOT / "assets").iterdir()
+            if d.is_dir() and d.name != "__pycache__"}  # data folders, listed to ship them
+    assert set(tool["packages"]) == found | data
 
 
 def test_a_users_own_envs_and_bvh_packages_do_not_shadow_mjchar(installed):

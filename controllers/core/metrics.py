@@ -106,7 +106,7 @@ class Result:
         """A few readable lines."""
         lines = [f"{self.controller} / {self.scenario}: "
                  + (f"FELL at {self.fall_time_s:.2f} s ({self.fall_reason})" if self.fell
-                    else f"stood/ran {self.sim_time_s:.2f} s without falling")]
+                    else f"no fall in {_seconds(self.sim_time_s)} s")]
         if self.diverged:
             lines.append("  simulation diverged")
         lines.append(f"  distance {self.distance_m:.3f} m, mean speed "
@@ -136,8 +136,37 @@ class Result:
                      f"{self.wall_s:.2f} s wall ({self.steps_per_s:.0f} steps/s)")
         for k, v in self.extra.items():
             if k not in RAW_CLIP_KEYS:  # said above
-                lines.append(f"  {k}: {v}")
+                lines.append(f"  {k}: {readable(k, v)}")
         return "\n".join(lines)
+
+
+def _seconds(t: float) -> str:
+    """A time to the millisecond, without trailing zeros (``10``, ``3.02``)."""
+    return f"{t:.3f}".rstrip("0").rstrip(".")
+
+
+#: digits after the point a value needs, by the unit its name ends with
+_DECIMALS = {"_m": 3, "_mm": 1, "_s": 2, "_mps": 3, "_N": 1, "_Nm": 1, "_deg": 1, "_rad": 3,
+             "_kg": 2, "_hz": 1, "_spm": 1}
+
+
+def readable(name: str, value):
+    """``value`` rounded to what its unit needs (by the suffix of ``name``: metres to the
+    millimetre, seconds to the hundredth...; other floats to 4 significant digits), for the
+    human-readable summary (``to_dict`` keeps every digit)."""
+    if isinstance(value, bool) or not isinstance(value, float | np.floating):
+        if isinstance(value, dict):
+            return {k: readable(k if isinstance(k, str) else name, v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            return type(value)(readable(name, v) for v in value)
+        return value
+    value = float(value)
+    if not math.isfinite(value):
+        return value
+    for suffix, digits in _DECIMALS.items():
+        if name.endswith(suffix):
+            return round(value, digits)
+    return float(f"{value:.4g}")
 
 
 #: ``Result.extra`` keys of a run on a conditioned clip (its error against the raw clip)

@@ -61,6 +61,7 @@ from mjchar.controllers.core.scenarios.push_search import (
 
 from .config import SHARED_BVH, BenchConfig, BenchError, relative_path
 from .parallel import JobPool, default_jobs
+from .progress import advance, expected_cost, progress_bar
 
 
 # -- the matrix: read from the controller registry -----------------------------------------------
@@ -466,13 +467,6 @@ def summarise_cell(runs: list[dict]) -> dict:
             "push_protocol": None if push is None else push["description"]}
 
 
-def progress_bar(total: int, enabled: bool, desc: str):
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, unit="cell", file=sys.stderr, disable=not enabled,
-                dynamic_ncols=True, leave=True)
-
-
 def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
                trajectories: dict[str, Path] | None = None, video_dir: Path | None = None,
                progress: bool = True, jobs: int | None = None, cpu: dict | None = None
@@ -494,7 +488,8 @@ def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
     if jobs < 1:
         raise BenchError(f"jobs must be at least 1, got {jobs}")
     pool = JobPool(jobs)  # before the progress bar's thread: the workers are forked now
-    bar = progress_bar(len(cells), progress, "bench")
+    costs = [expected_cost(c, s, config, cell_cost) for c, s in cells]
+    bar = progress_bar(costs, progress, "bench")
     lock = threading.Lock()
 
     def log(msg: str) -> None:
@@ -578,7 +573,7 @@ def run_matrix(cells: Sequence[tuple[str, str]], config: BenchConfig, *,
                 log(f"{name} / {scenario}: {s['survived']}/{s['runs']} without a fall "
                     f"({cell['wall_s']:.1f} s)")
             with lock:
-                bar.update()
+                advance(bar, costs[i])
     bar.close()
     if cpu is not None:
         cpu.update(pool.cpu_seconds())

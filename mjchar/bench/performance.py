@@ -21,7 +21,8 @@ from mjchar.perf.rollouts import rollout_throughput
 from mjchar.perf.timing import load_average, timed
 
 from .config import SHARED_BVH, BenchConfig, BenchError, PerfConfig
-from .matrix import BenchContext, availability, build_controller, progress_bar
+from .matrix import BenchContext, availability, build_controller
+from .progress import advance, progress_bar
 
 
 def _start_state(ctx: BenchContext, name: str, ch, controller):
@@ -45,7 +46,7 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
     """
     cfg = config.perf
     trajectories = dict(trajectories or {})
-    bar = progress_bar(len(parts), progress, "performance")
+    bar = progress_bar([1.0] * len(parts), progress, "performance")
     log = (lambda msg: bar.write(msg, file=sys.stderr)) if progress else (lambda msg: None)
     ctx = BenchContext(config, trajectories, None, log)
     out: dict = {"load_average": load_average()}
@@ -64,7 +65,7 @@ def run_performance(controllers: Sequence[str], config: BenchConfig, *,
         rec, t = timed(run)
         rec["wall_s"] = t.wall_s
         out[key] = rec
-        bar.update()
+        advance(bar, 1.0)
 
     for key in parts:
         if key == "raw":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from .dropped import dropped_lines
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -52,7 +54,6 @@ def run(args: argparse.Namespace) -> int:
     import json
     import os
 
-    from mjchar.bvh.errors import name_list
     from mjchar.bvh.io.files import check_output
     from mjchar.bvh.mjcf import convert
 
@@ -109,7 +110,8 @@ def run(args: argparse.Namespace) -> int:
           f"{model.nu} actuators, joint model {args.joint_model}")
     print(f"  total mass {model.body_mass.sum():.3f} kg, up axis {info.up_axis}")
     print(f"  unit: {s['unit']}; height {s['height_m']:.3f} m")
-    print(f"  dropped: {name_list(info.dropped, 40) or 'none'}")
+    for line in dropped_lines(converted):
+        print(f"  {line}")
     for w in converted.warnings:
         if w != s["height_warning"]:  # that one went to stderr
             print(f"  warning: {w}")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from .dropped import dropped_lines
+
 #: the order roles are listed in
 ROLE_ORDER = ("pelvis", "spine", "neck", "head") + tuple(
     f"{s}_{r}" for r in ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
@@ -54,7 +56,6 @@ def _bounds(motion, block: int = 2048):
 
 
 def run(args: argparse.Namespace) -> int:
-    from collections import Counter
 
     import numpy as np
 
@@ -93,13 +94,8 @@ def run(args: argparse.Namespace) -> int:
               "file):")
         for line in _role_lines(rec):
             print(line)
-        detail = Counter(rec.joint_roles[n] for n in c.info.dropped
-                         if n not in s["fused"])
-        if detail:
-            print("  dropped by default: " + ", ".join(f"{k} {v}" for k, v in
-                                                      sorted(detail.items())) + " joints")
-        if s["fused"]:
-            print(f"  fused by default: {', '.join(s['fused'])}")
+        for line in dropped_lines(c, " by default"):
+            print(f"  {line}")
         for w in c.warnings:
             if w != s["height_warning"]:
                 print(f"  note: {w}")

@@ -13,6 +13,7 @@ import textwrap
 
 from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
 from .run_options import check_applicable, check_body, check_outputs, check_ranges
+from .suggest import hint
 
 DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
                    "right": 270.0}
@@ -114,6 +115,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--render", metavar="OUT.mp4",
                    help="write a video following the character (needs the video extra)")
     p.add_argument("--fps", type=positive("fps"), help="video frame rate (default 30)")
+    p.add_argument("--view", action="store_true",
+                   help="watch the run live in MuJoCo's viewer, in real time (needs a display; "
+                        "closing the window ends the run)")
     p.add_argument("--export-bvh", metavar="OUT.bvh",
                    help="write the simulated motion as BVH on the skeleton the model was "
                         "converted from (its joint names, channel orders, units, up axis)")
@@ -170,8 +174,15 @@ def describe(args: argparse.Namespace):
     if not sspec.suits(cspec):
         spec.check()  # the builder's one-line refusal, naming the scenarios it runs
     if args.trajectory is not None and cspec.kind != "replay":
-        raise MjcharError(f"unexpected argument {args.trajectory!r}: only the replays "
+        meant = hint(args.trajectory, scenarios.names(), "--scenario ")
+        raise MjcharError(f"unexpected argument {args.trajectory!r}{meant}: only the replays "
                           f"({', '.join(registry.names('replay'))}) take a file")
+    if args.gait is not None and "gait" in cspec.options:
+        from mjchar.controllers.walking.gaits import GAITS
+
+        if args.gait not in GAITS:
+            raise MjcharError(f"unknown gait {args.gait!r}{hint(args.gait, GAITS)}; choose from "
+                              f"{', '.join(GAITS)}")
     check_applicable(args, cspec, sspec)
     check_ranges(args, cspec, sspec)
     check_outputs(args)
@@ -197,6 +208,10 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.controllers.core.runs import execute
 
     spec = describe(args)
+    if args.view:
+        from ..viewer import check_display
+
+        check_display()  # before the clip is prepared
     # a bar on a terminal (the clip's preparation, then simulated time), a protocol's lines
     built = spec.build(progress=None if args.json else Progress())
     ch = built.character
@@ -207,13 +222,21 @@ def run(args: argparse.Namespace) -> int:
 
         video = VideoRecorder(ch, args.render, fps=args.fps or 30.0)
     recorder = MotionRecorder() if args.export_bvh else None
-    built.frame_callback = chain_callbacks(video.capture if video else None, recorder)
+    viewer = None
+    if args.view:
+        from ..viewer import LiveViewer
+
+        viewer = LiveViewer(ch)
+    built.frame_callback = chain_callbacks(video.capture if video else None, recorder, viewer)
     try:
         result = execute(built)
     except BaseException:
         if video is not None:
             video.close(keep=False)  # an existing video at the path stays as it was
         raise
+    finally:
+        if viewer is not None:
+            viewer.close()
     if video is not None:
         video.close()
     exported = _export(args, recorder)

@@ -123,6 +123,9 @@ RUN_OPTIONS: tuple[CliOption, ...] = (
     CliOption("render", "--render", _not_protocol,
               _text("every scenario but push-search (hundreds of runs: film one with "
                     "--scenario push)")),
+    CliOption("view", "--view", _not_protocol,
+              _text("every scenario but push-search (hundreds of runs: watch one with "
+                    "--scenario push)")),
     CliOption("export_bvh", "--export-bvh", _not_protocol,
               _text("every scenario but push-search (hundreds of runs)")),
 )
