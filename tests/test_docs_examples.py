@@ -12,9 +12,10 @@ parent does.
 Tiers: the default tier checks every block's kind, every path docs name, compiles every Python
 block and resolves its imports, and runs the commands that take seconds (``info``,
 ``convert``, ``params``, help, the error examples, ``run``/``gait`` with their ``--duration``
-cut to 2 s, 5 s for ``gait``); the ``slow`` tier runs every Python program and every command
-as written (the install and test-suite lines excepted: tests/test_checkout.py and CI run
-those).
+cut to 2 s, 5 s for ``gait``); the ``slow`` tier runs every Python program; the ``docs_full``
+tier (``-m docs_full``, hours on two cores: benchmarks and full push searches among them, so
+not in CI) runs every command as written (the install and test-suite lines excepted:
+tests/test_checkout.py and CI run those).
 """
 
 from __future__ import annotations
@@ -203,7 +204,7 @@ def test_command_runs_quickly(item, folder):
     _check_command(b, cmd if b.lang == "console" else _quick(cmd), expected, folder)
 
 
-@pytest.mark.slow
+@pytest.mark.docs_full
 @pytest.mark.parametrize("item", [c for c in COMMANDS if c[0].lang != "console"
                                   and _quick(c[1]) != c[1]], ids=_id)
 def test_command_runs_as_written(item, folder):
