@@ -537,7 +537,8 @@ def _last_line(err: str) -> str:
 @pytest.mark.parametrize("sig,code,word", [(signal.SIGINT, 130, "interrupted"),
                                            (signal.SIGTERM, 143, "terminated")])
 def test_a_signal_ends_a_run_in_one_line(tmp_path, sig, code, word):
-    rc, err = _signalled(["run", "pd", "--duration", "600", "--json"], tmp_path, sig, 6.0,
+    rc, err = _signalled(["run", "static_balance", "--duration", "600", "--json"], tmp_path, sig,
+                         10.0,
                          group=sig == signal.SIGINT)
     assert rc == code, err[-2000:]
     assert "Traceback" not in err and err.strip().splitlines() == [f"mjchar run: {word}"], err
