@@ -37,6 +37,7 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
+from .calibration import overrides_for
 from .frames import (
     angle_between,
     cross_rows,
@@ -716,14 +717,21 @@ class Simbicon:
 
 
 def make_simbicon(
-    character: Character | None = None, gait: str | Gait | dict = "walk", **overrides
+    character: Character | None = None, gait: str | Gait | dict = "walk", *, calibration=None,
+    **overrides
 ) -> Simbicon:
-    """The SIMBICON controller for ``character`` (only used for validation here; the controller
-    binds to a character at ``reset``) with ``gait`` and parameter ``overrides``.
+    """The SIMBICON controller for ``character`` (its body's calibration; the controller binds
+    to a character at ``reset``) with ``gait`` and parameter ``overrides``.
+
+    ``calibration`` (the ``walk`` gait's only): ``None`` (the body's stored calibration, made
+    first if missing, :func:`~mjchar.controllers.walking.calibration.overrides_for`),
+    ``"none"`` (the gait as it is) or a calibration file; ``overrides`` override it.
 
     Besides gait parameters, ``heading`` (rad), ``first_stance`` and ``speed`` (m/s; ``None``:
     the gait's own) go to :class:`Simbicon`.
     """
+    if isinstance(gait, str) and gait == "walk":
+        overrides = {**overrides_for(character, "simbicon", calibration), **overrides}
     kw = {k: overrides.pop(k) for k in ("heading", "first_stance", "speed") if k in overrides}
     return Simbicon(gait, **kw, **overrides)
 
@@ -746,7 +754,8 @@ def simbicon_tunables(gait: str = "walk") -> list:
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
-    abilities=("walk",), default_scenario="walk", options=("gait", "speed", "params"),
+    abilities=("walk",), default_scenario="walk",
+    options=("gait", "speed", "params", "calibration"),
     # the speed command (0.6-1.6 m/s): 60 s with no fall and a steady speed within
     # 0.15 m/s of the command at 0.6-1.6 m/s, seeds 0-2, on the bundled humanoid (walk; natural
     # 30 s), at the same Froude speeds on its skeleton scaled to 1.5 m / 50 kg and 1.95 m /
