@@ -13,8 +13,8 @@ target angles and torso gains for SIMBICON), stored as the factory overrides it 
 :func:`calibrate` is adaptive and cheap:
 
 1. **Check** the defaults on short walks at :data:`SPEEDS` (``None``: SIMBICON's own gait
-   speed): no fall and the speed within :data:`CHECK_TOLERANCE`. A body that passes is stored
-   with no overrides (the defaults are its calibration) and no optimisation.
+   speed): no fall, and a commanded speed within :data:`CHECK_TOLERANCE`. A body that passes
+   is stored with no overrides (the defaults are its calibration) and no optimisation.
 2. Otherwise **CMA-ES** (``cma``) from the defaults (``x = 0``) over the knobs in normalised
    units, each candidate walked at every speed of the check (evaluated in parallel on a process
    pool), on the cost :func:`walk_cost` (a fall costs more than any speed error, and costs less
@@ -321,22 +321,22 @@ def walk_cost(rows: list[dict], duration: float = CHECK_DURATION) -> float:
     """The cost of walks ``rows`` (each ``speed`` commanded or ``None``, ``fell``,
     ``fall_time_s``, ``steady_speed_mps``, ``own_speed_mps``): per walk, a fall costs
     ``5 + 10 (1 - t_fall / duration)`` and a walk that stands its time the speed error (m/s) times
-    10, at most 5 (an uncommanded walk: against its gait's own speed); the mean over walks."""
+    10, at most 5 (an uncommanded walk, SIMBICON's own gait speed, costs nothing: its speed is
+    the gait's, not a command's); the mean over walks."""
     total = 0.0
     for r in rows:
         if r["fell"]:
             total += 5.0 + 10.0 * (1.0 - min(r["fall_time_s"], duration) / duration)
-        else:
-            want = r["speed"] if r["speed"] is not None else r["own_speed_mps"]
-            total += min(10.0 * abs(r["steady_speed_mps"] - want), 5.0)
+        elif r["speed"] is not None:
+            total += min(10.0 * abs(r["steady_speed_mps"] - r["speed"]), 5.0)
     return total / max(len(rows), 1)
 
 
 def passes(rows: list[dict]) -> bool:
-    """Whether walks ``rows`` pass the check (no fall, speed within :data:`CHECK_TOLERANCE`)."""
-    return all(not r["fell"] and abs(r["steady_speed_mps"] - (
-        r["speed"] if r["speed"] is not None else r["own_speed_mps"])) <= CHECK_TOLERANCE
-        for r in rows)
+    """Whether walks ``rows`` pass the check (no fall; a commanded speed within
+    :data:`CHECK_TOLERANCE`)."""
+    return all(not r["fell"] and (r["speed"] is None or abs(
+        r["steady_speed_mps"] - r["speed"]) <= CHECK_TOLERANCE) for r in rows)
 
 
 def walk_once(model: mujoco.MjModel, info, walker: str, overrides: dict, speed: float | None,
