@@ -38,6 +38,7 @@ have been made for the same body and walker.
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import json
 import math
 import multiprocessing
@@ -397,12 +398,13 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
     speeds = SPEEDS[walker]
     say = progress or (lambda line: None)
     cal = Calibration(walker, model_fingerprint(model), jobs=jobs)
-    ctx = multiprocessing.get_context("fork" if hasattr(os, "fork") else "spawn")
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+    if multiprocessing.current_process().daemon:  # a pool's worker (the bench's) has no children
+        jobs = 1
+    with _pool(jobs) as pool:
         def walks(xs: list) -> list[list[dict]]:
             work = [(model, info, walker, candidate_overrides(walker, x), v, duration, seed)
                     for x in xs for v in speeds]
-            out = list(pool.map(_walk_job, work))
+            out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
             cal.evaluations += len(xs)
             cal.cpu_seconds += sum(r.pop("cpu_s") for r in out)
             return [out[i * len(speeds):(i + 1) * len(speeds)] for i in range(len(xs))]
@@ -448,6 +450,17 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
         cal.status = "unimproved"
     cal.seconds = time.monotonic() - start
     return cal
+
+
+@contextlib.contextmanager
+def _pool(jobs: int):
+    """A process pool of ``jobs`` workers (``None`` for one: the walks run here)."""
+    if jobs <= 1:
+        yield None
+        return
+    ctx = multiprocessing.get_context("fork" if hasattr(os, "fork") else "spawn")
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+        yield pool
 
 
 def _summary(rows: list[dict]) -> str:
