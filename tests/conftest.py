@@ -9,6 +9,9 @@ from pathlib import Path
 
 # headless rendering (the machines have no display): must be set before MuJoCo is first imported
 os.environ.setdefault("MUJOCO_GL", "egl")
+# the walkers run their defaults on every body unless a test asks for a calibration (a walker on
+# an uncalibrated body would otherwise calibrate it first: minutes, into the user's cache)
+os.environ.setdefault("MJCHAR_CALIBRATION", "none")
 
 import pytest
 

@@ -23,7 +23,7 @@ VALUES = {
     "max_force": "100", "tolerance": "50", "phases": "2", "seeds": "1", "seed": "1",
     "timestep": "0.001", "control_dt": "0.002", "render": "x.mp4", "export_bvh": "x.bvh",
     "loop": None, "param": "samples=8", "steady_window": "2", "degrees": "3",
-    "distance": "5", "view": None,
+    "distance": "5", "view": None, "calibration": "none",
 }
 
 

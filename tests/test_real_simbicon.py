@@ -10,8 +10,10 @@ walks are fast.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import SHARED_BVH, assert_no_root_help, real_export, shared_clip
 
@@ -110,3 +112,67 @@ def test_simbicon_walks_on_knees_yawed_off_the_lateral_axis(tmp_path):
     assert not r.fell, r.fall_time_s
     assert_no_root_help(r)
     assert r.distance_m > 8.0
+
+
+def _bundled_with(tmp_path, name: str, **joints: str) -> str:
+    """The bundled humanoid's MJCF with the hinge axes of ``joints`` ({joint: "x y z"})."""
+    from mjchar.bvh.bundled.assets import HUMANOID_XML
+
+    text = Path(HUMANOID_XML).read_text()
+    for joint, axis in joints.items():
+        old = next(a for a in ("0 1 0", "0 0 1") if f'name="{joint}" type="hinge" axis="{a}"'
+                   in text)
+        text = text.replace(f'name="{joint}" type="hinge" axis="{old}"',
+                            f'name="{joint}" type="hinge" axis="{axis}"')
+    xml = tmp_path / f"{name}.xml"
+    xml.write_text(text)
+    return str(xml)
+
+
+def test_simbicon_walks_with_an_elbow_hinge_along_the_forearm(tmp_path):
+    """An arm's hinge whose sense the rest pose does not tell (the left elbow's axis along the
+    forearm, as the namespaced Mixamo export's right forearm) is held at its rest angle: the arm
+    never stops the walker (it refused the body before)."""
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.scenarios import walk
+    from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
+
+    ch = Character(_bundled_with(tmp_path, "forearm", lElbow_z="0 1 0"),
+                   timestep=DEFAULT_TIMESTEP)
+    c = make_simbicon(ch)
+    r = walk(ch, c, duration=10.0)
+    assert not r.fell, r.fall_time_s
+    assert r.root_force_max_N == 0.0
+    assert r.distance_m > 8.0
+    elbow = ch.model.joint("lElbow_z").id
+    act = int(np.flatnonzero(ch.model.actuator_trnid[:, 0] == elbow)[0])
+    assert c._base[act] == 0.0  # its rest angle
+
+
+def test_a_knee_hinge_tilted_towards_the_shank_bends_the_leg_by_the_gaits_angle(tmp_path):
+    """Both knees' hinges 50 degrees off the lateral axis towards the shank (nearest the vertical:
+    refused before as `1 hinge(s) about vertical`): SIMBICON takes the one hinge as the knee and
+    turns it so far that the leg bends by the gait's angle."""
+    from scipy.spatial.transform import Rotation
+
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.scenarios import walk
+    from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
+    from mjchar.controllers.walking.simbicon_model import knee_angle
+
+    axis = np.array([0.0, 0.64279, 0.76604])
+    axis /= np.linalg.norm(axis)
+    ch = Character(_bundled_with(tmp_path, "tilted", lKnee_y="0 0.64279 0.76604",
+                                 rKnee_y="0 0.64279 0.76604"), timestep=DEFAULT_TIMESTEP)
+    c = make_simbicon(ch)
+    c.reset(ch)
+    across = c._legs[0]["knee_across"]
+    assert across == pytest.approx(1 - 0.76604 ** 2, abs=1e-4)
+    shank = np.array([0.0, 0.0, -1.0])
+    for bend in (0.05, 0.6, 1.1):
+        q = knee_angle(bend, across)
+        turned = Rotation.from_rotvec(q * axis).apply(shank)
+        assert math.acos(turned @ shank) == pytest.approx(bend, abs=1e-5)
+    assert knee_angle(0.6, None) == 0.6
+    r = walk(ch, c, duration=1.0)
+    assert r.root_force_max_N == 0.0

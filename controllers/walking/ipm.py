@@ -112,6 +112,7 @@ from ..core.base import Action
 from ..core.character import Character
 from ..core.geometry import point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
+from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle, yaw_of
 from .swing import (
@@ -771,19 +772,15 @@ class IPMController:
         tau[st.ankle] = A.T @ (R_foot @ Tl)
 
 
-def make_ipm(character: Character | None = None, speed=0.0, heading=None, **opts
-             ) -> IPMController:
-    """Build an :class:`IPMController` (``name == "ipm"``).
-
-    Args:
-        character: unused (kept for the ``make_controller`` signature; the controller binds to a
-            character at ``reset``).
-        speed: desired forward speed (m/s), number or ``t -> m/s``.
-        heading: desired heading (degrees, world yaw, 0 = +X, CCW), number, ``t -> degrees``
-            or ``None`` (keep the start heading).
-        opts: ``lateral_speed``, ``params`` (an :class:`IPMParams`) and parameters by dotted
-            name (``**{"timing.step_time": 0.5}``).
-    """
+def make_ipm(character: Character | None = None, speed=0.0, heading=None, *,
+             calibration=None, **opts) -> IPMController:
+    """An :class:`IPMController` for ``character``'s body with its calibration
+    (:func:`~.calibration.overrides_for`: ``None`` the stored one, made first if missing,
+    ``"none"`` the defaults, or a file); ``speed`` (m/s) and ``heading`` (degrees, world yaw,
+    0 = +X, CCW; ``None``: keep the start heading) are numbers or functions of time; ``opts``:
+    ``lateral_speed``, ``params`` (an :class:`IPMParams`) and parameters by dotted name
+    (``**{"timing.step_time": 0.5}``), over the calibration's."""
+    opts = {**overrides_for(character, "ipm", calibration), **opts}
     return IPMController(speed=speed, heading=heading, **opts)
 
 
@@ -793,7 +790,7 @@ register(ControllerSpec(
     factory=lambda character, target=None, speed=1.0, **options: make_ipm(character, speed,
                                                                            **options),
     abilities=("walk", "stand"), default_scenario="walk",
-    options=("speed", "heading", "params"), steps=True, tunables=IPMParams.tunables,
+    options=("speed", "heading", "params", "calibration"), steps=True, tunables=IPMParams.tunables,
     # 60 s, no fall, steady speed within 0.15 m/s at 0.3-1.6 m/s on the bundled humanoid (0:
     # stops and stands; docs/ipm.md), the same Froude speeds on other bodies (as its parameters)
     limits=(("speed", 0.0, 1.6),), speed_leg_length=TUNED_LEG_LENGTH,

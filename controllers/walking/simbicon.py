@@ -37,6 +37,7 @@ import numpy as np
 from ..core.base import Action, ControllerError
 from ..core.character import Character
 from ..core.registry import ControllerSpec, register
+from .calibration import overrides_for
 from .frames import (
     angle_between,
     cross_rows,
@@ -48,12 +49,20 @@ from .frames import (
 )
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .leg import yaw_of
+from .simbicon_model import (
+    AXIS_NAMES,
+    HINGE_FIX,
+    Hinge,
+    SimbiconModelError,
+    knee_angle,
+    knee_hinge,
+    knee_yaw,
+    rest_angle,
+)
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
 DEFAULT_TIMESTEP = 1.0 / 1000.0
 _SIDES = ("left", "right")
-#: the rest pose's axes a hinge is keyed by (the canonical rest: x forward, y left, z up)
-_AXIS_NAMES = {"x": "forward", "y": "lateral", "z": "vertical"}
 #: gain groups of the stance ankle's hinges nearest the world x (forward at rest, as every hinge
 #: key here) and z axes at rest: its roll and twist; a gait without them uses its ``ankle`` gains
 _STANCE_ANKLE_GROUPS = {"x": "stance_ankle_roll", "z": "stance_ankle_twist"}
@@ -67,55 +76,12 @@ DEFAULT_GAINS = {
 }
 
 
-class SimbiconModelError(ControllerError):
-    """The model lacks what SIMBICON reads from it (a hinge at a leg joint, a knee that flexes
-    about one axis near the lateral one, a hinge whose sign the rest pose tells); the message
-    names the joint and what would fix it."""
-
-
-#: how a body made by ``mjchar convert`` gets hinge triplets and a single knee hinge
-_HINGE_FIX = "convert the BVH with the default --joint-model hinge"
-
-
-
-
-
-
 def _selector(idx: np.ndarray) -> slice | np.ndarray:
     """Integer indices as a slice when they are a contiguous ascending run, else as they are."""
     idx = np.asarray(idx, dtype=int)
     if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
         return slice(int(idx[0]), int(idx[0]) + len(idx))
     return idx
-
-
-
-def _rest_angle(sine: float) -> float:
-    """``asin(sine)`` (rad), 0 below 1e-6 rad: a rest pose's offset from the pose a gait assumes
-    (numerical noise on a rig in that pose is no offset)."""
-    a = math.asin(min(max(sine, -1.0), 1.0))
-    return a if abs(a) > 1e-6 else 0.0
-
-
-def _knee_yaw(flex_axis: np.ndarray, fwd: np.ndarray, left: np.ndarray) -> float:
-    """Yaw (rad, about up) that turns the lateral axis ``left`` ``(3,)`` onto the horizontal part
-    of a knee's flexion axis ``flex_axis`` ``(3,)`` (a positive rotation about it flexes the
-    knee); exactly 0 for an axis with no forward component."""
-    f = float(flex_axis @ fwd)
-    return math.atan2(-f, float(flex_axis @ left)) if f else 0.0
-
-
-
-
-
-
-class _Hinge:
-    """One hinge dof of a joint: dof index, qpos address, joint id and actuator index."""
-
-    __slots__ = ("dof", "qadr", "jnt", "act")
-
-    def __init__(self, dof: int, qadr: int, jnt: int, act: int):
-        self.dof, self.qadr, self.jnt, self.act = dof, qadr, jnt, act
 
 
 class Simbicon:
@@ -212,18 +178,18 @@ class Simbicon:
         self._pelvis_limits = [(-lim[a], lim[a]) for _, a in self._pelvis_children]
         self._ready = True
 
-    def _hinges(self, character: Character, joint: str) -> dict[str, _Hinge]:
+    def _hinges(self, character: Character, joint: str) -> dict[str, Hinge]:
         """The joint's hinges keyed by the world axis they are closest to at rest (``x y z``)."""
-        out: dict[str, _Hinge] = {}
+        out: dict[str, Hinge] = {}
         for dof in character.joint_dofs(joint):
             if not character.hinge_dofs[dof]:
                 raise SimbiconModelError(
-                    f"SIMBICON needs hinge joints; {joint} is not a hinge: {_HINGE_FIX}"
+                    f"SIMBICON needs hinge joints; {joint} is not a hinge: {HINGE_FIX}"
                 )
             j = int(character.dof_joint[dof])
             a = self._rest.joint_axes[j]
             key = "xyz"[int(np.argmax(np.abs(a)))]
-            out[key] = _Hinge(int(dof), int(character.dof_qpos[dof]), j,
+            out[key] = Hinge(int(dof), int(character.dof_qpos[dof]), j,
                               int(self._dof2act[dof]))
         return out
 
@@ -267,7 +233,7 @@ class Simbicon:
                                   int(ch.model.actuator_trnid[a, 0]))
             raise SimbiconModelError(
                 f"{j}: SIMBICON needs one hinge actuator per dof and this joint's actuator is "
-                f"not one: {_HINGE_FIX}")
+                f"not one: {HINGE_FIX}")
         self._act_dof = ch.actuator_dof.copy()
         self._act_qpos = ch.actuator_qpos.copy()
         # the same as slices when contiguous (a view to read per step, not a gathered copy)
@@ -288,9 +254,14 @@ class Simbicon:
             return rest.body_positions[ch.body_id(j)]
 
         def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray,
-                 joint: str = "") -> float:
-            """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``."""
+                 joint: str = "", needed: bool = True) -> float:
+            """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``;
+            a hinge the walk does not need (an arm's) whose sense the rest pose does not tell
+            gives 0: it is held at its rest angle (plain PD) instead of stopping the walker."""
             s = float(np.dot(np.cross(axis, lever), towards))
+            if not needed:  # an arm: a sense under 3 degrees of the lever's swing is none
+                return 0.0 if abs(s) < 0.05 * float(np.linalg.norm(lever)) else math.copysign(
+                    1.0, s)
             if abs(s) < 1e-9:
                 raise SimbiconModelError(
                     f"{joint or 'a hinge'}: SIMBICON cannot tell which way the hinge turns the "
@@ -302,9 +273,9 @@ class Simbicon:
         def needs(hinges: dict, axis: str, joint: str, what: str) -> None:
             if axis not in hinges:
                 raise SimbiconModelError(
-                    f"{joint}: SIMBICON needs a {what} hinge (about the {_AXIS_NAMES[axis]} axis "
+                    f"{joint}: SIMBICON needs a {what} hinge (about the {AXIS_NAMES[axis]} axis "
                     f"at rest) and this joint has {len(hinges)} hinge(s) about "
-                    f"{', '.join(_AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
+                    f"{', '.join(AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
                     "joint rotation channels, or map the role to a joint that has them (--roles)")
 
         g = self.gait
@@ -317,16 +288,11 @@ class Simbicon:
             H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
             needs(H, "y", hip, "flexion")
             needs(A, "y", ankle, "dorsiflexion")
-            if "y" not in K or len(K) != 1:
-                raise SimbiconModelError(
-                    f"{knee}: SIMBICON needs a single flexion hinge at the knee, about an axis "
-                    f"nearest the lateral one at rest; it has {len(K)} hinge(s) about "
-                    f"{', '.join(_AXIS_NAMES[k] for k in K) or 'nothing'}: {_HINGE_FIX}, or "
-                    "map left_knee/right_knee to the knees (--roles)"
-                )
             out = left if side == "left" else -left
             thigh = pos(knee) - pos(hip)
             shank = pos(ankle) - pos(knee)
+            kh, across = knee_hinge(K, rest.joint_axes, shank, left, knee)
+            K = {"y": kh}
             sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
             foot = sole - pos(ankle)
             knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
@@ -344,6 +310,7 @@ class Simbicon:
                 "ankle_acts": np.array([h.act for h in A.values()]),
                 # hinge signs measured on the model (anatomical + = this many times hinge +)
                 "knee_flex": knee_flex,
+                "knee_across": across,  # a knee tilted off lateral: see knee_angle
                 "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
                 "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
                 # heading-frame rotations of the thigh: flexion about left, abduction about fwd
@@ -361,7 +328,7 @@ class Simbicon:
                 # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
                 # the hip twists the thigh by minus this so the knee flexes in the sagittal
                 # plane, and the ankle twists the foot back (0 for a knee about lateral)
-                "knee_yaw": _knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
+                "knee_yaw": knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
             }
             leg_hinges = [*H.values(), K["y"], *A.values()]
             if toe:
@@ -419,13 +386,13 @@ class Simbicon:
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
                     base[hs["x"].act] = (g.shoulder_down - drop) * sign(
-                        rest.joint_axes[hs["x"].jnt], arm, -up, sh)
+                        rest.joint_axes[hs["x"].jnt], arm, -up, sh, needed=False)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh)
+                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh, needed=False)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
                     # that points forward or back is brought back to it first
-                    ahead = _rest_angle(float(arm @ fwd) / float(np.linalg.norm(arm)))
+                    ahead = rest_angle(float(arm @ fwd) / float(np.linalg.norm(arm)))
                     if ahead:
                         base[hs["y"].act] = -ahead * s_y
                 wr = ch.role(f"{side}_wrist", required=False)
@@ -434,11 +401,11 @@ class Simbicon:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd, el)
+                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd, el, needed=False)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
                     ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
-                    base[h.act] = (g.elbow_flexion - _rest_angle(math.sin(bent))) * s_e
+                    base[h.act] = (g.elbow_flexion - rest_angle(math.sin(bent))) * s_e
         for leg in self._legs:
             # the foot turned back by what the hip turns the thigh (see "knee_yaw")
             if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
@@ -488,8 +455,8 @@ class Simbicon:
         q = self._base.copy()
         st = self._legs[self._stance_leg(state)]
         sw = self._legs[1 - self._stance_leg(state)]
-        q[st["knee"].act] = st["knee_flex"] * p.stance_knee
-        q[sw["knee"].act] = sw["knee_flex"] * p.swing_knee
+        q[st["knee"].act] = st["knee_flex"] * knee_angle(p.stance_knee, st["knee_across"])
+        q[sw["knee"].act] = sw["knee_flex"] * knee_angle(p.swing_knee, sw["knee_across"])
         q[st["ankle"]["y"].act] = st["ankle_dorsi"] * p.stance_ankle
         q[sw["ankle"]["y"].act] = sw["ankle_dorsi"] * p.swing_ankle
         for a, s in self._spine_pitch:  # a speed command may move it (ANCHOR_FIELDS)
@@ -726,7 +693,8 @@ class Simbicon:
         targets = self._state_targets(3)  # both legs nearly straight, stance-knee flexion
         q[self._act_qpos] = targets
         for leg in self._legs:
-            q[leg["knee"].qadr] = leg["knee_flex"] * self.gait.states[1].stance_knee
+            q[leg["knee"].qadr] = leg["knee_flex"] * knee_angle(
+                self.gait.states[1].stance_knee, leg["knee_across"])
             q[leg["ankle"]["y"].qadr] = leg["ankle_dorsi"] * self.gait.states[1].stance_ankle
         if self.gait.torso_pitch:
             # lean the pelvis and give it back at the hips so the legs stay vertical
@@ -749,14 +717,21 @@ class Simbicon:
 
 
 def make_simbicon(
-    character: Character | None = None, gait: str | Gait | dict = "walk", **overrides
+    character: Character | None = None, gait: str | Gait | dict = "walk", *, calibration=None,
+    **overrides
 ) -> Simbicon:
-    """The SIMBICON controller for ``character`` (only used for validation here; the controller
-    binds to a character at ``reset``) with ``gait`` and parameter ``overrides``.
+    """The SIMBICON controller for ``character`` (its body's calibration; the controller binds
+    to a character at ``reset``) with ``gait`` and parameter ``overrides``.
+
+    ``calibration`` (the ``walk`` gait's only): ``None`` (the body's stored calibration, made
+    first if missing, :func:`~mjchar.controllers.walking.calibration.overrides_for`),
+    ``"none"`` (the gait as it is) or a calibration file; ``overrides`` override it.
 
     Besides gait parameters, ``heading`` (rad), ``first_stance`` and ``speed`` (m/s; ``None``:
     the gait's own) go to :class:`Simbicon`.
     """
+    if isinstance(gait, str) and gait == "walk":
+        overrides = {**overrides_for(character, "simbicon", calibration), **overrides}
     kw = {k: overrides.pop(k) for k in ("heading", "first_stance", "speed") if k in overrides}
     return Simbicon(gait, **kw, **overrides)
 
@@ -779,7 +754,8 @@ def simbicon_tunables(gait: str = "walk") -> list:
 register(ControllerSpec(
     name="simbicon", label="SIMBICON walk", kind="walker",
     factory=lambda character, target=None, **options: make_simbicon(character, **options),
-    abilities=("walk",), default_scenario="walk", options=("gait", "speed", "params"),
+    abilities=("walk",), default_scenario="walk",
+    options=("gait", "speed", "params", "calibration"),
     # the speed command (0.6-1.6 m/s): 60 s with no fall and a steady speed within
     # 0.15 m/s of the command at 0.6-1.6 m/s, seeds 0-2, on the bundled humanoid (walk; natural
     # 30 s), at the same Froude speeds on its skeleton scaled to 1.5 m / 50 kg and 1.95 m /

@@ -86,6 +86,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "VALUE is read as JSON, else as text; `mjchar params CONTROLLER` lists "
                         "every NAME with its type, unit, range and default; a wrong type, NaN "
                         "or a value out of range is an error naming it")
+    p.add_argument("--calibration", metavar="FILE|none",
+                   help="ipm, simbicon (walk gait): the walker's calibration for the body: a "
+                        "file made by mjchar calibrate, or none for the defaults (default: the "
+                        "body's stored calibration, made first if missing; the bundled "
+                        "humanoid's is the defaults)")
     p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
                    help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
                         "hold 1 s and rise again")
@@ -131,7 +136,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 #: factory options that have their own flag (``--param`` refuses them)
 _FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
-            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE"}
+            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE",
+            "calibration": "--calibration"}
 
 
 def _controller_options(spec, args: argparse.Namespace) -> dict:
@@ -140,7 +146,8 @@ def _controller_options(spec, args: argparse.Namespace) -> dict:
 
     options = {}
     for name, dest in (("tracker", "tracker"), ("gait", "gait"), ("speed", "speed"),
-                       ("heading", "heading"), ("trajectory", "trajectory")):
+                       ("heading", "heading"), ("trajectory", "trajectory"),
+                       ("calibration", "calibration")):
         if name in spec.options and getattr(args, dest) is not None:
             options[name] = getattr(args, dest)
     if "height" in spec.options and args.squat:

@@ -109,6 +109,8 @@ RUN_OPTIONS: tuple[CliOption, ...] = (
     CliOption("heading", "--heading", _controller_option("heading"), _names_with("heading")),
     CliOption("gait", "--gait", _controller_option("gait"), _names_with("gait")),
     CliOption("tracker", "--tracker", _controller_option("tracker"), _names_with("tracker")),
+    CliOption("calibration", "--calibration", _controller_option("calibration"),
+              _names_with("calibration")),
     CliOption("squat", "--squat", _controller_option("height"), _names_with("height")),
     CliOption("param", "--param", _controller_option("params"), _names_with("params")),
     CliOption("motion", "--motion", _follows_clip, _CLIP),

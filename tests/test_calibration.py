@@ -1,0 +1,152 @@
+"""Walker calibration: stored keyed by the body's fingerprint, read back as it was written,
+made once for an uncalibrated body (on a tiny budget here), the bundled humanoid's being its
+defaults; ``mjchar calibrate`` and ``--calibration``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import run_command
+
+from mjchar.bvh.bundled.assets import HUMANOID_XML
+from mjchar.cli import main
+from mjchar.controllers import Character, make_controller
+from mjchar.controllers.sampling.trajectory import model_fingerprint
+from mjchar.controllers.walking import calibration as cal_mod
+from mjchar.controllers.walking.calibration import Calibration, CalibrationError
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch) -> Path:
+    """An empty calibration cache, the walkers calibrating as users' runs do."""
+    monkeypatch.setenv("MJCHAR_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("MJCHAR_CALIBRATION", raising=False)
+    return tmp_path / "cache" / "calibration"
+
+
+def heavier_humanoid(tmp_path, kg: float = 5.0) -> str:
+    """The bundled humanoid with a heavier pelvis: another body, another fingerprint."""
+    text = HUMANOID_XML.read_text()
+    i = text.index('mass="', text.index("<geom"))
+    j = text.index('"', i + 6)
+    text = text[:i] + f'mass="{float(text[i + 6:j]) + kg:g}"' + text[j + 1:]
+    xml = tmp_path / f"heavier{kg:g}.xml"
+    xml.write_text(text)
+    return str(xml)
+
+
+def test_a_calibration_round_trips_and_is_keyed_by_the_fingerprint(tmp_path, cache):
+    a = Character(heavier_humanoid(tmp_path, 5.0))
+    b = Character(heavier_humanoid(tmp_path, 6.0))
+    assert cal_mod.cache_path(a.model, "ipm") != cal_mod.cache_path(b.model, "ipm")
+    assert cal_mod.cache_path(a.model, "ipm") == cal_mod.cache_path(
+        Character(heavier_humanoid(tmp_path, 5.0)).model, "ipm")
+    assert cal_mod.cache_path(a.model, "ipm").parent == cache
+    cal = Calibration("ipm", model_fingerprint(a.model),
+                      overrides={"placement.step_width": 0.05, "tracking.hip_kp": 700.0},
+                      status="optimised", cost_defaults=3.0, cost=0.4, evaluations=7)
+    path = cal_mod.save(cal)
+    assert path == cal_mod.cache_path(a.model, "ipm")
+    assert cal_mod.load(path) == cal
+    assert cal_mod.overrides_for(a, "ipm") == cal.overrides
+    assert make_controller("ipm", a).body_params.placement.step_width == 0.05
+    # the file given by name: for its body only, and its walker only
+    with pytest.raises(CalibrationError, match="made for another body"):
+        cal_mod.overrides_for(b, "ipm", str(path))
+    with pytest.raises(CalibrationError, match="a calibration of ipm, not simbicon"):
+        cal_mod.overrides_for(a, "simbicon", str(path))
+    assert cal_mod.overrides_for(a, "ipm", "none") == {}
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    with pytest.raises(CalibrationError, match="not a calibration file"):
+        cal_mod.load(bad)
+
+
+def test_the_bundled_humanoids_calibration_is_its_defaults(cache):
+    ch = Character()
+    assert cal_mod.is_bundled(ch.model)
+    assert cal_mod.overrides_for(ch, "ipm") == {}
+    assert cal_mod.overrides_for(ch, "simbicon") == {}
+    assert not cache.exists()  # nothing made, nothing stored
+
+
+def test_an_uncalibrated_body_is_calibrated_once(tmp_path, cache, monkeypatch):
+    """The first walker made on a new body calibrates it (saying so in one line) and stores the
+    result; the next one reads it. A tiny budget: 0.3 s walks, no search."""
+    calls, lines = [], []
+    real = cal_mod.calibrate
+
+    def tiny(model, walker, **kw):
+        calls.append(walker)
+        return real(model, walker, **{**kw, "budget_s": 0.0, "duration": 0.3, "jobs": 1})
+
+    monkeypatch.setattr(cal_mod, "calibrate", tiny)
+    ch = Character(heavier_humanoid(tmp_path))
+    cal_mod.overrides_for(ch, "ipm", announce=lines.append)
+    assert calls == ["ipm"] and len(lines) == 1 and "calibrating ipm" in lines[0]
+    stored = cal_mod.load(cal_mod.cache_path(ch.model, "ipm"))
+    assert stored.fingerprint == model_fingerprint(ch.model)
+    assert stored.status in ("defaults", "unimproved") and stored.evaluations == 1
+    assert [r["speed"] for r in stored.check] == [0.8, 1.0, 1.2]
+    make_controller("ipm", Character(heavier_humanoid(tmp_path)))  # the factory reads it
+    assert calls == ["ipm"]
+
+
+def test_candidates_move_the_knobs_from_the_defaults():
+    for walker in cal_mod.WALKERS:
+        assert cal_mod.candidate_overrides(walker, None) == {}
+        zero = cal_mod.candidate_overrides(walker, [0.0] * len(cal_mod.KNOBS[walker]))
+        moved = cal_mod.candidate_overrides(walker, [1.0] * len(cal_mod.KNOBS[walker]))
+        assert zero.keys() == moved.keys() and zero != moved
+    ipm = cal_mod.candidate_overrides("ipm", [0.0] * len(cal_mod.KNOBS["ipm"]))
+    assert ipm["tracking.hip_kp"] == 600.0 and ipm["placement.sagittal_scale"] == 1.0
+
+
+def test_walk_cost_ranks_a_fall_above_any_speed_error():
+    walked = [{"speed": 1.0, "fell": False, "fall_time_s": None, "steady_speed_mps": 0.2,
+               "own_speed_mps": None}]
+    late = [{"speed": 1.0, "fell": True, "fall_time_s": 19.0, "steady_speed_mps": 1.0,
+             "own_speed_mps": None}]
+    early = [dict(late[0], fall_time_s=2.0)]
+    assert cal_mod.walk_cost(walked, 20.0) < cal_mod.walk_cost(late, 20.0) < cal_mod.walk_cost(
+        early, 20.0)
+    assert not cal_mod.passes(walked) and cal_mod.passes([dict(walked[0],
+                                                                steady_speed_mps=0.95)])
+
+
+def test_the_calibrate_command_and_the_calibration_flag(tmp_path, cache, capsys):
+    model = heavier_humanoid(tmp_path)
+    out = tmp_path / "ipm.json"
+    run_command(["calibrate", model, "--walker", "ipm", "--budget", "0", "--duration", "0.3",
+                 "--jobs", "1", "-o", str(out), "--json"])
+    data = json.loads(capsys.readouterr().out)
+    assert data["walker"] == "ipm" and Path(data["file"]) == out and out.exists()
+    assert not cache.exists()  # -o: not the cache
+    run_command(["run", "ipm", "--model", model, "--calibration", str(out), "--duration",
+                 "0.2", "--json"])
+    assert json.loads(capsys.readouterr().out)["sim_time_s"] > 0
+    assert main(["run", "ipm", "--model", str(HUMANOID_XML), "--calibration", str(out),
+                 "--duration", "0.2"]) == 2
+    assert "made for another body" in capsys.readouterr().err
+    assert main(["run", "static_balance", "--calibration", "none"]) == 2
+    assert main(["calibrate", model, "-o", str(tmp_path / "x.json")]) == 2
+    assert "one walker" in capsys.readouterr().err
+
+
+def test_the_knobs_start_from_the_walkers_defaults():
+    from mjchar.controllers.walking.ipm_params import IPMParams
+    from mjchar.controllers.walking.simbicon import simbicon_tunables
+
+    flat = IPMParams().flat()
+    for k in cal_mod.KNOBS["ipm"]:
+        assert k.default == (1.0 if k.name.endswith("*") else flat[k.name]), k.name
+    rows = {t.name: t.default for t in simbicon_tunables("walk")}
+    for k in cal_mod.KNOBS["simbicon"]:
+        if k.name.endswith("*"):
+            assert k.default == 1.0
+        elif k.name in rows:
+            assert k.default == rows[k.name], k.name
+        else:  # a state field, both states
+            assert k.default == rows[f"state0_{k.name}"] == rows[f"state1_{k.name}"], k.name

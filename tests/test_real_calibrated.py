@@ -1,0 +1,50 @@
+"""The walkers on the real exports whose bodies the defaults do not fit (../shared/data/real,
+skipped when absent), as a user runs them: ``mjchar convert FILE -o body.xml`` at the defaults,
+then ``mjchar run ipm|simbicon --model body.xml``, which calibrates the body first (once; kept in
+the user's calibration cache, so a second run of these tests reads it). Claims tier: each
+calibration takes up to 5 minutes and each walk about a minute.
+"""
+
+from __future__ import annotations
+
+import pytest
+from conftest import real_export
+
+from mjchar import bvh
+from mjchar.bvh.mjcf import convert
+from mjchar.controllers import run
+
+#: IPM fell on these at the defaults (docs/calibration.md)
+IPM_BODIES = ("bandai1_walk_normal_002.bvh", "mixamo_games105.bvh", pytest.param(
+    "bandai2_walk_normal_001.bvh", marks=pytest.mark.xfail(
+        reason="calibrated on 20 s walks, the 60 s walk falls at 27.3 s (docs/calibration.md)",
+        strict=False)))
+#: SIMBICON refused this one (an arm's hinge) before it held such hinges at rest
+SIMBICON_BODIES = ("mixamo_ns_walk_circle.bvh",)
+
+
+@pytest.fixture
+def body(request, tmp_path, monkeypatch) -> str:
+    """The converted body; the walkers calibrate as in a user's run (not the tests' default)."""
+    monkeypatch.delenv("MJCHAR_CALIBRATION", raising=False)
+    xml = tmp_path / "body.xml"
+    convert(bvh.load(real_export(request.param))).save(xml)
+    return str(xml)
+
+
+@pytest.mark.claims
+@pytest.mark.parametrize("body", IPM_BODIES, indirect=True)
+def test_ipm_walks_60_s_at_1_mps_on_a_body_it_calibrated(body):
+    r = run("ipm", "walk", model=body, duration=60.0, speed=1.0, steady_window=10.0)
+    assert not r.fell, (r.fall_time_s, r.fall_reason)
+    assert r.extra["steady_speed_mps"] == pytest.approx(1.0, abs=0.15)
+    assert r.root_force_max_N == 0.0
+
+
+@pytest.mark.claims
+@pytest.mark.parametrize("body", SIMBICON_BODIES, indirect=True)
+def test_simbicon_walks_60_s_on_a_body_with_an_arm_it_cannot_read(body):
+    r = run("simbicon", "walk", model=body, duration=60.0)
+    assert not r.fell, (r.fall_time_s, r.fall_reason)
+    assert r.root_force_max_N == 0.0
+    assert r.distance_m > 40.0
