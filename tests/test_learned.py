@@ -196,3 +196,16 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
             for i in range(4)]
     col.close()
     assert sum(r.sim_seconds for r in learned) > sum(r.sim_seconds for r in zero)
+
+
+def test_the_bundled_policy_describes_itself():
+    from mjchar.controllers.learned import bundled_policies, find_policy
+    from mjchar.controllers.sampling.trajectory import model_fingerprint
+
+    assert "walk60" in bundled_policies()
+    p = find_policy("walk60")
+    assert p.meta["clip"]["name"] == "walk60.bvh" and p.meta["clip"]["loop"] is True
+    assert p.meta["model"]["fingerprint"] == model_fingerprint(Character().model)
+    assert p.meta["env"]["n_substeps"] == 17 and p.meta["env"]["control_freq"] == \
+        pytest.approx(30.0)
+    assert p.clip_motion() is not None  # it carries its clip

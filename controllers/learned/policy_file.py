@@ -15,10 +15,11 @@ under the key ``meta``:
 - ``network``: ``hidden``, ``activation``;
 - ``training``: how it was learned (method, labels, wall time, measured figures).
 
-Arrays: ``mean``, ``std`` (input normalisation) and ``W0``, ``b0``, ``W1``, ... (layers, PyTorch
-``(out, in)`` layout). :func:`load_policy` refuses a file that is not one, or a newer version,
-in one line (:class:`PolicyError`); :meth:`Policy.check` refuses a model or a clip that is not
-the one it was trained on.
+Arrays (float32): ``mean``, ``std`` (input normalisation) and ``W0``, ``b0``, ``W1``, ...
+(layers, PyTorch ``(out, in)`` layout); ``clip_bvh``: the text of the clip's BVH file.
+:func:`load_policy` refuses a file that is not one, or a newer version, in one line
+(:class:`PolicyError`); :meth:`Policy.check` refuses a model or a clip that is not the one it
+was trained on.
 """
 
 from __future__ import annotations
@@ -120,10 +121,11 @@ def save_policy(path, net: MLP, meta: dict, clip_bvh: str | None = None) -> Path
     path = Path(path)
     meta = dict(meta, format=FORMAT, version=VERSION)
     meta["network"] = dict(meta.get("network", {}), hidden=list(net.hidden), activation="elu")
-    arrays = {"meta": np.array(json.dumps(meta, sort_keys=True)), "mean": net.mean,
-              "std": net.std}
+    f32 = np.float32  # stored in single precision (half the size; inference is in double)
+    arrays = {"meta": np.array(json.dumps(meta, sort_keys=True)), "mean": net.mean.astype(f32),
+              "std": net.std.astype(f32)}
     for i, (w, b) in enumerate(zip(net.weights, net.biases, strict=True)):
-        arrays[f"W{i}"], arrays[f"b{i}"] = w, b
+        arrays[f"W{i}"], arrays[f"b{i}"] = w.astype(f32), b.astype(f32)
     if clip_bvh is not None:
         arrays["clip_bvh"] = np.array(clip_bvh)
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:

@@ -215,7 +215,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
     with ctx.Pool(workers, initializer=init_worker, initargs=(setup,)) as pool:
         while True:
             now = time.perf_counter() - t_start
-            if now >= budget:
+            if now >= budget and summary:  # (one iteration at least)
                 break
             beta = opts.beta_decay ** it
             w = time.perf_counter()
