@@ -99,7 +99,8 @@ class EpisodeResult:
     labelled), ``steps`` control steps, ``fell`` (a fall or the tracking limit ended it),
     ``tracking_error_m`` (the env's mean joint error over the episode), ``clipped`` (fraction of
     label entries clipped to [-1, 1]), ``label_seconds`` (wall time spent labelling),
-    ``seconds`` (wall time in all), ``sim_seconds`` (simulated time reached)."""
+    ``seconds`` (wall time in all), ``sim_seconds`` (simulated time reached), ``reason`` (why
+    it ended early), ``episode_return`` (the env's summed reward)."""
 
     obs: np.ndarray
     labels: np.ndarray
@@ -111,6 +112,7 @@ class EpisodeResult:
     seconds: float
     sim_seconds: float
     reason: str | None = None
+    episode_return: float = 0.0
 
 
 def make_env(setup: LearnSetup, **env_options):
@@ -201,7 +203,7 @@ class Collector:
         self._plan = None
         n_steps = int(round(job.seconds / env.control_dt))
         X, Y = [], []
-        label_s, clipped, fell, reason = 0.0, 0, False, None
+        label_s, clipped, fell, reason, ret = 0.0, 0, False, None, 0.0
         for _ in range(n_steps):
             pred = None if job.policy is None else np.clip(job.policy(obs), -1.0, 1.0)
             a_star = None
@@ -222,7 +224,8 @@ class Collector:
                 a = pred
             if job.noise > 0:
                 a = a + rng.normal(0.0, job.noise, a.shape)
-            obs, _, terminated, truncated, info = env.step(np.clip(a, -1.0, 1.0))
+            obs, reward, terminated, truncated, info = env.step(np.clip(a, -1.0, 1.0))
+            ret += reward
             if terminated:
                 fell, reason = True, info["termination_reason"]
                 break
@@ -236,7 +239,8 @@ class Collector:
             steps=int(round(env.sim_time / env.control_dt)), fell=fell,
             tracking_error_m=float(info["tracking_error_m"]),
             clipped=clipped / max(n * nu, 1), label_seconds=label_s,
-            seconds=time.perf_counter() - w0, sim_seconds=float(env.sim_time), reason=reason)
+            seconds=time.perf_counter() - w0, sim_seconds=float(env.sim_time), reason=reason,
+            episode_return=ret)
 
 
 # -- the worker processes' side ---------------------------------------------------------------

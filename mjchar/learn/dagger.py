@@ -241,6 +241,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
                    "eval_error_m": float(np.mean([r.tracking_error_m for r in ev])),
                    "eval_fall_rate": float(np.mean([r.fell for r in ev])),
                    "eval_survived_s": float(np.mean([r.sim_seconds for r in ev])),
+                   "eval_return": float(np.mean([r.episode_return for r in ev])),
                    "collect_s": collect_s, "train_s": train_s, "eval_s": eval_s,
                    "labels_per_s": new / max(collect_s, 1e-9),
                    "clipped": float(np.mean([r.clipped for r in results])),
