@@ -249,7 +249,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
             curve.add(**row)
             meta_now = dict(meta, training={
                 "method": "DAgger + DART, MPC labels", "iterations": it, "labels": labels,
-                "wall_s": wall, "label_seconds": label_s, "setup": _jsonable(asdict(setup)),
+                "wall_s": wall, "label_seconds": label_s, "setup": _jsonable(_named(asdict(setup))),
                 "options": _jsonable(asdict(opts)), "last_eval": {
                     k: row[k] for k in ("eval_error_m", "eval_fall_rate", "eval_survived_s")}})
             save_policy(files["policy"], policy, meta_now, clip_text)
@@ -274,6 +274,13 @@ def _line(row: dict) -> str:
             f"{row['loss_before']:.4f}->{row['loss_after']:.4f}  eval error "
             f"{100 * row['eval_error_m']:.1f} cm  falls {row['eval_fall_rate']:.2f}  survived "
             f"{row['eval_survived_s']:.1f} s")
+
+
+def _named(setup: dict) -> dict:
+    """The setup with file paths reduced to file names (a policy file names no folder of the
+    machine it was learned on)."""
+    return {k: (Path(v).name if k in ("clip", "model") and isinstance(v, str) else v)
+            for k, v in setup.items()}
 
 
 def _jsonable(d):

@@ -1,4 +1,4 @@
-"""A learned tracking policy against the issue's bars (docs/learning.md): the looped clip for 20
+"""A learned tracking policy against the bars of docs/learning.md: the looped clip for 20
 s, sideways pushes at 8 phases of the stride, perturbed starts, and the wall time against the
 MPC on the same run.
 
