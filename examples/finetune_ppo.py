@@ -4,8 +4,10 @@
 The policy file's network becomes the PPO actor's mean: its hidden layers are
 stable-baselines3's ``mlp_extractor.policy_net`` (ELU) and its output layer the ``action_net``;
 the input normalisation is folded into the first layer (``W' = W / std``, ``b' = b - W' mean``),
-so PPO sees the env's raw observation. The critic starts untrained, the action noise at
-``--init-std`` (the DART noise the policy was distilled with). The env is the one the policy was
+so PPO sees the env's raw observation. The critic starts untrained: for ``--critic-warmup``
+steps only the critic learns (the actor frozen), so the first policy updates do not follow a
+random value function. The action noise starts at ``--init-std`` (the DART noise the policy
+was distilled with). The env is the one the policy was
 distilled in: its clip (looped as in training), ``future_steps`` from the file, 10 s episodes.
 
 Needs the rl extra, CPU torch first::
@@ -63,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--eval-episodes", type=int, default=5)
     ap.add_argument("--init-std", type=float, default=0.1)
     ap.add_argument("--lr", type=float, default=1e-4)
+    ap.add_argument("--critic-warmup", type=int, default=4096,
+                    help="steps with the actor frozen while the critic learns")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--save", help="write the fine-tuned PPO model (.zip)")
     a = ap.parse_args(argv)
@@ -93,6 +97,16 @@ def main(argv: list[str] | None = None) -> int:
 
     evaluate("0")
     t0, done = time.perf_counter(), 0
+    if a.critic_warmup > 0:
+        actor = [*model.policy.mlp_extractor.policy_net.parameters(),
+                 *model.policy.action_net.parameters(), model.policy.log_std]
+        for p in actor:
+            p.requires_grad_(False)
+        model.learn(total_timesteps=a.critic_warmup, reset_num_timesteps=False,
+                    progress_bar=False)
+        for p in actor:
+            p.requires_grad_(True)
+        evaluate(f"{a.critic_warmup} (critic only)")
     while done < a.steps:
         n = min(a.eval_every, a.steps - done)
         model.learn(total_timesteps=n, reset_num_timesteps=False, progress_bar=False)

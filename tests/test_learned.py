@@ -209,3 +209,31 @@ def test_the_bundled_policy_describes_itself():
     assert p.meta["env"]["n_substeps"] == 17 and p.meta["env"]["control_freq"] == \
         pytest.approx(30.0)
     assert p.clip_motion() is not None  # it carries its clip
+
+
+@pytest.mark.claims
+def test_the_bundled_policy_scores_above_the_zero_action_with_no_root_force():
+    """docs/learning.md, "PPO from the distilled policy": the bundled walk60 policy's
+    Imitation-v0 return (10 s episodes from the same random starts) is above plain PD's, and as
+    a controller it pushes nothing on the root."""
+    from mjchar.controllers.learned import find_policy
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.perf.policy import loop
+
+    policy = find_policy("walk60")
+    env = make_env(LearnSetup(clip=policy.clip_motion(), loop=True), episode_seconds=10.0)
+
+    def episode(seed: int, act) -> float:
+        obs, _ = env.reset(seed=seed)
+        total, done = 0.0, False
+        while not done:
+            obs, r, term, trunc, _ = env.step(act(obs))
+            total, done = total + r, term or trunc
+        return total
+
+    zero = np.zeros(env.action_space.shape)
+    learned = [episode(s, policy) for s in range(3)]
+    plain = [episode(s, lambda o: zero) for s in range(3)]
+    env.close()
+    assert np.mean(learned) > 1.5 * np.mean(plain), (learned, plain)
+    assert loop("walk60", duration=1.0)["root_force_max_N"] == 0.0
