@@ -64,7 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--eval-every", type=int, default=20_000)
     ap.add_argument("--eval-episodes", type=int, default=5)
     ap.add_argument("--init-std", type=float, default=0.1)
-    ap.add_argument("--lr", type=float, default=1e-4)
+    ap.add_argument("--lr", type=float, default=1e-5)
+    ap.add_argument("--epochs", type=int, default=3, help="PPO epochs per rollout")
     ap.add_argument("--critic-warmup", type=int, default=4096,
                     help="steps with the actor frozen while the critic learns")
     ap.add_argument("--seed", type=int, default=0)
@@ -86,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     env, eval_env = Monitor(make_env(policy)), Monitor(make_env(policy))
     hidden = list(policy.net.hidden)
     model = PPO("MlpPolicy", env, seed=a.seed, device="cpu", learning_rate=a.lr,
+                n_epochs=a.epochs,
                 policy_kwargs={"net_arch": {"pi": hidden, "vf": [256, 256]},
                                "activation_fn": torch.nn.ELU})
     load_into_ppo(model, policy, a.init_std)

@@ -8,8 +8,9 @@ MPC on the same run.
   starting ``--push-after`` (2) s in, each run 3 s past the push: falls.
 - ``--perturbed``: 5 seeded perturbed starts (``scenarios.perturbed_start``: joints N(0, 0.1
   rad), root velocity N(0, 0.2 m/s)), ``--duration`` s each: falls and errors.
-- ``--speed``: the same 20 s run with the policy and with the MPC (``--mpc-seconds`` of it when
-  given, the wall time then scaled to the duration): wall seconds of each and their ratio.
+- ``--speed``: the same run with the policy (``--duration`` s, or until it falls) and with the
+  MPC (``--mpc-seconds`` of it when given): wall and CPU seconds per simulated second of each,
+  and their ratios.
 
 The load average is printed with every part (the machine may be shared).
 
@@ -88,10 +89,12 @@ def speed(policy, duration: float = 20.0, mpc_seconds: float | None = None) -> d
     sim = duration if mpc_seconds is None else mpc_seconds
     rm, tm = timed(S.track, ch, m, ref, duration=sim)
     m.close()
-    mpc_wall = tm.wall_s * duration / max(rm.sim_time_s, 1e-9)
-    return {"policy_wall_s": tp.wall_s, "policy_cpu_s": tp.cpu_s, "policy_fell": r.fell,
-            "mpc_sim_s": rm.sim_time_s, "mpc_wall_s": tm.wall_s, "mpc_cpu_s": tm.cpu_s,
-            "mpc_wall_s_for_duration": mpc_wall, "ratio": mpc_wall / tp.wall_s,
+    # per simulated second (a run that falls ends early): wall and CPU seconds of each
+    pw, pc = tp.wall_s / r.sim_time_s, tp.cpu_s / r.sim_time_s
+    mw, mc = tm.wall_s / rm.sim_time_s, tm.cpu_s / rm.sim_time_s
+    return {"policy_sim_s": r.sim_time_s, "policy_fell": r.fell, "policy_wall_per_sim_s": pw,
+            "policy_cpu_per_sim_s": pc, "mpc_sim_s": rm.sim_time_s, "mpc_wall_per_sim_s": mw,
+            "mpc_cpu_per_sim_s": mc, "wall_ratio": mw / pw, "cpu_ratio": mc / pc,
             "load": load_average()}
 
 
