@@ -8,8 +8,10 @@
   trajectories.
 - :mod:`~mjchar.controllers.sampling`: batched rollouts, executors, saved trajectories, SAMCON,
   CMA-ES, the MPC tracker.
+- :mod:`~mjchar.controllers.learned`: learned tracking policies (``mjchar learn``) as
+  controllers, numpy inference.
 
-Importing the package imports the four subpackages, which registers every scenario and
+Importing the package imports the five subpackages, which registers every scenario and
 controller. The Python entry points::
 
     from mjchar.controllers import Character, make_controller, run, run_scenario
@@ -23,7 +25,7 @@ controller. The Python entry points::
 
 # Registration order is the order of the CLI's choices and the bench's rows:
 # isort: off
-from . import core, balance, walking, sampling  # noqa: F401  (fills the registries)
+from . import core, balance, walking, sampling, learned  # noqa: F401  (fills the registries)
 # isort: on
 from .core import (
     Action,

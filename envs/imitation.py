@@ -46,8 +46,9 @@ from mjchar import bvh
 from mjchar.bvh.bundled.assets import motion_path
 from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.controllers.core.base import ReferenceTarget
+from mjchar.controllers.learned.observation import TrackingObserver, clip_phase
 
-from .common import OBS_POSITION_LIMIT, CharacterEnv, EnvError, heading_rotation, merge_terms
+from .common import CharacterEnv, EnvError, heading_rotation, merge_terms
 
 __all__ = ["ImitationEnv", "DEFAULT_REWARD_WEIGHTS", "DEFAULT_REWARD_SCALES"]
 
@@ -92,12 +93,16 @@ class _EpisodeReference:
         return k
 
     def qpos(self, t: float) -> np.ndarray:
-        """``(nq,)`` reference pose at time ``t`` (s)."""
+        """``(nq,)`` reference pose at time ``t`` (s); ``(n, nq)`` at times ``t (n,)``."""
+        if np.ndim(t):
+            return self.reference.qpos(t)
         k = self._row(t)
         return self._q[k] if k >= 0 else self.reference.qpos(t)
 
     def qvel(self, t: float) -> np.ndarray:
-        """``(nv,)`` reference velocity at time ``t`` (s)."""
+        """``(nv,)`` reference velocity at time ``t`` (s); ``(n, nv)`` at times ``t (n,)``."""
+        if np.ndim(t):
+            return self.reference.qvel(t)
         k = self._row(t)
         return self._v[k] if k >= 0 else self.reference.qvel(t)
 
@@ -156,12 +161,11 @@ class ImitationEnv(CharacterEnv):
             self._joint_bodies = slice(int(jb[0]), int(jb[0]) + len(jb))
         self._ref_data = mujoco.MjData(ch.model)
         self._ref_data_time = None
-        self._future_data = mujoco.MjData(ch.model)
 
-        k = self.observer.n_bodies
-        fut_hi = np.tile(np.concatenate([np.full(3 * k, OBS_POSITION_LIMIT), np.ones(6 * k)]),
-                         len(self.future_steps))
-        extra_hi = np.concatenate([np.ones(2), fut_hi])
+        #: the phase and future-pose features, shared with the ``policy`` controller
+        self.tracking = TrackingObserver(ch, self.reference, self.future_steps,
+                                         self.control_dt)
+        extra_hi = self.tracking.extra_bounds()
         self.observation_space = self._observation_space(-extra_hi, extra_hi)
         self._t0 = 0.0
 
@@ -196,12 +200,7 @@ class ImitationEnv(CharacterEnv):
         """Phase in ``[0, 1)`` (cyclic; ``[0, 1]`` otherwise) of reference time ``t``
         (default: now)."""
         t = self.reference_time if t is None else t
-        T = self.reference.duration
-        if T <= 0:
-            return 0.0
-        if self.reference.cyclic:
-            return float((t / T) % 1.0)
-        return float(min(max(t / T, 0.0), 1.0))
+        return clip_phase(t, self.reference.duration, self.reference.cyclic)
 
     def _start(self, options: dict):
         T = self.reference.duration
@@ -222,8 +221,20 @@ class ImitationEnv(CharacterEnv):
         self._root_err_sum = 0.0
         self._err_n = 0
         self._joint_error = 0.0
-        q, v = self._ref.qpos(self._t0), self._ref.qvel(self._t0)
-        return q.copy(), v.copy()
+        q, v = self._ref.qpos(self._t0).copy(), self._ref.qvel(self._t0).copy()
+        noise = options.get("perturb")
+        if noise is not None:  # a perturbed start, as the scenarios' (perturbed_start)
+            from mjchar.controllers.core.scenarios.shared import perturbed_start
+
+            ok = (np.shape(noise) == (2,) and all(isinstance(x, int | float) and x >= 0
+                                                  for x in noise))
+            if not ok:
+                raise EnvError(f"options['perturb'] must be (joint_noise rad, root_velocity_noise "
+                               f"m/s), both >= 0, got {noise!r}")
+            seed = int(self.np_random.integers(2**31))
+            q, v = perturbed_start(self.character, q, v, seed, joint_noise=float(noise[0]),
+                                   root_velocity_noise=float(noise[1]))
+        return q, v
 
     def _pd_target(self):
         # the set-point held over a step is the reference at the step's end
@@ -231,7 +242,8 @@ class ImitationEnv(CharacterEnv):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start at a random phase (or ``options["phase"]`` in [0, 1]) in the reference's pose
-        and velocity; returns ``(obs, info)``."""
+        and velocity (``options["perturb"] = (joint_noise, root_velocity_noise)``: perturbed
+        from it as the scenarios' perturbed starts, rad and m/s); returns ``(obs, info)``."""
         obs, info = super().reset(seed=seed, options=options)
         self._accumulate_errors()
         return obs, self._info()
@@ -299,20 +311,7 @@ class ImitationEnv(CharacterEnv):
 
     # -- observation and info ------------------------------------------------------------------
     def _extra_observation(self) -> np.ndarray:
-        phi = self.phase()
-        a = (2.0 if self.reference.cyclic else 1.0) * math.pi * phi
-        parts = [np.array([math.cos(a), math.sin(a)])]
-        if not self.future_steps:
-            return parts[0]
-        if self.future_steps:
-            d = self.character.data
-            H, r = self.observer.frame(d)
-            fd = self._future_data
-            for k in self.future_steps:
-                fd.qpos[:] = self._ref.qpos(self.reference_time + k * self.control_dt)
-                mujoco.mj_kinematics(self.character.model, fd)
-                parts.append(self.observer.pose(fd, H, r))
-        return np.concatenate(parts)
+        return self.tracking.extra(self.character.data, self.reference_time, self._ref.qpos)
 
     def _task_info(self) -> dict:
         n = max(self._err_n, 1)

@@ -50,7 +50,7 @@ FOLDERS = {"bvh": "mjchar.bvh", "controllers": "mjchar.controllers", "envs": "mj
 LAYERS = ("mjchar.bvh", "mjchar.controllers", "mjchar.envs", "mjchar")
 #: inside controllers: what each subpackage may import from its siblings
 CONTROLLER_DEPS = {"core": set(), "balance": {"core"}, "walking": {"core", "balance"},
-                   "sampling": {"core"}}
+                   "sampling": {"core"}, "learned": {"core", "sampling"}}
 #: inside bvh: the subpackages by concern, lowest first (each may import those before it)
 BVH_ORDER = ("io", "kinematics", "rigs", "editing", "mjcf", "reference", "gait", "bundled")
 #: modules of bvh/ at its top level: the package, and the two every concern builds on

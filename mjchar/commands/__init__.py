@@ -5,4 +5,5 @@ exit status). Keep heavy imports inside ``func`` so ``mjchar --help`` stays fast
 """
 
 #: modules (relative to this package) whose subcommands ``mjchar`` offers, in help order
-COMMANDS = ["info", "convert", "run", "params", "calibrate", "gait", "samcon", "trajopt", "bench"]
+COMMANDS = ["info", "convert", "run", "params", "calibrate", "gait", "samcon", "trajopt", "learn",
+            "bench"]

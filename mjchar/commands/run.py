@@ -137,7 +137,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 #: factory options that have their own flag (``--param`` refuses them)
 _FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
             "tracker": "--tracker", "height": "--squat", "trajectory": "FILE",
-            "calibration": "--calibration"}
+            "calibration": "--calibration", "policy": "FILE"}
 
 
 def _controller_options(spec, args: argparse.Namespace) -> dict:
@@ -147,7 +147,7 @@ def _controller_options(spec, args: argparse.Namespace) -> dict:
     options = {}
     for name, dest in (("tracker", "tracker"), ("gait", "gait"), ("speed", "speed"),
                        ("heading", "heading"), ("trajectory", "trajectory"),
-                       ("calibration", "calibration")):
+                       ("calibration", "calibration"), ("policy", "trajectory")):
         if name in spec.options and getattr(args, dest) is not None:
             options[name] = getattr(args, dest)
     if "height" in spec.options and args.squat:
@@ -162,6 +162,20 @@ def _controller_options(spec, args: argparse.Namespace) -> dict:
             raise MjcharError(f"--param {name} is given twice with different values")
         options[name] = value
     return options
+
+
+def _policy_clip(args: argparse.Namespace) -> None:
+    """``mjchar run policy POLICY``: the policy's own clip (and its looping) unless ``--motion``
+    (``--loop``) is given: its bundled name or file, else the copy the policy file carries."""
+    from mjchar.controllers.learned import find_policy
+
+    policy = find_policy(args.trajectory)
+    args.trajectory = policy  # loaded once
+    clip = policy.meta["clip"]
+    if args.loop is None and clip.get("loop"):
+        args.loop = True
+    if args.motion is None:
+        args.motion = policy.clip_motion()
 
 
 def describe(args: argparse.Namespace):
@@ -180,10 +194,13 @@ def describe(args: argparse.Namespace):
     sspec = spec.scenario_spec
     if not sspec.suits(cspec):
         spec.check()  # the builder's one-line refusal, naming the scenarios it runs
-    if args.trajectory is not None and cspec.kind != "replay":
+    takes_file = cspec.kind == "replay" or "policy" in cspec.options
+    if args.trajectory is not None and not takes_file:
         meant = hint(args.trajectory, scenarios.names(), "--scenario ")
         raise MjcharError(f"unexpected argument {args.trajectory!r}{meant}: only the replays "
-                          f"({', '.join(registry.names('replay'))}) take a file")
+                          f"({', '.join(registry.names('replay'))}) and policy take a file")
+    if "policy" in cspec.options:
+        _policy_clip(args)
     if args.gait is not None and "gait" in cspec.options:
         from mjchar.controllers.walking.gaits import GAITS
 

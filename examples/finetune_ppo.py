@@ -1,0 +1,124 @@
+"""Fine-tune a distilled policy (``mjchar learn``) with PPO (stable-baselines3) on
+``mjchar/Imitation-v0``, and print the return before, during and after.
+
+The policy file's network becomes the PPO actor's mean: its hidden layers are
+stable-baselines3's ``mlp_extractor.policy_net`` (ELU) and its output layer the ``action_net``;
+the input normalisation is folded into the first layer (``W' = W / std``, ``b' = b - W' mean``),
+so PPO sees the env's raw observation. The critic starts untrained: for ``--critic-warmup``
+steps only the critic learns (the actor frozen), so the first policy updates do not follow a
+random value function. The action noise starts at ``--init-std`` (the DART noise the policy
+was distilled with). The env is the one the policy was
+distilled in: its clip (looped as in training), ``future_steps`` from the file, 10 s episodes.
+
+Needs the rl extra, CPU torch first::
+
+    pip install torch==2.13.0 && pip install stable-baselines3
+
+Usage::
+
+    python examples/finetune_ppo.py walk60.npz --steps 100000 --eval-every 20000
+    python examples/finetune_ppo.py walk60 --steps 1000000 --save walk60_ppo.zip
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+
+def make_env(policy):
+    from mjchar.learn.collect import LearnSetup, make_env
+
+    clip = policy.meta["clip"]
+    setup = LearnSetup(clip=policy.clip_motion(), loop=clip["loop"],
+                       future_steps=tuple(policy.meta["observation"]["future_steps"]))
+    return make_env(setup, episode_seconds=10.0)
+
+
+def load_into_ppo(model, policy, init_std: float) -> None:
+    """Copy the policy's layers into the PPO actor (module docstring)."""
+    import torch
+
+    net = policy.net
+    lin = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    if [tuple(m.weight.shape) for m in lin] != [w.shape for w in net.weights[:-1]]:
+        raise SystemExit("the PPO actor's layers do not match the policy's")
+    W0 = net.weights[0] / net.std
+    b0 = net.biases[0] - W0 @ net.mean
+    layers = [(W0, b0)] + list(zip(net.weights[1:-1], net.biases[1:-1], strict=True))
+    with torch.no_grad():
+        for m, (w, b) in zip(lin, layers, strict=True):
+            m.weight.copy_(torch.as_tensor(w))
+            m.bias.copy_(torch.as_tensor(b))
+        model.policy.action_net.weight.copy_(torch.as_tensor(net.weights[-1]))
+        model.policy.action_net.bias.copy_(torch.as_tensor(net.biases[-1]))
+        model.policy.log_std.fill_(math.log(init_std))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description="Fine-tune a distilled policy with PPO.")
+    ap.add_argument("policy", help="policy file (mjchar learn) or bundled name")
+    ap.add_argument("--steps", type=int, default=100_000)
+    ap.add_argument("--eval-every", type=int, default=20_000)
+    ap.add_argument("--eval-episodes", type=int, default=5)
+    ap.add_argument("--init-std", type=float, default=0.1)
+    ap.add_argument("--lr", type=float, default=1e-5)
+    ap.add_argument("--epochs", type=int, default=3, help="PPO epochs per rollout")
+    ap.add_argument("--critic-warmup", type=int, default=4096,
+                    help="steps with the actor frozen while the critic learns")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--save", help="write the fine-tuned PPO model (.zip)")
+    a = ap.parse_args(argv)
+    try:
+        import torch
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.evaluation import evaluate_policy
+        from stable_baselines3.common.monitor import Monitor
+    except ImportError:
+        print("needs stable-baselines3: pip install torch==2.13.0 && pip install "
+              "stable-baselines3", file=sys.stderr)
+        return 2
+    from mjchar.controllers.learned import find_policy
+
+    torch.set_num_threads(1)
+    policy = find_policy(a.policy)
+    env, eval_env = Monitor(make_env(policy)), Monitor(make_env(policy))
+    hidden = list(policy.net.hidden)
+    model = PPO("MlpPolicy", env, seed=a.seed, device="cpu", learning_rate=a.lr,
+                n_epochs=a.epochs,
+                policy_kwargs={"net_arch": {"pi": hidden, "vf": [256, 256]},
+                               "activation_fn": torch.nn.ELU})
+    load_into_ppo(model, policy, a.init_std)
+
+    def evaluate(label: str) -> None:
+        mean, std = evaluate_policy(model, eval_env, n_eval_episodes=a.eval_episodes,
+                                    deterministic=True)
+        print(f"{label:>10} steps: return {mean:.2f} +- {std:.2f}", flush=True)
+
+    evaluate("0")
+    t0, done = time.perf_counter(), 0
+    if a.critic_warmup > 0:
+        actor = [*model.policy.mlp_extractor.policy_net.parameters(),
+                 *model.policy.action_net.parameters(), model.policy.log_std]
+        for p in actor:
+            p.requires_grad_(False)
+        model.learn(total_timesteps=a.critic_warmup, reset_num_timesteps=False,
+                    progress_bar=False)
+        for p in actor:
+            p.requires_grad_(True)
+        evaluate(f"{a.critic_warmup} (critic only)")
+    while done < a.steps:
+        n = min(a.eval_every, a.steps - done)
+        model.learn(total_timesteps=n, reset_num_timesteps=False, progress_bar=False)
+        done += n
+        evaluate(f"{done}")
+    print(f"fine-tuned {done} steps in {time.perf_counter() - t0:.0f} s")
+    if a.save:
+        model.save(a.save)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

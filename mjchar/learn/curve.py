@@ -1,0 +1,38 @@
+"""The learning curve as a picture: tracking error and fall rate of the learner against wall
+time (matplotlib, imported here only)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["plot_curve"]
+
+
+def plot_curve(rows: list[dict], path) -> Path:
+    """Write the curve of ``rows`` (:func:`~mjchar.learn.dagger.learn`'s per-iteration rows) as
+    a PNG at ``path`` (atomically)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjchar.bvh.io.files import atomic_path
+
+    minutes = [r["wall_s"] / 60.0 for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=100)
+    ax.plot(minutes, [100 * r["eval_error_m"] for r in rows], "o-", color="tab:blue",
+            label="tracking error")
+    ax.set_xlabel("wall time (min)")
+    ax.set_ylabel("mean joint error (cm)", color="tab:blue")
+    ax2 = ax.twinx()
+    ax2.plot(minutes, [r["eval_fall_rate"] for r in rows], "s--", color="tab:red",
+             label="fall rate")
+    ax2.set_ylabel("fall rate of the evaluation episodes", color="tab:red")
+    ax2.set_ylim(-0.05, 1.05)
+    ax.set_title("mjchar learn: the learner alone, after each DAgger iteration")
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+    return path

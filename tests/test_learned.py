@@ -1,0 +1,239 @@
+"""Learned tracking policies: the policy file, numpy inference, the ``policy`` controller, the
+observation shared with ``mjchar/Imitation-v0``, and ``mjchar learn``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mjchar.cli import main
+from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.runs import RunSpec, load_reference
+from mjchar.controllers.learned import (
+    MLP,
+    PolicyError,
+    TrackingObserver,
+    clip_hash,
+    load_policy,
+    save_policy,
+)
+
+
+def _random_mlp(n_in: int, n_out: int, hidden=(32, 16), seed: int = 0, scale: float = 0.05):
+    rng = np.random.default_rng(seed)
+    sizes = [n_in, *hidden, n_out]
+    W = [rng.normal(0, scale, (b, a)) for a, b in zip(sizes[:-1], sizes[1:], strict=True)]
+    b = [rng.normal(0, scale, (n,)) for n in sizes[1:]]
+    return MLP(W, b, rng.normal(0, 1, n_in), rng.uniform(0.5, 2.0, n_in))
+
+
+@pytest.fixture(scope="module")
+def walk_policy(tmp_path_factory):
+    """A policy file for the bundled walk, looped, with small random weights (close to the zero
+    action: plain PD)."""
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.learn.dagger import policy_metadata
+
+    setup = LearnSetup(clip="walk", loop=True)
+    env = make_env(setup)
+    meta = policy_metadata(setup, env)
+    n_in, nu = env.observation_space.shape[0], env.action_space.shape[0]
+    env.close()
+    path = tmp_path_factory.mktemp("policy") / "walk.npz"
+    save_policy(path, _random_mlp(n_in, nu, scale=0.01), meta)
+    return path
+
+
+def test_mlp_numpy_equals_torch():
+    torch = pytest.importorskip("torch")
+    from mjchar.learn.train import Trainer
+
+    tr = Trainer(7, 3, (16, 8), seed=1)
+    X = np.random.default_rng(0).normal(size=(50, 7))
+    tr.fit(X, np.random.default_rng(1).normal(size=(50, 3)), epochs=2)
+    with torch.no_grad():
+        ref = tr.net(torch.from_numpy((X - tr.mean) / tr.std)).numpy()
+    np.testing.assert_allclose(tr.mlp()(X), ref, rtol=1e-10, atol=1e-12)
+
+
+def test_policy_file_round_trips(walk_policy, tmp_path):
+    p = load_policy(walk_policy)
+    x = np.random.default_rng(0).normal(size=(5, p.net.n_in))
+    out = tmp_path / "copy.npz"
+    save_policy(out, p.net, p.meta)
+    q = load_policy(out)
+    np.testing.assert_array_equal(q.net(x), p.net(x))
+    assert q.meta == p.meta
+    assert q.meta["format"] == "mjchar-policy" and q.meta["clip"]["loop"] is True
+    assert [b[0] for b in q.meta["observation"]["layout"]][-1] == "reference_pose_1_ahead"
+
+
+def test_a_file_that_is_not_a_policy_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, x=np.zeros(3))
+    with pytest.raises(PolicyError, match="not an mjchar policy file"):
+        load_policy(bad)
+    assert main(["run", "policy", str(bad), "--duration", "0.1"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_mismatched_clip_is_refused_in_one_line(walk_policy, capsys):
+    """Trained on the looped walk: the walk once through (another reference) is refused."""
+    assert main(["run", "policy", str(walk_policy), "--motion", "idle",
+                 "--duration", "0.1"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "was trained on clip walk --loop" in err
+
+
+def test_a_mismatched_model_is_refused_in_one_line(walk_policy, tmp_path, capsys):
+    from mjchar.bvh.bundled.assets import humanoid_path
+
+    xml = tmp_path / "slippery.xml"
+    text = humanoid_path().read_text()
+    assert 'friction="1 0.005 0.0001"' in text
+    xml.write_text(text.replace('friction="1 0.005 0.0001"', 'friction="0.7 0.005 0.0001"'))
+    assert main(["run", "policy", str(walk_policy), "--model", str(xml), "--loop",
+                 "--motion", "walk", "--duration", "0.1"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "trained on another model" in err
+
+
+def test_the_policy_runs_from_its_own_clip_and_tracks_with_no_root_force(walk_policy, capsys):
+    assert main(["run", "policy", str(walk_policy), "--duration", "0.5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["root_force_max_N"] == 0.0 and not out["diverged"]
+    assert out["sim_time_s"] == pytest.approx(0.5, abs=0.02)
+
+
+def test_env_and_controller_observe_the_same_numbers():
+    """The env's observation is the shared TrackingObserver's, at the same state and time."""
+    from mjchar.envs.imitation import ImitationEnv
+
+    env = ImitationEnv("walk", future_steps=(1, 2))
+    obs, _ = env.reset(seed=3)
+    for _ in range(3):
+        obs, *_ = env.step(env.action_space.sample() * 0.1)
+    tob = TrackingObserver(env.character, env.reference, (1, 2), env.control_dt)
+    np.testing.assert_allclose(tob.observe(env.character.data, env.reference_time), obs,
+                               rtol=1e-6, atol=1e-6)
+    env.close()
+
+
+def test_the_controller_acts_as_the_policy_does_in_the_env(walk_policy):
+    """The same policy from phase 0: the controller's run and the env's episode visit the same
+    states (the env's and the run's clip are the same looped walk)."""
+    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.registry import make_controller
+    from mjchar.learn.collect import LearnSetup, make_env
+
+    policy = load_policy(walk_policy)
+    env = make_env(LearnSetup(clip="walk", loop=True))
+    obs, _ = env.reset(options={"phase": 0.0})
+    roots = []
+    for _ in range(15):
+        obs, _, term, _, _ = env.step(policy(obs))
+        roots.append(env.character.data.xpos[env.character.root_body].copy())
+        assert not term
+    ch = Character()
+    ref = load_reference(RunSpec("policy", "track", motion="walk", loop=True), ch)
+    c = make_controller("policy", ch, ref, policy=policy)
+    seen = []
+
+    def frame(character):
+        seen.append((character.time, character.data.xpos[character.root_body].copy()))
+
+    S.track(ch, c, ref, duration=15 * env.control_dt, frame_callback=frame)
+    at = {round(t / env.control_dt): x for t, x in seen
+          if abs(t / env.control_dt - round(t / env.control_dt)) < 1e-6}  # control steps
+    for k in (5, 10, 15):
+        np.testing.assert_allclose(at[k], roots[k - 1], atol=1e-4)
+    env.close()
+
+
+def test_clip_hash_tells_clips_apart():
+    ch = Character()
+    a = load_reference(RunSpec("mpc", "track", motion="walk", loop=True), ch)
+    b = load_reference(RunSpec("mpc", "track", motion="walk", loop=False), ch)
+    c = load_reference(RunSpec("mpc", "track", motion="walk", loop=True), ch)
+    assert clip_hash(a) == clip_hash(c) != clip_hash(b)
+
+
+def test_learn_refuses_bad_input_in_one_line(tmp_path, capsys):
+    for argv in (["learn", str(tmp_path / "none.bvh"), "-o", str(tmp_path / "p.npz")],
+                 ["learn", "walk", "-o", str(tmp_path / "p.txt")],
+                 ["learn", "walk", "-o", str(tmp_path / "no" / "p.npz")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+
+
+@pytest.mark.slow
+def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
+    """Three DAgger iterations on the bundled walk: the training loss falls, and the learner
+    scores a higher Imitation-v0 return than the zero action (plain PD) from the same starts."""
+    pytest.importorskip("torch")
+    from mjchar.learn.collect import Collector, Episode, LearnSetup
+    from mjchar.learn.dagger import LearnOptions, learn
+
+    setup = LearnSetup(clip="walk", loop=True, label_samples=8)
+    out = tmp_path / "walk.npz"
+    opts = LearnOptions(minutes=0.01, workers=2, episodes=2, episode_seconds=1.0,
+                        eval_phases=2, eval_seconds=2.0, max_steps=800)
+    rows = []
+    for i in range(3):
+        learn(setup, out, opts, resume=i > 0)
+        rows = json.loads(out.with_suffix("").with_name("walk.curve.json").read_text())
+    assert len(rows) == 3
+    assert rows[-1]["loss_after"] < rows[0]["loss_before"]
+    policy = load_policy(out)
+    col = Collector(setup)
+    learned = [col.run(Episode(seed=i, phase=i / 4, seconds=3.0, policy=policy.net,
+                               beta=0.0, label=False)) for i in range(4)]
+    zero = [col.run(Episode(seed=i, phase=i / 4, seconds=3.0, beta=0.0, label=False))
+            for i in range(4)]
+    col.close()
+    assert sum(r.episode_return for r in learned) > sum(r.episode_return for r in zero)
+
+
+def test_the_bundled_policy_describes_itself():
+    from mjchar.controllers.learned import bundled_policies, find_policy
+    from mjchar.controllers.sampling.trajectory import model_fingerprint
+
+    assert "walk60" in bundled_policies()
+    p = find_policy("walk60")
+    assert p.meta["clip"]["name"] == "walk60.bvh" and p.meta["clip"]["loop"] is True
+    assert p.meta["model"]["fingerprint"] == model_fingerprint(Character().model)
+    assert p.meta["env"]["n_substeps"] == 17 and p.meta["env"]["control_freq"] == \
+        pytest.approx(30.0)
+    assert p.clip_motion() is not None  # it carries its clip
+
+
+@pytest.mark.claims
+def test_the_bundled_policy_scores_above_the_zero_action_with_no_root_force():
+    """docs/learning.md, "PPO from the distilled policy": the bundled walk60 policy's
+    Imitation-v0 return (10 s episodes from the same random starts) is above plain PD's, and as
+    a controller it pushes nothing on the root."""
+    from mjchar.controllers.learned import find_policy
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.perf.policy import loop
+
+    policy = find_policy("walk60")
+    env = make_env(LearnSetup(clip=policy.clip_motion(), loop=True), episode_seconds=10.0)
+
+    def episode(seed: int, act) -> float:
+        obs, _ = env.reset(seed=seed)
+        total, done = 0.0, False
+        while not done:
+            obs, r, term, trunc, _ = env.step(act(obs))
+            total, done = total + r, term or trunc
+        return total
+
+    zero = np.zeros(env.action_space.shape)
+    learned = [episode(s, policy) for s in range(3)]
+    plain = [episode(s, lambda o: zero) for s in range(3)]
+    env.close()
+    assert np.mean(learned) > 1.5 * np.mean(plain), (learned, plain)
+    assert loop("walk60", duration=1.0)["root_force_max_N"] == 0.0
