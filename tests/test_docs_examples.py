@@ -95,6 +95,7 @@ def _id(item) -> str:
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
     """A scratch folder with the files the docs' examples name."""
+    from mjchar import assets
     from mjchar.bvh.bundled.assets import MOTIONS
 
     base = tmp_path_factory.mktemp("docs")
@@ -102,6 +103,8 @@ def folder(tmp_path_factory) -> Path:
     for sub in ("docs/gait", "docs/bench"):
         (work / sub).mkdir(parents=True)
     shutil.copy(MOTIONS / "walk.bvh", work / "walk.bvh")
+    # a policy file as `mjchar learn` writes it
+    shutil.copy(Path(assets.__file__).parent / "policies" / "walk60.npz", work / "walk60.npz")
     if SHARED_BVH.is_dir():
         (base / "shared").symlink_to(SHARED_BVH.parent.parent)
         for name in ("walk60.bvh", "walk_forward.bvh"):
