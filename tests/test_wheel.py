@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from conftest import ROOT, shared_clip
+from test_checkout import _checkout_files
 
 
 def _run(args, cwd, env, timeout=600) -> subprocess.CompletedProcess:
@@ -58,8 +60,14 @@ class Installed:
 def installed(tmp_path_factory) -> Installed:
     pytest.importorskip("build", reason="building the wheel needs `build` (the test extra)")
     inst = Installed(tmp_path_factory.mktemp("wheel"))
-    # python -m build: the sdist, then the wheel built from the sdist (so the sdist is complete)
-    built = _run([sys.executable, "-m", "build", "--outdir", inst.dist, ROOT], inst.work,
+    # python -m build: the sdist, then the wheel built from the sdist (so the sdist is complete),
+    # from a copy of the checkout: a build writes into its source folder (the sdist's staging
+    # tree, egg-info), and another test worker may be building or copying the checkout too
+    source = inst.dist.parent / "source"
+    for f in _checkout_files():
+        (source / f).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / f, source / f)
+    built = _run([sys.executable, "-m", "build", "--outdir", inst.dist, source], inst.work,
                  inst.env)
     inst.build_output = built.stdout + built.stderr
     venv.EnvBuilder(with_pip=True, clear=True).create(inst.venv)
