@@ -518,9 +518,12 @@ def test_a_50_mb_clip_is_read_within_the_memory_limit(tmp_path):
 def _signalled(argv: list[str], cwd: Path, sig: int, after_s: float, group: bool):
     """Start ``mjchar ARGV`` in a session of its own, send ``sig`` after ``after_s`` seconds
     (to the whole group, as a terminal's Ctrl-C does, or to the command alone, as ``kill``)."""
+    # a terminal's child gets SIGINT's default action; a test worker may have it ignored (as a
+    # background job does), which the child would inherit and keep
     p = subprocess.Popen([sys.executable, "-m", "mjchar", *argv], cwd=cwd,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True, env={**os.environ, "MUJOCO_GL": "egl"})
+                         start_new_session=True, env={**os.environ, "MUJOCO_GL": "egl"},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(after_s)
     if group:
         os.killpg(p.pid, sig)
