@@ -37,7 +37,6 @@ have been made for the same body and walker.
 
 from __future__ import annotations
 
-import concurrent.futures
 import contextlib
 import json
 import math
@@ -58,6 +57,7 @@ from mjchar.bvh.io.files import write_text
 
 from ..core.base import ControllerError
 from ..core.fingerprint import model_fingerprint
+from ..core.workers import process_pool
 
 #: the walkers that take a calibration
 WALKERS = ("ipm", "simbicon")
@@ -458,8 +458,7 @@ def _pool(jobs: int):
     if jobs <= 1:
         yield None
         return
-    ctx = multiprocessing.get_context("fork" if hasattr(os, "fork") else "spawn")
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+    with process_pool(jobs, start_method="fork" if hasattr(os, "fork") else "spawn") as pool:
         yield pool
 
 

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import os
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -36,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjchar.controllers.core.workers import process_pool
 from mjchar.controllers.learned.policy_file import clip_hash, save_policy
 
 from .collect import Episode, LearnSetup, init_worker, make_env, run_episode
@@ -208,19 +208,18 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
         labels, label_s = st["labels"], st["label_seconds"]
     rng = np.random.default_rng([opts.seed, it])
     policy = trainer.mlp() if len(X) else None
-    ctx = multiprocessing.get_context("spawn")
     if progress is not None:
         progress.start(opts.minutes, unit="min", desc="learning")
     summary = {}
-    with ctx.Pool(workers, initializer=init_worker, initargs=(setup,)) as pool:
+    with process_pool(workers, initializer=init_worker, initargs=(setup,)) as pool:
         while True:
             now = time.perf_counter() - t_start
             if now >= budget and summary:  # (one iteration at least)
                 break
             beta = opts.beta_decay ** it
             w = time.perf_counter()
-            results = pool.map(run_episode, _episodes(opts, rng, n_episodes, beta, policy),
-                               chunksize=1)
+            results = list(pool.map(run_episode,
+                                    _episodes(opts, rng, n_episodes, beta, policy)))
             collect_s = time.perf_counter() - w
             new = sum(len(r.obs) for r in results)
             X = np.concatenate([X] + [r.obs for r in results])
@@ -232,7 +231,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
             train_s = time.perf_counter() - w
             policy = trainer.mlp()
             w = time.perf_counter()
-            ev = pool.map(run_episode, _eval_jobs(opts, policy), chunksize=1)
+            ev = list(pool.map(run_episode, _eval_jobs(opts, policy)))
             eval_s = time.perf_counter() - w
             it += 1
             wall = elapsed0 + time.perf_counter() - t_start
