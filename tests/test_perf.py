@@ -167,6 +167,7 @@ def test_threaded_throughput_reports_each_count_against_one_env():
     assert [c["num_threads"] for c in r["cases"]] == [1, 2]
     assert all(c["speedup"] == pytest.approx(c["steps_per_s"] / r["single_steps_per_s"])
                for c in r["cases"])
+    assert all(c["cores_busy"] > 0 and c["cpu_per_step_vs_one"] > 0 for c in r["cases"])
     assert "| 3 | 2 |" in threaded_table(r) and threaded_throughput is perf.threaded_throughput
 
 

@@ -306,8 +306,12 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
 
     Returns:
         ``{"env", "steps", "repeats", "cores", "single_steps_per_s", "single_rounds",
-        "cases": [{"num_envs", "num_threads", "steps_per_s", "rounds", "speedup"}]}``, the
-        speed-up over the single env's median.
+        "single_cpu_s_per_step", "cases": [{"num_envs", "num_threads", "steps_per_s",
+        "rounds", "speedup", "cores_busy", "cpu_per_step_vs_one"}]}``: the speed-up over the
+        single env's median; ``cores_busy`` the process CPU time over the wall time of the
+        vector loop (what the scheduler gave it: at most the free cores);
+        ``cpu_per_step_vs_one`` its CPU time per env step over the single env's (the cost of
+        the threading itself, independent of how busy the machine is).
     Raises:
         PerfUnavailable: Gymnasium or the env does not load.
     """
@@ -329,16 +333,22 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
             raise PerfUnavailable(f"gymnasium.make_vec({env_id!r}) failed ({type(e).__name__}:"
                                   f" {str(e).splitlines()[0] if str(e) else ''})") from None
         ones: list[float] = []
+        one_cpu: list[float] = []
         rates: dict[int, list[float]] = {n: [] for n in counts}
+        busy: dict[int, list[float]] = {n: [] for n in counts}
+        cpu: dict[int, list[float]] = {n: [] for n in counts}
         for r in range(repeats):
             t, _ = random_env_steps(single, steps, seed + r)
             ones.append(steps / t.wall_s)
+            one_cpu.append(t.cpu_s / steps)
             for n, venv in vectors.items():
                 venv.action_space.seed(seed + r)
                 acts = [venv.action_space.sample() for _ in range(max(1, steps // n))]
                 venv.reset(seed=seed + r)
                 t = timed(lambda venv=venv, acts=acts: [venv.step(a) for a in acts] and None)[1]
                 rates[n].append(len(acts) * n / t.wall_s)
+                busy[n].append(t.cpu_s / t.wall_s)
+                cpu[n].append(t.cpu_s / (len(acts) * n))
             if log is not None:
                 log(f"round {r + 1}/{repeats} {env_id}: one env {ones[-1]:.0f} env steps/s; "
                     + ", ".join(f"N={n} {rates[n][-1]:.0f}" for n in counts))
@@ -347,12 +357,15 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
         for env in (single, *vectors.values()):
             if env is not None:
                 env.close()
-    one = statistics.median(ones)
+    one, one_cpu_s = statistics.median(ones), statistics.median(one_cpu)
     cases = [{"num_envs": n, "num_threads": threads[n], "rounds": rates[n],
               "steps_per_s": statistics.median(rates[n]),
-              "speedup": statistics.median(rates[n]) / one} for n in counts]
+              "speedup": statistics.median(rates[n]) / one,
+              "cores_busy": statistics.median(busy[n]),
+              "cpu_per_step_vs_one": statistics.median(cpu[n]) / one_cpu_s} for n in counts]
     return {"env": env_id, "steps": steps, "repeats": repeats, "cores": os.cpu_count(),
-            "single_steps_per_s": one, "single_rounds": ones, "cases": cases}
+            "single_steps_per_s": one, "single_rounds": ones,
+            "single_cpu_s_per_step": one_cpu_s, "cases": cases}
 
 
 def table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
@@ -413,11 +426,13 @@ def threaded_table(res: dict, command: str = "python -m mjchar.perf.envs") -> st
              f"one env in one process in the same rounds: "
              f"{res['single_steps_per_s']:.0f} env steps/s ({min(res['single_rounds']):.0f}-"
              f"{max(res['single_rounds']):.0f}).", "",
-             "| sub-envs N | threads | env steps/s | spread | speed-up over one env |",
-             "|---|---|---|---|---|"]
+             "| sub-envs N | threads | env steps/s | spread | speed-up over one env | "
+             "cores busy | CPU per env step over one env's |",
+             "|---|---|---|---|---|---|---|"]
     for c in res["cases"]:
         lines.append(f"| {c['num_envs']} | {c['num_threads']} | {c['steps_per_s']:.0f} | "
-                     f"{min(c['rounds']):.0f}-{max(c['rounds']):.0f} | {c['speedup']:.2f} |")
+                     f"{min(c['rounds']):.0f}-{max(c['rounds']):.0f} | {c['speedup']:.2f} | "
+                     f"{c['cores_busy']:.2f} | {c['cpu_per_step_vs_one']:.2f} |")
     return "\n".join(lines)
 
 
