@@ -89,11 +89,16 @@ class ThreadedVectorEnv(VectorEnv):
         self.num_threads = threads
         self._pool = None
         self.envs = []
-        for _ in range(n):
-            env = env_entry(**kwargs)
-            if max_episode_steps is not None:
-                env = TimeLimit(env, max_episode_steps)
-            self.envs.append(env)
+        try:
+            for _ in range(n):
+                env = env_entry(**kwargs)
+                if max_episode_steps is not None:
+                    env = TimeLimit(env, max_episode_steps)
+                self.envs.append(env)
+        except BaseException:
+            for env in self.envs:  # (a bad option fails the first; free what was built)
+                env.close()
+            raise
         first = self.envs[0]
         self.metadata = dict(first.metadata, autoreset_mode=self.autoreset_mode)
         self.render_mode = first.render_mode
@@ -103,7 +108,8 @@ class ThreadedVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, n)
         # contiguous groups, one per thread; the calling thread steps the first
         bounds = np.linspace(0, n, threads + 1).round().astype(int)
-        self._groups = [range(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+        self._groups = [range(int(a), int(b))
+                        for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
         if threads > 1:
             self._pool = ThreadPoolExecutor(threads - 1, thread_name_prefix="mjchar-vec")
         self._obs = np.zeros(self.observation_space.shape, self.observation_space.dtype)
