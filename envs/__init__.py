@@ -24,12 +24,19 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-__all__ = ["ENV_IDS", "MAX_EPISODE_STEPS", "ImitationEnv", "StandEnv"]
+__all__ = ["ENV_IDS", "VECTOR_ENTRY_POINTS", "MAX_EPISODE_STEPS", "ImitationEnv", "StandEnv",
+           "ThreadedVectorEnv"]
 
 #: the registered ids and their entry points
 ENV_IDS = {
     "mjchar/Imitation-v0": "mjchar.envs.imitation:ImitationEnv",
     "mjchar/Stand-v0": "mjchar.envs.stand:StandEnv",
+}
+#: their vector entry points (``gym.make_vec(id, num_envs=N)``: threads in one process,
+#: :mod:`mjchar.envs.vector`; ``vectorization_mode="sync"``/``"async"`` use the entry points)
+VECTOR_ENTRY_POINTS = {
+    "mjchar/Imitation-v0": "mjchar.envs.vector:ImitationVectorEnv",
+    "mjchar/Stand-v0": "mjchar.envs.vector:StandVectorEnv",
 }
 #: the episode limit every id states (``TimeLimit``): the envs' default 10 s at 30 Hz; give
 #: ``gym.make(id, max_episode_steps=...)`` with other ``episode_seconds`` or ``control_freq``
@@ -37,7 +44,8 @@ MAX_EPISODE_STEPS = 300
 
 for _id, _entry in ENV_IDS.items():
     if _id not in registry:  # re-importing (reload) must not warn about overriding
-        register(id=_id, entry_point=_entry, max_episode_steps=MAX_EPISODE_STEPS)
+        register(id=_id, entry_point=_entry, vector_entry_point=VECTOR_ENTRY_POINTS[_id],
+                 max_episode_steps=MAX_EPISODE_STEPS)
 
 
 def __getattr__(name: str):
@@ -49,4 +57,8 @@ def __getattr__(name: str):
         from .stand import StandEnv
 
         return StandEnv
+    if name == "ThreadedVectorEnv":
+        from .vector import ThreadedVectorEnv
+
+        return ThreadedVectorEnv
     raise AttributeError(f"module 'mjchar.envs' has no attribute {name!r}")

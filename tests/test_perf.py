@@ -158,6 +158,19 @@ def test_env_shares_and_the_vectorised_path_report_rates():
     assert s["speedup"] == pytest.approx(s["vector_steps_per_s"] / s["single_steps_per_s"])
 
 
+def test_threaded_throughput_reports_each_count_against_one_env():
+    from mjchar.perf.envs import threaded_table, threaded_throughput
+
+    r = perf.threaded_throughput("mjchar/Stand-v0", counts=(1, 3), steps=6, repeats=1,
+                                 num_threads=2)
+    assert [c["num_envs"] for c in r["cases"]] == [1, 3]
+    assert [c["num_threads"] for c in r["cases"]] == [1, 2]
+    assert all(c["speedup"] == pytest.approx(c["steps_per_s"] / r["single_steps_per_s"])
+               for c in r["cases"])
+    assert all(c["cores_busy"] > 0 and c["cpu_per_step_vs_one"] > 0 for c in r["cases"])
+    assert "| 3 | 2 |" in threaded_table(r) and threaded_throughput is perf.threaded_throughput
+
+
 def test_rollout_throughput_compares_against_the_python_loop():
     r = perf.rollout_throughput(samples=2, steps=3, repeats=1, threads=(1,))
     assert [c["threads"] for c in r["cases"]] == [1, 1]

@@ -27,10 +27,18 @@ def heading_rotation(root_xmat: np.ndarray) -> np.ndarray:
     matrix is ``root_xmat`` (``(9,)`` or ``(3, 3)``): the yaw of the body's x axis (facing
     direction) projected on the floor. World vectors ``v`` (rows) map to the heading frame as
     ``v @ R``."""
-    m = np.asarray(root_xmat, dtype=float).reshape(-1).tolist()
+    if type(root_xmat) is np.ndarray and root_xmat.dtype == np.float64:
+        m = root_xmat.ravel().tolist()  # (an MjData row: no conversion)
+    else:
+        m = np.asarray(root_xmat, dtype=float).reshape(-1).tolist()
     yaw = math.atan2(m[3], m[0])
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    R = _IDENTITY.copy()  # (cheaper than building the matrix from nested lists)
+    R[0, 0], R[0, 1], R[1, 0], R[1, 1] = c, -s, s, c
+    return R
+
+
+_IDENTITY = np.eye(3)
 
 
 _NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])

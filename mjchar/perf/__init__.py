@@ -49,7 +49,7 @@ _EXPORTS = {
     "stability_envelope": "pd", "ENVELOPE_KPS": "pd", "ENVELOPE_VARIANTS": "pd",
     "ENVELOPE_GRID": "pd", "ENVELOPE_FINER": "pd",
     "rollout_throughput": "rollouts",
-    "env_throughput": "envs", "ENV_IDS": "envs",
+    "env_throughput": "envs", "ENV_IDS": "envs", "threaded_throughput": "envs",
     "bvh_parse_speed": "bvh",
 }
 __all__ = list(_EXPORTS)

@@ -37,10 +37,13 @@ from .report import DOCS, machine_line, write_block
 from .timing import PhysicsClock, Timing, timed
 
 __all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
-           "bare_step_rate", "env_throughput", "vector_throughput", "main"]
+           "bare_step_rate", "env_throughput", "vector_throughput", "threaded_throughput",
+           "THREADED_COUNTS", "main"]
 
 #: envs compared by :func:`env_throughput` (the last one is the yardstick)
 ENV_IDS = ("mjchar/Imitation-v0", "mjchar/Stand-v0", "Humanoid-v5")
+#: sub-env counts of :func:`threaded_throughput`
+THREADED_COUNTS = (1, 2, 4, 8, 16)
 
 
 def random_actions(env, steps: int, seed: int) -> list:
@@ -290,6 +293,81 @@ def vector_throughput(env_ids: Sequence[str] = (ENV_IDS[0], ENV_IDS[-1]), *,
             "envs": out}
 
 
+def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THREADED_COUNTS,
+                        steps: int = 1000, repeats: int = 3, seed: int = 0,
+                        num_threads: int | None = None, log=None) -> dict:
+    """Env steps per second of ``env_id``'s threaded vector env
+    (``gym.make_vec(env_id, num_envs=N)``, :class:`mjchar.envs.vector.ThreadedVectorEnv`,
+    autoreset inside) for each ``N`` in ``counts``, against one env in one process
+    (``gym.make``, :func:`random_env_steps`) in the same rounds: each case runs ``steps`` env
+    steps in all (``steps // N`` vector steps, at least one) of uniform random actions drawn
+    before the timed loop; the cases take turns in ``repeats`` rounds, the median round is
+    reported (wall clock).
+
+    Returns:
+        ``{"env", "steps", "repeats", "cores", "single_steps_per_s", "single_rounds",
+        "single_cpu_s_per_step", "cases": [{"num_envs", "num_threads", "steps_per_s",
+        "rounds", "speedup", "cores_busy", "cpu_per_step_vs_one"}]}``: the speed-up over the
+        single env's median; ``cores_busy`` the process CPU time over the wall time of the
+        vector loop (what the scheduler gave it: at most the free cores);
+        ``cpu_per_step_vs_one`` its CPU time per env step over the single env's (the cost of
+        the threading itself, independent of how busy the machine is).
+    Raises:
+        PerfUnavailable: Gymnasium or the env does not load.
+    """
+    import os
+
+    steps, repeats = positive_int(steps, "steps"), positive_int(repeats, "repeats")
+    counts = [positive_int(n, "num_envs") for n in counts]
+    try:
+        import gymnasium as gym
+    except Exception as e:
+        raise PerfUnavailable(f"gymnasium does not import ({type(e).__name__}: {e})") from None
+    single, vectors = None, {}
+    try:
+        try:
+            single = gym.make(env_id)
+            for n in counts:
+                vectors[n] = gym.make_vec(env_id, num_envs=n, num_threads=num_threads)
+        except Exception as e:
+            raise PerfUnavailable(f"gymnasium.make_vec({env_id!r}) failed ({type(e).__name__}:"
+                                  f" {str(e).splitlines()[0] if str(e) else ''})") from None
+        ones: list[float] = []
+        one_cpu: list[float] = []
+        rates: dict[int, list[float]] = {n: [] for n in counts}
+        busy: dict[int, list[float]] = {n: [] for n in counts}
+        cpu: dict[int, list[float]] = {n: [] for n in counts}
+        for r in range(repeats):
+            t, _ = random_env_steps(single, steps, seed + r)
+            ones.append(steps / t.wall_s)
+            one_cpu.append(t.cpu_s / steps)
+            for n, venv in vectors.items():
+                venv.action_space.seed(seed + r)
+                acts = [venv.action_space.sample() for _ in range(max(1, steps // n))]
+                venv.reset(seed=seed + r)
+                t = timed(lambda venv=venv, acts=acts: [venv.step(a) for a in acts] and None)[1]
+                rates[n].append(len(acts) * n / t.wall_s)
+                busy[n].append(t.cpu_s / t.wall_s)
+                cpu[n].append(t.cpu_s / (len(acts) * n))
+            if log is not None:
+                log(f"round {r + 1}/{repeats} {env_id}: one env {ones[-1]:.0f} env steps/s; "
+                    + ", ".join(f"N={n} {rates[n][-1]:.0f}" for n in counts))
+        threads = {n: v.num_threads for n, v in vectors.items()}
+    finally:
+        for env in (single, *vectors.values()):
+            if env is not None:
+                env.close()
+    one, one_cpu_s = statistics.median(ones), statistics.median(one_cpu)
+    cases = [{"num_envs": n, "num_threads": threads[n], "rounds": rates[n],
+              "steps_per_s": statistics.median(rates[n]),
+              "speedup": statistics.median(rates[n]) / one,
+              "cores_busy": statistics.median(busy[n]),
+              "cpu_per_step_vs_one": statistics.median(cpu[n]) / one_cpu_s} for n in counts]
+    return {"env": env_id, "steps": steps, "repeats": repeats, "cores": os.cpu_count(),
+            "single_steps_per_s": one, "single_rounds": ones,
+            "single_cpu_s_per_step": one_cpu_s, "cases": cases}
+
+
 def table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of docs/envs.md from ``env_throughput(..., bare=True)``."""
     import gymnasium as gym
@@ -340,6 +418,24 @@ def vector_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     return "\n".join(lines)
 
 
+def threaded_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
+    """The Markdown table of :func:`threaded_throughput`."""
+    lines = [f"Measured by `{command}` on {machine_line()}; {res['env']}, random actions, "
+             f"{res['steps']} env steps per case and round, median of {res['repeats']} "
+             f"interleaved rounds (wall clock; spread: slowest and fastest round); speed-up over "
+             f"one env in one process in the same rounds: "
+             f"{res['single_steps_per_s']:.0f} env steps/s ({min(res['single_rounds']):.0f}-"
+             f"{max(res['single_rounds']):.0f}).", "",
+             "| sub-envs N | threads | env steps/s | spread | speed-up over one env | "
+             "cores busy | CPU per env step over one env's |",
+             "|---|---|---|---|---|---|---|"]
+    for c in res["cases"]:
+        lines.append(f"| {c['num_envs']} | {c['num_threads']} | {c['steps_per_s']:.0f} | "
+                     f"{min(c['rounds']):.0f}-{max(c['rounds']):.0f} | {c['speedup']:.2f} | "
+                     f"{c['cores_busy']:.2f} | {c['cpu_per_step_vs_one']:.2f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m mjchar.perf.envs",
                                  description=__doc__.splitlines()[0])
@@ -354,13 +450,16 @@ def main(argv: list[str] | None = None) -> int:
                              log=lambda s: print(s, file=sys.stderr, flush=True))
         vec = vector_throughput(steps=a.steps, repeats=a.repeats,
                                 log=lambda s: print(s, file=sys.stderr, flush=True))
+        thr = threaded_throughput(steps=a.steps, repeats=a.repeats,
+                                  log=lambda s: print(s, file=sys.stderr, flush=True))
     except PerfUnavailable as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    body, vbody = table(res), vector_table(vec)
-    print(body + "\n\n" + vbody)
+    body, vbody, tbody = table(res), vector_table(vec), threaded_table(thr)
+    print(body + "\n\n" + vbody + "\n\n" + tbody)
     if a.write:
         write_block(DOCS / "envs.md", "envs", body)
+        write_block(DOCS / "envs.md", "envs-threads", tbody)
         print(f"updated {write_block(DOCS / 'envs.md', 'envs-vector', vbody)}", file=sys.stderr)
     return 0
 

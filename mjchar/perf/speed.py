@@ -99,20 +99,31 @@ def main(argv: list[str] | None = None) -> int:
         costs = controller_run_costs(a.controllers or None, repeats=a.repeats, log=log)
         sections["speed"] = ("controllers.md", controllers_table(costs, a.repeats))
     if a.only in (None, "envs"):
-        from .envs import ENV_IDS, env_throughput, table, vector_table, vector_throughput
+        from .envs import (
+            ENV_IDS,
+            env_throughput,
+            table,
+            threaded_table,
+            threaded_throughput,
+            vector_table,
+            vector_throughput,
+        )
 
-        log("envs: time in mj_step, one process and AsyncVectorEnv")
+        log("envs: time in mj_step, one process, AsyncVectorEnv and the threaded vector env")
         command = "python -m mjchar.perf.speed --only envs"
         try:
             share = env_throughput(ENV_IDS, steps=a.env_steps, repeats=a.repeats, bare=True,
                                    log=log)
             vector = vector_throughput((ENV_IDS[0], ENV_IDS[-1]), steps=a.env_steps,
                                        repeats=a.repeats, log=log)
+            threaded = threaded_throughput(ENV_IDS[0], steps=a.env_steps, repeats=a.repeats,
+                                           log=log)
         except PerfUnavailable as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
         sections["envs"] = ("envs.md", table(share, command))
         sections["envs-vector"] = ("envs.md", vector_table(vector, command))
+        sections["envs-threads"] = ("envs.md", threaded_table(threaded, command))
     for key, (_, body) in sections.items():
         print(f"\n## {key}\n\n{body}")
     if a.write:
