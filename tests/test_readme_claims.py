@@ -113,6 +113,7 @@ NOT_CLAIMS = {
                                  "(speed lives in benchmarks, not tests)",
     r"takes about \d+ minutes on a 2-core machine, \d+ of them": "the test command's duration, "
         "measured on a fresh clone (speed lives in benchmarks, not tests)",
+    r"-n 2 -p xdist": "options in a command (both cores)",
     r"Python >= 3\.11": "a requirement",
     r"et al\. \d{4}": "the year of a cited paper",
     r"torch==2\.13\.0": "a package version",
