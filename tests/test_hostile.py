@@ -171,6 +171,7 @@ def _make_files(d: Path) -> None:
     w("chain_300.bvh", _chain(300))
     w("frame_time_tiny.bvh", re.sub(r"Frame Time:\s*\S+", "Frame Time: 1e-300", walk))
     os.mkfifo(d / "a_pipe.xml")
+    os.mkfifo(d / "a_pipe.bvh")  # nothing ever writes to it
     (d / os.fsdecode(b"w\xff.bvh")).write_text(walk)  # names that are not valid UTF-8
     (d / os.fsdecode(b"m\xff.xml")).write_text(model)
     # roles and gains files
@@ -294,6 +295,7 @@ def _cases(d: Path) -> list[tuple[str, list[str], int, str]]:
         ("bvh_frame_time_tiny", ["run", "mpc", "--motion", p("frame_time_tiny.bvh"),
                                  "--duration", "0.1"], 2, "not a frame time"),
         ("output_is_a_pipe", ["convert", walk, "-o", p("a_pipe.xml")], 2, "device or pipe"),
+        ("input_is_a_pipe_with_no_writer", ["info", p("a_pipe.bvh")], 2, "nothing writing"),
         ("name_not_utf8_convert", ["convert", p(os.fsdecode(b"w\xff.bvh")), "-o",
                                    os.fsdecode(b"o\xff.xml")], 0, ""),
         ("name_not_utf8_model", ["run", "pd", "--model", p(os.fsdecode(b"m\xff.xml"))], 2,

@@ -5,7 +5,8 @@ Every text file mjchar reads (BVH clips, roles and gains files) comes through :f
 - a path that is a folder, missing or unreadable is one line naming it;
 - a regular file larger than the limit is refused before anything is read (the limit is stated
   in the message); a pipe or device (``/dev/zero``, ``/dev/urandom``) is read only up to the
-  limit, so nothing reads for ever;
+  limit, so nothing reads for ever; a named pipe with no writer reads as empty instead of
+  waiting for one;
 - the first bytes are checked against formats users mistake for the expected one (FBX, C3D,
   glTF, archives, compressed files, images, NumPy files, Git LFS pointers...) and the message
   says what the file is and what to do (:func:`sniff`); other binary content (NUL bytes among
@@ -141,7 +142,7 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
     path = os.fspath(path)
     limit = f"the {_size(max_bytes)} limit for a {what}"
     try:
-        with open(path, "rb") as fh:
+        with _open(path) as fh:
             st = os.fstat(fh.fileno())
             if stat.S_ISDIR(st.st_mode):
                 raise IsADirectoryError(21, "Is a directory")
@@ -168,6 +169,8 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
                 raw = head + fh.read(max_bytes + 1 - len(head))
     except OSError as e:
         raise error(f"cannot read the {what}: {e.strerror or e}", None) from None
+    if not raw and stat.S_ISFIFO(st.st_mode):
+        raise error("a named pipe with nothing writing to it: nothing to read", None)
     if len(raw) > max_bytes:  # a pipe or a device: no size to check beforehand
         raise error(f"the input goes on past {limit} (a device or an endless stream?)", None)
     if encoding is not None:
@@ -186,6 +189,21 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
         line = before.count(b"\n") + before.count(b"\r") - before.count(b"\r\n") + 1
         raise error(f"not UTF-8 text (byte {e.start}: binary, or another encoding): save it as "
                     f"UTF-8 {expected}", line) from None
+
+
+def _open(path: str):
+    """``path`` open for reading in binary. A named pipe is opened without waiting for a writer
+    (a plain ``open`` would wait for ever for one that never comes): with none, reading it
+    gives an empty input at once; with one, it is read as usual."""
+    nonblock = getattr(os, "O_NONBLOCK", 0)
+    fd = os.open(path, os.O_RDONLY | nonblock | getattr(os, "O_CLOEXEC", 0))
+    try:
+        if nonblock:
+            os.set_blocking(fd, True)  # reads wait for data again; a pipe with no writer: EOF
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def _size(n: int) -> str:
