@@ -188,7 +188,13 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
         rows = json.loads(out.with_suffix("").with_name("walk.curve.json").read_text())
     assert len(rows) == 3
     assert rows[-1]["loss_after"] < rows[0]["loss_before"]
+    # the file holds the best network evaluated: the last written one, which no later beat
+    written = [r for r in rows if r["written"]]
+    assert written and written[0]["iteration"] == 1
     policy = load_policy(out)
+    assert policy.meta["training"]["iteration"] == written[-1]["iteration"]
+    key = [(r["eval_fall_rate"], -r["eval_survived_s"], r["eval_error_m"]) for r in rows]
+    assert key[written[-1]["iteration"] - 1] == min(key[:written[-1]["iteration"]])
     col = Collector(setup)
     learned = [col.run(Episode(seed=i, phase=i / 4, seconds=3.0, policy=policy.net,
                                beta=0.0, label=False)) for i in range(4)]

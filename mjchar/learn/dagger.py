@@ -192,6 +192,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
     X = np.zeros((0, n_in), np.float32)
     Y = np.zeros((0, nu), np.float32)
     curve, it, elapsed0, labels, label_s = _Curve(), 0, 0.0, 0, 0.0
+    best = None  # the evaluation score of the network in the policy file (_score)
     if resume:
         if not files["state"].is_file():
             raise LearnError(f"{files['state']}: nothing to resume (no learn state beside "
@@ -203,6 +204,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
                              "another -o or run without --resume")
         X, Y = st["X"], st["Y"]
         trainer.load_state(st["trainer"])
+        best = st.get("best")
         curve.rows = st["curve"]
         it, elapsed0 = st["iteration"], st["elapsed_s"]
         labels, label_s = st["labels"], st["label_seconds"]
@@ -245,16 +247,21 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
                    "labels_per_s": new / max(collect_s, 1e-9),
                    "clipped": float(np.mean([r.clipped for r in results])),
                    "expert_falls": int(sum(r.fell for r in results))}
+            score = _score(row)
+            row["written"] = best is None or score <= best
             curve.add(**row)
-            meta_now = dict(meta, training={
-                "method": "DAgger + DART, MPC labels", "iterations": it, "labels": labels,
-                "wall_s": wall, "label_seconds": label_s, "setup": _jsonable(_named(asdict(setup))),
-                "options": _jsonable(asdict(opts)), "last_eval": {
-                    k: row[k] for k in ("eval_error_m", "eval_fall_rate", "eval_survived_s")}})
-            save_policy(files["policy"], policy, meta_now, clip_text)
+            if row["written"]:  # the policy file holds the best network evaluated so far
+                best = score
+                meta_now = dict(meta, training={
+                    "method": "DAgger + DART, MPC labels", "iteration": it, "iterations": it,
+                    "labels": labels, "wall_s": wall, "label_seconds": label_s,
+                    "setup": _jsonable(_named(asdict(setup))), "options": _jsonable(asdict(opts)),
+                    "eval": {k: row[k] for k in ("eval_error_m", "eval_fall_rate",
+                                                 "eval_survived_s")}})
+                save_policy(files["policy"], policy, meta_now, clip_text)
             _save_state(torch, files["state"], X=X, Y=Y, trainer=trainer.state(),
                         curve=curve.rows, iteration=it, elapsed_s=wall, labels=labels,
-                        label_seconds=label_s, meta=meta)
+                        label_seconds=label_s, meta=meta, best=best)
             _save_curve(files, curve.rows)
             summary = dict(row)
             if log is not None:
@@ -267,12 +274,19 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
     return summary
 
 
+def _score(row: dict) -> tuple:
+    """How an iteration's network ranks (smaller is better): fewer evaluation falls, then
+    longer up before them, then a smaller tracking error."""
+    return (round(row["eval_fall_rate"], 6), -round(row["eval_survived_s"], 6),
+            row["eval_error_m"])
+
+
 def _line(row: dict) -> str:
     return (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  beta {row['beta']:.3f}  "
             f"labels {row['labels']:6d} ({row['labels_per_s']:.2f}/s)  loss "
             f"{row['loss_before']:.4f}->{row['loss_after']:.4f}  eval error "
             f"{100 * row['eval_error_m']:.1f} cm  falls {row['eval_fall_rate']:.2f}  survived "
-            f"{row['eval_survived_s']:.1f} s")
+            f"{row['eval_survived_s']:.1f} s" + ("  (written)" if row.get("written") else ""))
 
 
 def _named(setup: dict) -> dict:
