@@ -571,7 +571,9 @@ def test_a_signal_ends_the_bench_without_worker_tracebacks(tmp_path, sig, code):
 def test_sigterm_during_render_leaves_no_partial_video(tmp_path):
     video = tmp_path / "v.mp4"
     video.write_bytes(b"old")
-    rc, err = _signalled(["run", "pd", "--duration", "30", "--render", str(video)], tmp_path,
+    # a standing run (a PD run falls and ends on its own before the signal on a fast machine)
+    rc, err = _signalled(["run", "static_balance", "--duration", "120", "--render", str(video)],
+                         tmp_path,
                          signal.SIGTERM, 15.0, group=False)
     assert rc == 143 and "Traceback" not in err, err[-2000:]
     assert video.read_bytes() == b"old"
