@@ -301,6 +301,18 @@ class CharacterEnv(gym.Env):
     def step(self, action):
         """Apply ``action`` (``(nu,)`` in [-1, 1], clipped) as PD-target offsets for
         ``n_substeps`` physics steps; returns ``(obs, reward, terminated, truncated, info)``."""
+        act = self._step_begin(action)
+        try:
+            self.character.step(act, self.n_substeps)
+        except SimulationDiverged as e:
+            return self._step_diverged(e)
+        return self._step_end()
+
+    # :meth:`step` in parts, for a vector env that runs the physics of many envs in threads:
+    # ``_step_begin`` (the character's ``begin_step``, ``advance`` and ``end_step``)
+    # ``_step_end``, with ``_step_diverged`` when ``end_step`` raises.
+    def _step_begin(self, action) -> Action:
+        """Check ``action`` and return the PD set-points and torques the physics steps hold."""
         if self._controller is None:
             raise EnvError("step() called before reset()")
         if self._diverged:
@@ -314,9 +326,21 @@ class CharacterEnv(gym.Env):
         self._before_step()
         base = self._controller.act(ch, ch.time)
         target = base.target + self.action_scale_rad * np.minimum(np.maximum(a, -1.0), 1.0)
+        self._frame = None  # the state changes: the heading frame is computed anew
+        return Action(torque=base.torque, target=target)
+
+    def _step_diverged(self, e: SimulationDiverged):
+        """The step's result when the simulation diverged (the episode ends)."""
+        self._diverged, self._diverged_at = True, e.time
+        self._fell, self._fall_time = True, e.time
+        self._fall_reason = self._end_reason = str(e)
+        self._reward_terms = {}
+        return self._last_obs.copy(), 0.0, True, False, self._info()
+
+    def _step_end(self):
+        """After the physics steps: reward, observation, termination; the step's result."""
+        ch = self.character
         try:
-            self._frame = None  # the state changes: the heading frame is computed anew
-            ch.step(Action(torque=base.torque, target=target), self.n_substeps)
             self._n_steps += self.n_substeps
             self._recorder.record(ch)
             reward, self._reward_terms = self.current_reward()
@@ -325,11 +349,7 @@ class CharacterEnv(gym.Env):
             self._after_step()
             obs = self._observe()
         except SimulationDiverged as e:
-            self._diverged, self._diverged_at = True, e.time
-            self._fell, self._fall_time = True, e.time
-            self._fall_reason = self._end_reason = str(e)
-            self._reward_terms = {}
-            return self._last_obs.copy(), 0.0, True, False, self._info()
+            return self._step_diverged(e)
         terminated = False
         if not self._fell:
             why = self.fall_detector.check(ch)

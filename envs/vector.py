@@ -3,12 +3,14 @@
 ``gymnasium.make_vec("mjchar/Imitation-v0", num_envs=N)`` (and ``mjchar/Stand-v0``) returns a
 :class:`ThreadedVectorEnv`: N ordinary sub-environments (:class:`~mjchar.envs.ImitationEnv` or
 :class:`~mjchar.envs.StandEnv`, each behind Gymnasium's ``TimeLimit`` as ``gymnasium.make`` puts
-it), split into ``num_threads`` contiguous groups. One call to :meth:`~ThreadedVectorEnv.step`
-steps every group at once: the calling thread steps the first group, a persistent
-``ThreadPoolExecutor`` the others. MuJoCo's Python bindings release the GIL inside ``mj_step``,
-so the physics of one sub-environment runs while another's Python (observation, reward,
-termination) holds the interpreter; no process, no pickling, no copy of the observations beyond
-the batch itself.
+it). One call to :meth:`~ThreadedVectorEnv.step` runs every sub-environment's Python in the
+calling thread (its action, then, once its physics is done, reward, observation and
+termination) and their physics (:meth:`Character.advance
+<mjchar.controllers.core.character.Character.advance>`) in a persistent pool of ``num_threads``
+threads: MuJoCo's Python bindings release the GIL inside ``mj_step``, so the sub-environments'
+physics runs at once, beside the Python of those already stepped; no process, no pickling, no
+copy of the observations beyond the batch itself. :meth:`~ThreadedVectorEnv.reset` resets the
+sub-environments in ``num_threads`` contiguous groups, one per thread.
 
 Each sub-environment is the single environment unchanged, seeded as ``SyncVectorEnv`` seeds
 them (``reset(seed=s)``: sub-environment ``i`` gets ``s + i``), so a vector of N gives the
@@ -18,7 +20,7 @@ across autoresets too.
 Options beside the sub-environments' keyword arguments (``gym.make_vec`` passes them through
 ``kwargs``; its ``vector_kwargs`` must stay empty for a ``vector_entry_point``):
 
-- ``num_threads``: groups stepped in parallel (default ``min(num_envs, os.cpu_count())``);
+- ``num_threads``: threads stepping the physics (default ``min(num_envs, os.cpu_count())``);
 - ``autoreset_mode``: Gymnasium's ``AutoresetMode`` (or its value): ``NEXT_STEP`` (default),
   ``SAME_STEP`` (``info["final_obs"]``/``info["final_info"]``) or ``DISABLED``;
 - ``copy``: return a copy of the observation batch (default ``True``, as ``SyncVectorEnv``).
@@ -34,6 +36,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from gymnasium.wrappers import TimeLimit
+
+from mjchar.controllers.core.errors import SimulationDiverged
 
 from .common import EnvError
 
@@ -60,7 +64,7 @@ class ThreadedVectorEnv(VectorEnv):
     Args:
         env_entry: the sub-environment class, or its ``"module:Class"`` string.
         num_envs: number of sub-environments.
-        num_threads: groups stepped in parallel (``None``: ``min(num_envs, os.cpu_count())``).
+        num_threads: threads stepping the physics (``None``: ``min(num_envs, os.cpu_count())``).
         autoreset_mode: ``AutoresetMode`` or its value (default ``NEXT_STEP``).
         copy: :meth:`reset` and :meth:`step` return a copy of the observation batch.
         max_episode_steps: each sub-environment's ``TimeLimit`` (``None``: none; ``make_vec``
@@ -110,8 +114,8 @@ class ThreadedVectorEnv(VectorEnv):
         bounds = np.linspace(0, n, threads + 1).round().astype(int)
         self._groups = [range(int(a), int(b))
                         for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        if threads > 1:
-            self._pool = ThreadPoolExecutor(threads - 1, thread_name_prefix="mjchar-vec")
+        if threads > 1:  # (step: the physics of every sub-environment; reset: the groups)
+            self._pool = ThreadPoolExecutor(threads, thread_name_prefix="mjchar-vec")
         self._obs = np.zeros(self.observation_space.shape, self.observation_space.dtype)
         self._rewards = np.zeros(n)
         self._terminations = np.zeros(n, dtype=bool)
@@ -137,6 +141,13 @@ class ThreadedVectorEnv(VectorEnv):
                 f.result()
 
     def _batch_infos(self, indices) -> dict:
+        """The sub-environments' infos batched as Gymnasium's ``_add_info`` batches them
+        (an array and a ``_key`` mask per key, nested dicts likewise)."""
+        indices = list(indices)
+        if len(indices) == self.num_envs and all(f is None for f in self._final):
+            batched = self._batch_same_keys(self._infos)
+            if batched is not None:
+                return batched
         infos: dict = {}
         for i in indices:
             if self._final[i] is not None:
@@ -144,6 +155,33 @@ class ThreadedVectorEnv(VectorEnv):
                 self._final[i] = None
             infos = self._add_info(infos, self._infos[i], i)
         return infos
+
+    def _batch_same_keys(self, infos: list) -> dict | None:
+        """``_add_info`` over every sub-environment at once when all their infos have the same
+        keys (every step without an episode's end): one array per key instead of one
+        assignment per key and sub-environment; ``None`` otherwise."""
+        keys = infos[0].keys()
+        if any(info.keys() != keys for info in infos):
+            return None
+        n = self.num_envs
+        out: dict = {}
+        for key, first in infos[0].items():
+            if isinstance(first, dict):
+                array = self._batch_same_keys([info[key] for info in infos])
+                if array is None:
+                    return None
+            else:
+                kind = type(first)
+                if kind in (int, float, bool) or issubclass(kind, np.number):
+                    array = np.zeros(n, dtype=kind)
+                elif isinstance(first, np.ndarray):
+                    array = np.zeros((n, *first.shape), dtype=first.dtype)
+                else:
+                    array = np.full(n, fill_value=None, dtype=object)
+                for i, info in enumerate(infos):  # (as _add_info assigns: same conversions)
+                    array[i] = info[key]
+            out[key], out[f"_{key}"] = array, np.ones(n, dtype=np.bool_)
+        return out
 
     # -- gymnasium API -----------------------------------------------------------------------
     def reset(self, *, seed=None, options: dict | None = None):
@@ -189,26 +227,59 @@ class ThreadedVectorEnv(VectorEnv):
                            f"their episode: reset them (options['reset_mask']) before step() "
                            f"with autoreset_mode DISABLED")
 
-        def step_one(i):
-            env = self.envs[i]
-            if mode == AutoresetMode.NEXT_STEP and self._autoreset[i]:
-                obs, self._infos[i] = env.reset()
-                self._rewards[i] = 0.0
-                self._terminations[i] = self._truncations[i] = False
-            else:
-                obs, r, term, trunc, info = env.step(a[i])
-                self._rewards[i], self._terminations[i], self._truncations[i] = r, term, trunc
-                if mode == AutoresetMode.SAME_STEP and (term or trunc):
-                    self._final[i] = {"final_obs": obs, "final_info": info}
-                    obs, info = env.reset()
-                self._infos[i] = info
-            self._obs[i] = obs
-
-        self._run(step_one)
+        # the calling thread runs every sub-environment's Python in order (its action, then,
+        # once its physics is done, reward, observation, termination); the workers run only
+        # the physics (``Character.advance``: MuJoCo without the GIL), so one env's physics
+        # overlaps the others' Python and physics
+        pending = []
+        try:
+            for i, env in enumerate(self.envs):
+                if mode == AutoresetMode.NEXT_STEP and self._autoreset[i]:
+                    self._obs[i], self._infos[i] = env.reset()
+                    self._rewards[i] = 0.0
+                    self._terminations[i] = self._truncations[i] = False
+                    continue
+                base = env.unwrapped
+                ch = base.character
+                ch.begin_step(base._step_begin(a[i]))
+                job = (self._pool.submit(ch.advance, base.n_substeps) if self._pool is not None
+                       else None)
+                pending.append((i, env, base, job))
+            for i, env, base, job in pending:
+                self._finish_step(i, env, base, job, mode)
+            pending.clear()
+        finally:
+            for *_, job in pending:  # an error: let the threads finish before it propagates
+                if job is not None:
+                    job.cancel() or job.exception()
         infos = self._batch_infos(range(self.num_envs))
         np.logical_or(self._terminations, self._truncations, out=self._autoreset)
         return ((self._obs.copy() if self.copy else self._obs), self._rewards.copy(),
                 self._terminations.copy(), self._truncations.copy(), infos)
+
+    def _finish_step(self, i: int, env, base, job, mode) -> None:
+        """Sub-environment ``i`` after its physics: what its ``step`` returns, into the batch."""
+        ch = base.character
+        try:
+            if job is None:
+                ch.advance(base.n_substeps)
+            else:
+                job.result()
+            ch.end_step()
+        except SimulationDiverged as e:
+            obs, r, term, trunc, info = base._step_diverged(e)
+        else:
+            obs, r, term, trunc, info = base._step_end()
+        if isinstance(env, TimeLimit):  # what the wrapper's step adds
+            env._elapsed_steps += 1
+            if env._elapsed_steps >= env._max_episode_steps:
+                trunc = True
+        self._rewards[i], self._terminations[i], self._truncations[i] = r, term, trunc
+        if mode == AutoresetMode.SAME_STEP and (term or trunc):
+            self._final[i] = {"final_obs": obs, "final_info": info}
+            obs, info = env.reset()
+        self._infos[i] = info
+        self._obs[i] = obs
 
     def render(self) -> tuple:
         """Each sub-environment's ``render()``."""

@@ -37,7 +37,8 @@ from .report import DOCS, machine_line, write_block
 from .timing import PhysicsClock, Timing, timed
 
 __all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
-           "bare_step_rate", "env_throughput", "vector_throughput", "threaded_throughput",
+           "bare_step_rate", "bare_threads_speedup", "env_throughput", "vector_throughput",
+           "threaded_throughput",
            "THREADED_COUNTS", "main"]
 
 #: envs compared by :func:`env_throughput` (the last one is the yardstick)
@@ -143,6 +144,32 @@ def bare_step_rate(env, states: Sequence[np.ndarray]) -> float:
     """``mj_step``/s (wall clock) of :func:`bare_step_time`."""
     t, n = bare_step_time(env, states)
     return n / t.wall_s
+
+
+def bare_threads_speedup(env, states: Sequence[np.ndarray], threads: int) -> float:
+    """The speed-up of plain ``mj_step(m, d, n_substeps)`` calls from ``states`` run in
+    ``threads`` threads at once (each on its own MjData, all the states) over the same calls in
+    one thread (wall clock, timed in turn): the ceiling of a threaded vector env on this machine,
+    where only the physics runs in parallel and nothing else competes."""
+    import threading
+
+    threads = positive_int(threads, "threads")
+    if threads == 1:
+        return 1.0
+    m, _ = _model_data(env)
+    datas = [mujoco.MjData(m) for _ in range(threads)]
+    sig = mujoco.mjtState.mjSTATE_INTEGRATION
+    n = _substeps(env)
+
+    def run(d):
+        for s in states:
+            mujoco.mj_setState(m, d, s, sig)
+            mujoco.mj_step(m, d, n)
+
+    one = timed(run, datas[0])[1].wall_s
+    workers = [threading.Thread(target=run, args=(d,)) for d in datas]
+    t = timed(lambda: [w.start() for w in workers] and [w.join() for w in workers])[1].wall_s
+    return threads * one / t
 
 
 def env_throughput(env_ids: Sequence[str] = ENV_IDS, *, steps: int = 1000, repeats: int = 3,
@@ -307,8 +334,11 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
     Returns:
         ``{"env", "steps", "repeats", "cores", "single_steps_per_s", "single_rounds",
         "single_cpu_s_per_step", "cases": [{"num_envs", "num_threads", "steps_per_s",
-        "rounds", "speedup", "cores_busy", "cpu_per_step_vs_one"}]}``: the speed-up over the
-        single env's median; ``cores_busy`` the process CPU time over the wall time of the
+        "rounds", "speedup", "physics_ceiling", "cores_busy", "cpu_per_step_vs_one"}]}``: the
+        speed-up over the single env's median; ``physics_ceiling`` the speed-up of bare
+        ``mj_step`` in as many threads (:func:`bare_threads_speedup`, from states of the single
+        env's random run, timed in the same rounds): what the machine allows; ``cores_busy``
+        the process CPU time over the wall time of the
         vector loop (what the scheduler gave it: at most the free cores);
         ``cpu_per_step_vs_one`` its CPU time per env step over the single env's (the cost of
         the threading itself, independent of how busy the machine is).
@@ -337,6 +367,8 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
         rates: dict[int, list[float]] = {n: [] for n in counts}
         busy: dict[int, list[float]] = {n: [] for n in counts}
         cpu: dict[int, list[float]] = {n: [] for n in counts}
+        ceiling: dict[int, list[float]] = {n: [] for n in counts}
+        states = visited_states(single, min(steps, 500), seed)
         for r in range(repeats):
             t, _ = random_env_steps(single, steps, seed + r)
             ones.append(steps / t.wall_s)
@@ -349,6 +381,7 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
                 rates[n].append(len(acts) * n / t.wall_s)
                 busy[n].append(t.cpu_s / t.wall_s)
                 cpu[n].append(t.cpu_s / (len(acts) * n))
+                ceiling[n].append(bare_threads_speedup(single, states, venv.num_threads))
             if log is not None:
                 log(f"round {r + 1}/{repeats} {env_id}: one env {ones[-1]:.0f} env steps/s; "
                     + ", ".join(f"N={n} {rates[n][-1]:.0f}" for n in counts))
@@ -362,7 +395,8 @@ def threaded_throughput(env_id: str = ENV_IDS[0], *, counts: Sequence[int] = THR
               "steps_per_s": statistics.median(rates[n]),
               "speedup": statistics.median(rates[n]) / one,
               "cores_busy": statistics.median(busy[n]),
-              "cpu_per_step_vs_one": statistics.median(cpu[n]) / one_cpu_s} for n in counts]
+              "cpu_per_step_vs_one": statistics.median(cpu[n]) / one_cpu_s,
+              "physics_ceiling": statistics.median(ceiling[n])} for n in counts]
     return {"env": env_id, "steps": steps, "repeats": repeats, "cores": os.cpu_count(),
             "single_steps_per_s": one, "single_rounds": ones,
             "single_cpu_s_per_step": one_cpu_s, "cases": cases}
@@ -427,12 +461,14 @@ def threaded_table(res: dict, command: str = "python -m mjchar.perf.envs") -> st
              f"{res['single_steps_per_s']:.0f} env steps/s ({min(res['single_rounds']):.0f}-"
              f"{max(res['single_rounds']):.0f}).", "",
              "| sub-envs N | threads | env steps/s | spread | speed-up over one env | "
-             "cores busy | CPU per env step over one env's |",
-             "|---|---|---|---|---|---|---|"]
+             "bare mj_step in as many threads (ceiling) | cores busy | "
+             "CPU per env step over one env's |",
+             "|---|---|---|---|---|---|---|---|"]
     for c in res["cases"]:
         lines.append(f"| {c['num_envs']} | {c['num_threads']} | {c['steps_per_s']:.0f} | "
                      f"{min(c['rounds']):.0f}-{max(c['rounds']):.0f} | {c['speedup']:.2f} | "
-                     f"{c['cores_busy']:.2f} | {c['cpu_per_step_vs_one']:.2f} |")
+                     f"{c['physics_ceiling']:.2f} | {c['cores_busy']:.2f} | "
+                     f"{c['cpu_per_step_vs_one']:.2f} |")
     return "\n".join(lines)
 
 

@@ -338,28 +338,62 @@ class Character:
         Raises :class:`SimulationDiverged` when the state becomes non-finite or a velocity
         exceeds ``max_velocity`` (also when MuJoCo had to reset a bad state).
         """
+        self.begin_step(action)
+        m, d = self.model, self.data
+        if self._pushes_act(n):
+            self._step_with_pushes(n)
+        else:
+            mujoco.mj_step2(m, d)
+            if n > 1:
+                mujoco.mj_step(m, d, n - 1)
+            mujoco.mj_step1(m, d)
+        self._check()
+
+    # :meth:`step` in three parts, for stepping many characters in threads of one process
+    # (mjchar.envs.vector): ``begin_step`` and ``end_step`` hold the interpreter briefly,
+    # ``advance`` is physics only (MuJoCo releases the GIL inside each call).
+    def begin_step(self, action: Action | None = None) -> None:
+        """Apply ``action`` (``None``: the controls as they are); then :meth:`advance` and
+        :meth:`end_step` complete what :meth:`step` does."""
         if action is not None:
             self.actuation.apply(action)
-        m, d = self.model, self.data
         self._warn_before = self._bad_state_warnings()
-        pushes = self.pushes
-        if pushes.scheduled or pushes.applied:
-            dt = self._opt.timestep
-            t_end = d.time + (n + 1) * dt
-            if pushes.applied or pushes.any_between(d.time, t_end):
-                pushes.apply(d.time + 0.5 * dt)  # the step's midpoint decides
-                mujoco.mj_step2(m, d)
-                for _ in range(n - 1):
-                    pushes.apply(d.time + 0.5 * dt)
-                    mujoco.mj_step(m, d)
-                mujoco.mj_step1(m, d)
-                self._check()
-                return
-        mujoco.mj_step2(m, d)
-        if n > 1:
-            mujoco.mj_step(m, d, n - 1)
-        mujoco.mj_step1(m, d)
+
+    def advance(self, n: int = 1) -> None:
+        """The physics of :meth:`step`: ``n`` steps and ``mj_step1`` on the new state, as
+        ``mj_step(m, d, n)`` and ``mj_step1`` (the step's first ``mj_step1`` recomputes what
+        the last one left, from the same inputs: the same numbers as :meth:`step`, with two
+        calls into MuJoCo instead of three and no Python between the steps, unless a push acts
+        during them)."""
+        m, d = self.model, self.data
+        if self._pushes_act(n):
+            self._step_with_pushes(n)
+        else:
+            mujoco.mj_step(m, d, n)
+            mujoco.mj_step1(m, d)
+
+    def end_step(self) -> None:
+        """After :meth:`advance`: raise :class:`SimulationDiverged` as :meth:`step` does."""
         self._check()
+
+    def _pushes_act(self, n: int) -> bool:
+        """Whether a push acts during the next ``n`` steps (then they are taken one by one)."""
+        pushes = self.pushes
+        if not (pushes.scheduled or pushes.applied):
+            return False
+        return bool(pushes.applied or pushes.any_between(self.data.time,
+                                                          self.data.time + (n + 1)
+                                                          * self._opt.timestep))
+
+    def _step_with_pushes(self, n: int) -> None:
+        m, d, pushes = self.model, self.data, self.pushes
+        dt = self._opt.timestep
+        pushes.apply(d.time + 0.5 * dt)  # the step's midpoint decides
+        mujoco.mj_step2(m, d)
+        for _ in range(n - 1):
+            pushes.apply(d.time + 0.5 * dt)
+            mujoco.mj_step(m, d)
+        mujoco.mj_step1(m, d)
 
     def _restored(self) -> None:
         """After ``state.set``: the restored controls are the native set-points; recompute."""
