@@ -41,9 +41,10 @@ def _start_worker(initializer: Callable | None, *args) -> None:
 
 @contextlib.contextmanager
 def process_pool(workers: int, *, initializer: Callable | None = None, initargs: tuple = (),
-                 start_method: str = "spawn") -> Iterator[ProcessPoolExecutor]:
+                 start_method: str | None = "spawn") -> Iterator[ProcessPoolExecutor]:
     """A :class:`~concurrent.futures.ProcessPoolExecutor` of ``workers`` processes started with
-    ``start_method``, each running :func:`quiet_worker` then ``initializer(*initargs)``.
+    ``start_method`` (``None``: the platform's default), each running :func:`quiet_worker`
+    then ``initializer(*initargs)``.
 
     Leaving the block normally waits for the queued work, as the executor does. Leaving it on
     Ctrl-C or SIGTERM (a ``KeyboardInterrupt``) ends the workers at once and drops what is

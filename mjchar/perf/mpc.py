@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -50,7 +49,7 @@ from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.registry import make_controller
-from mjchar.controllers.core.workers import quiet_worker
+from mjchar.controllers.core.workers import process_pool
 from mjchar.controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep
 from mjchar.controllers.sampling.trajectory import (
     ReplayController,
@@ -203,7 +202,7 @@ def run_items(items: list[tuple], jobs: int = 1, label: str = "") -> list[dict]:
     processes, one rollout thread each), printing each result as it comes."""
     if jobs > 1:
         items = [(k, a, {**o, "threads": 1}) for k, a, o in items]
-        with ProcessPoolExecutor(jobs, initializer=quiet_worker) as ex:
+        with process_pool(jobs, start_method=None) as ex:
             results = list(ex.map(_run_item, items))
     else:
         results = [_run_item(i) for i in items]

@@ -44,10 +44,10 @@ whichever process it runs.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -56,7 +56,7 @@ from mjchar.bvh.errors import MjcharError
 
 from ..character import Character
 from ..metrics import Result
-from ..workers import quiet_worker, stop_workers
+from ..workers import process_pool
 from .options import MAX_FORCE, PHASES, PUSH_DURATION, SEEDS, TOLERANCE
 from .registry import ScenarioError, ScenarioSpec, register
 from .shared import DIRECTIONS, perturbed_start, standing_pose, survived
@@ -309,18 +309,19 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
     controller = spec.name
     out = PushRates(controller, protocol, spec.push, spec.steps)
     workers = (os.cpu_count() or 1) if processes == 0 else max(1, int(processes))
-    pool = (ProcessPoolExecutor(workers, initializer=quiet_worker)
-            if workers > 1 and mapper is None else None)
-    if mapper is not None:
-        def run_all(tasks):
-            return list(mapper(run_push, tasks))
-    elif pool is not None:
-        def run_all(tasks):
-            return list(pool.map(run_push, tasks))
-    else:
-        def run_all(tasks):
-            return [run_push(t) for t in tasks]
-    try:
+    parallel = workers > 1 and mapper is None
+    with (process_pool(workers, start_method=None) if parallel
+          else contextlib.nullcontext()) as pool:
+        if mapper is not None:
+            def run_all(tasks):
+                return list(mapper(run_push, tasks))
+        elif pool is not None:
+            def run_all(tasks):
+                return list(pool.map(run_push, tasks))
+        else:
+            def run_all(tasks):
+                return [run_push(t) for t in tasks]
+
         def task(direction: str, force: float, phase: float, seed: int) -> PushTask:
             return PushTask(run, direction, force, phase, int(seed), protocol)
 
@@ -351,15 +352,6 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
                 progress(f"{controller} {f:g} N: " + ", ".join(
                     f"{d} {curves[d]['rates'][-1]:.0%}" for d in protocol.directions
                     if curves[d]["forces_N"] and curves[d]["forces_N"][-1] == f))
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: do not wait for the running pushes
-        if pool is not None:
-            stop_workers()
-            pool.shutdown(wait=False, cancel_futures=True)
-            pool = None
-        raise
-    finally:
-        if pool is not None:
-            pool.shutdown()
     out.curves = curves
     for d, c in curves.items():
         out.largest_100_N[d] = largest_force(c["forces_N"], c["rates"], 1.0)
