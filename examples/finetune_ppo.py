@@ -17,7 +17,10 @@ Needs the rl extra, CPU torch first::
 Usage::
 
     python examples/finetune_ppo.py walk60.npz --steps 100000 --eval-every 20000
-    python examples/finetune_ppo.py walk60 --steps 1000000 --save walk60_ppo.zip
+    python examples/finetune_ppo.py walk60 --steps 1000000 --eval-every 50000 \
+        --save walk60_ppo.zip --curve walk60_ppo.png
+
+``--curve`` writes the returns against PPO steps as a PNG (needs matplotlib, the bench extra).
 """
 
 from __future__ import annotations
@@ -57,6 +60,48 @@ def load_into_ppo(model, policy, init_std: float) -> None:
         model.policy.log_std.fill_(math.log(init_std))
 
 
+def zero_action_return(env, episodes: int) -> float:
+    """Mean return of the zero action (plain PD on the clip) over ``episodes`` episodes."""
+    import numpy as np
+
+    total = 0.0
+    for _ in range(episodes):
+        env.reset()
+        done = False
+        while not done:
+            _, r, term, trunc, _ = env.step(np.zeros(env.action_space.shape))
+            total += float(r)
+            done = term or trunc
+    return total / episodes
+
+
+def plot_returns(rows: list[tuple[int, float, float]], path: str, zero_action=None) -> None:
+    """Write the evaluations ``(PPO steps, mean return, sd)`` as a PNG at ``path``;
+    ``zero_action``: the zero action's return, drawn as a line for comparison."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjchar.bvh.io.files import atomic_path
+
+    steps = [r[0] / 1000 for r in rows]
+    mean = [r[1] for r in rows]
+    sd = [r[2] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=100)
+    ax.errorbar(steps, mean, yerr=sd, fmt="o-", capsize=3, label="PPO from the distilled policy")
+    if zero_action is not None:
+        ax.axhline(zero_action, color="tab:gray", ls="--", label="zero action (plain PD)")
+    ax.set_xlabel("PPO steps (thousands)")
+    ax.set_ylabel("return (mean +- sd)")
+    ax.set_title("mjchar/Imitation-v0: PPO fine-tuning of a distilled policy")
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Fine-tune a distilled policy with PPO.")
     ap.add_argument("policy", help="policy file (mjchar learn) or bundled name")
@@ -70,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="steps with the actor frozen while the critic learns")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--save", help="write the fine-tuned PPO model (.zip)")
+    ap.add_argument("--curve", help="write the returns against PPO steps (.png)")
     a = ap.parse_args(argv)
     try:
         import torch
@@ -80,6 +126,13 @@ def main(argv: list[str] | None = None) -> int:
         print("needs stable-baselines3: pip install torch==2.13.0 && pip install "
               "stable-baselines3", file=sys.stderr)
         return 2
+    if a.curve:
+        try:
+            import matplotlib  # noqa: F401  (checked before the run, not after it)
+        except ImportError:
+            print("--curve needs matplotlib: pip install matplotlib (or the bench extra)",
+                  file=sys.stderr)
+            return 2
     from mjchar.controllers.learned import find_policy
 
     torch.set_num_threads(1)
@@ -92,12 +145,18 @@ def main(argv: list[str] | None = None) -> int:
                                "activation_fn": torch.nn.ELU})
     load_into_ppo(model, policy, a.init_std)
 
-    def evaluate(label: str) -> None:
+    rows: list[tuple[int, float, float]] = []
+
+    def evaluate(label: str, steps: int | None = None) -> None:
         mean, std = evaluate_policy(model, eval_env, n_eval_episodes=a.eval_episodes,
                                     deterministic=True)
         print(f"{label:>10} steps: return {mean:.2f} +- {std:.2f}", flush=True)
+        if steps is not None:
+            rows.append((steps, float(mean), float(std)))
 
-    evaluate("0")
+    zero = zero_action_return(eval_env, a.eval_episodes)
+    print(f"zero action: return {zero:.2f}", flush=True)
+    evaluate("0", 0)
     t0, done = time.perf_counter(), 0
     if a.critic_warmup > 0:
         actor = [*model.policy.mlp_extractor.policy_net.parameters(),
@@ -113,10 +172,12 @@ def main(argv: list[str] | None = None) -> int:
         n = min(a.eval_every, a.steps - done)
         model.learn(total_timesteps=n, reset_num_timesteps=False, progress_bar=False)
         done += n
-        evaluate(f"{done}")
+        evaluate(f"{done}", done)
     print(f"fine-tuned {done} steps in {time.perf_counter() - t0:.0f} s")
     if a.save:
         model.save(a.save)
+    if a.curve:
+        plot_returns(rows, a.curve, zero_action=zero)
     return 0
 
 
