@@ -305,6 +305,26 @@ def test_replay_rows_use_saved_trajectories(tmp_path):
     assert cells[0]["status"] == "not available"
 
 
+def test_policy_row_tracks_its_own_looped_clip_for_the_track_runs_length():
+    """The bundled policy follows the clip it was trained on, looped as trained, for as long
+    as the other rows' track run (``track_duration`` here), and gets a step cost."""
+    from mjchar.controllers.learned import find_policy
+
+    assert "track" in B.matrix()["policy"] and B.availability("policy") == (True, None)
+    policy = find_policy(None)
+    controllers, cells, _ = B.run_matrix([("policy", "track")], tiny(track_duration=0.5),
+                                         trajectories={}, progress=False)
+    run = cells[0]["runs"][0]
+    assert cells[0]["status"] == "ok" and controllers["policy"]["available"]
+    assert run["result"]["sim_time_s"] == pytest.approx(0.5, abs=0.01)
+    assert run["result"]["root_force_mean_N"] == 0.0
+    assert run["variant"] == Path(policy.meta["clip"]["name"]).name + " (looped)"
+    doc = B.run_performance(["policy"], tiny(), progress=False, parts=("cost",))
+    cost = doc["cost"]["controllers"]["policy"]
+    assert cost["available"], cost["reason"]
+    assert cost["timestep_s"] == pytest.approx(policy.meta["env"]["timestep"])
+
+
 # -- the JSON document, its schema, the plots -----------------------------------------------------
 @pytest.fixture(scope="module")
 def tiny_doc(tmp_path_factory):

@@ -142,4 +142,4 @@ def make_policy(character: Character | None = None, target=None, *, policy=None
 register(ControllerSpec(
     name="policy", label="learned tracking policy (mjchar learn)", kind="balance",
     factory=make_policy, abilities=("track",), default_scenario="track",
-    options=("policy",), bench=()))
+    options=("policy",), bench=("track",)))

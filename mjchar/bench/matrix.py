@@ -100,7 +100,7 @@ def find_trajectories(directory: str | os.PathLike | None = None) -> dict[str, P
 def availability(name: str, trajectories: dict[str, Path] | None = None
                  ) -> tuple[bool, str | None]:
     """``(available, reason)`` for controller ``name``: always available unless it is a replay
-    without a saved trajectory."""
+    without a saved trajectory or a learned policy without its bundled policy file."""
     spec = _spec(name)
     if spec.kind == "replay":
         path = (trajectories or {}).get(name)
@@ -110,6 +110,12 @@ def availability(name: str, trajectories: dict[str, Path] | None = None
                            f"{relative_path(TRAJECTORIES)})")
         if not Path(path).is_file():
             return False, f"trajectory file {path} not found"
+    if "policy" in spec.options:
+        from mjchar.controllers.learned import bundled_policies
+        from mjchar.controllers.learned.controller import DEFAULT_POLICY
+
+        if DEFAULT_POLICY not in bundled_policies():
+            return False, f"no bundled policy {DEFAULT_POLICY!r} (learn one with mjchar learn)"
     return True, None
 
 
@@ -216,6 +222,8 @@ class BenchContext:
         self.log = log
         self.track_motion = default_track_motion()
         self._trajs: dict[str, object] = {}
+        self._policy = None
+        self._track_seconds: float | None = None
         self.videos: list[dict] = []
 
     def describe(self, name: str, scenario: str, options: dict | None = None,
@@ -228,8 +236,41 @@ class BenchContext:
             factory["threads"] = self.threads
         if spec.kind == "replay":
             factory["trajectory"] = self.trajectories[name]
-        return RunSpec(name, scenario, model=self.base_model, motion=self.track_motion,
-                       seed=seed, options=factory, scenario_options=dict(options or {}))
+        motion, loop, scenario_options = self.track_motion, False, dict(options or {})
+        if "policy" in spec.options:  # a learned policy follows its own clip, as trained
+            policy = self.policy()
+            factory["policy"] = policy
+            motion, loop = policy.clip_motion(), bool(policy.meta["clip"].get("loop"))
+            if loop and scenario_options.get("duration") is None and scenario == "track":
+                scenario_options["duration"] = self.track_seconds()
+        return RunSpec(name, scenario, model=self.base_model, motion=motion, loop=loop,
+                       seed=seed, options=factory, scenario_options=scenario_options)
+
+    def policy(self):
+        """The bundled default policy (loaded once) the ``policy`` row runs."""
+        if self._policy is None:
+            from mjchar.controllers.learned import find_policy
+
+            self._policy = find_policy(None)
+        return self._policy
+
+    def clip_label(self, name: str) -> str:
+        """The clip a tracking run of controller ``name`` follows (a policy: its own)."""
+        if "policy" not in _spec(name).options:
+            return self.track_motion.name
+        clip = self.policy().meta["clip"]
+        return Path(clip["name"]).name + (" (looped)" if clip.get("loop") else "")
+
+    def track_seconds(self) -> float:
+        """How long the track cell runs: ``track_duration``, else the track clip's length (a
+        looped clip then runs as long as the other rows' unlooped one)."""
+        if self.config.track_duration:
+            return float(self.config.track_duration)
+        if self._track_seconds is None:
+            from mjchar.bvh.io import load
+
+            self._track_seconds = float(load(self.track_motion).duration)
+        return self._track_seconds
 
     def character(self, timestep: float | None = None):
         """A fresh Character of the bundled humanoid (for the performance measurements)."""
@@ -320,7 +361,7 @@ def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
                                               if k != "seed" and v is not None},
                              br.options.get("seed", br.seed)).build()
         label = (ctx.trajectories[name].name if _spec(name).kind == "replay"
-                 else ctx.track_motion.name if built.reference is not None else br.label)
+                 else ctx.clip_label(name) if built.reference is not None else br.label)
         reference = built.reference if built.reference is not None else _stored(built)
 
         def go(cb, built=built):

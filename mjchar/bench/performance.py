@@ -112,11 +112,16 @@ def _costs(ctx: BenchContext, controllers: Sequence[str], cfg: PerfConfig, log) 
                                    qvel=tr.initial_qvel, control_dt=tr.control_dt,
                                    steps=cfg.cost_steps, repeats=cfg.cost_repeats)
             else:
-                scenario = "walk" if registry.get(name).kind == "walker" else "stand"
-                ch, probe_ctrl = build_controller(ctx, name, scenario)
-                q, v = _start_state(ctx, name, ch, probe_ctrl)
+                spec = registry.get(name)
+                scenario = ("walk" if spec.kind == "walker" else "stand" if spec.runs("stand")
+                            else spec.default_scenario)  # a learned policy: tracking its clip
+                built = ctx.describe(name, scenario).build()
+                if built.reference is not None:
+                    q, v = built.reference.qpos(0.0), built.reference.qvel(0.0)
+                else:
+                    q, v = _start_state(ctx, name, built.character, built.controller)
                 # fresh: the raw loop copies its model
-                ch = ctx.character(registry.default_timestep(name))
+                ch = ctx.character(float(built.character.model.opt.timestep))
                 c = step_cost(ch, lambda n=name, s=scenario: build_controller(ctx, n, s)[1],
                                    qpos=q, qvel=v, steps=cfg.cost_steps,
                                    repeats=cfg.cost_repeats)
