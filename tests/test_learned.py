@@ -243,3 +243,39 @@ def test_the_bundled_policy_scores_above_the_zero_action_with_no_root_force():
     env.close()
     assert np.mean(learned) > 1.5 * np.mean(plain), (learned, plain)
     assert loop("walk60", duration=1.0)["root_force_max_N"] == 0.0
+
+
+def _same_results(a, b):
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x.obs, y.obs)
+        np.testing.assert_array_equal(x.labels, y.labels)
+        assert (x.steps, x.fell, x.tracking_error_m, x.episode_return) == (
+            y.steps, y.fell, y.tracking_error_m, y.episode_return)
+
+
+def test_ray_labelling_gives_the_local_pools_episodes():
+    """The same labelled episodes (observations and MPC labels bit for bit) from Ray actors as
+    from the local worker processes, in the jobs' order."""
+    ray = pytest.importorskip("ray", reason="ray is not installed (pip install 'mjchar[ray]')")
+    from mjchar.learn.collect import Episode, LearnSetup
+    from mjchar.learn.workers import episode_pool
+
+    setup = LearnSetup(clip="walk", loop=True, label_samples=4)
+    jobs = [Episode(seed=i, phase=i / 3, seconds=0.2, noise=0.1,
+                    push=(0.05, 80.0, 0.0, 0.1) if i == 1 else None) for i in range(3)]
+    with episode_pool(setup, 2) as pool:
+        local = pool.map(jobs)
+    started = not ray.is_initialized()
+    with episode_pool(setup, 2, executor="ray") as pool:
+        assert pool.parallelism == 2
+        remote = pool.map(jobs)
+    assert not (started and ray.is_initialized())  # a Ray instance it started is shut down
+    assert all(len(r.labels) == 6 for r in local)
+    _same_results(local, remote)
+
+
+def test_learn_refuses_a_ray_address_without_ray(tmp_path, capsys):
+    assert main(["learn", "walk", "-o", str(tmp_path / "p.npz"), "--ray-address",
+                 "127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--executor ray" in err, err

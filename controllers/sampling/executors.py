@@ -37,6 +37,7 @@ from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner
 __all__ = [
     "ExecutorError", "RayUnavailableError", "RayConnectionError", "Executor", "LocalExecutor",
     "RayExecutor", "make_executor", "add_executor_arguments", "executor_from_args", "EXECUTORS",
+    "connect_ray", "worker_pythonpath",
 ]
 
 EXECUTORS = ("local", "ray")
@@ -166,6 +167,63 @@ def _host_port(address: str) -> tuple[str, int]:
                                  "ray://host:port") from None
 
 
+def connect_ray(address: str | None = None, *, num_cpus: int | None = None,
+                connect_timeout: float = 30.0) -> bool:
+    """Join Ray: ``None`` joins the instance this process is connected to or starts a local one
+    (``num_cpus``, no dashboard); ``"host:port"``, ``"ray://host:port"`` or ``"auto"`` connects
+    to a running cluster, failing within ``connect_timeout`` s when it does not answer. Returns
+    whether this call connected (the caller then shuts Ray down when done).
+
+    Raises:
+        RayUnavailableError, RayConnectionError, ExecutorError (a local instance failed)."""
+    ray = _import_ray()
+    if address is None:
+        if ray.is_initialized():
+            return False
+        # on the calling thread: Ray ties the processes it starts to the starting thread
+        try:
+            ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
+                     configure_logging=False)
+        except Exception as e:  # noqa: BLE001 (Ray raises many kinds)
+            raise ExecutorError(f"cannot start a local Ray instance: {e}") from e
+        return True
+    if address not in ("auto", "local"):
+        host, port = _host_port(address)
+        try:  # a dead or firewalled address: fail fast instead of Ray's endless retries
+            socket.create_connection((host, port), timeout=connect_timeout).close()
+        except OSError as e:
+            raise RayConnectionError(f"no Ray cluster answers at {address!r} ({e}); start "
+                                     "one with `ray start --head` or check the "
+                                     "address") from None
+    if ray.is_initialized():
+        return False  # already connected (to whatever this process joined before)
+    outcome: dict[str, BaseException | bool] = {}
+
+    def _init():
+        try:
+            ray.init(address=address, log_to_driver=False, configure_logging=False)
+            outcome["ok"] = True
+        except BaseException as e:  # noqa: BLE001 (reported below)
+            outcome["error"] = e
+
+    thread = threading.Thread(target=_init, name="mjchar-ray-connect", daemon=True)
+    thread.start()
+    thread.join(connect_timeout)
+    if thread.is_alive():
+        raise RayConnectionError(f"the Ray cluster at {address!r} did not answer within "
+                                 f"{connect_timeout:g} s (is it a Ray GCS / client port?)")
+    if "error" in outcome:
+        raise RayConnectionError(f"cannot connect to Ray at {address!r}: "
+                                 f"{outcome['error']}") from outcome["error"]
+    return True
+
+
+def worker_pythonpath() -> str:
+    """``PYTHONPATH`` for Ray workers: this checkout first (a source checkout imports as on the
+    driver), then the driver's own."""
+    return os.pathsep.join(p for p in (_PROJECT_ROOT, os.environ.get("PYTHONPATH")) if p)
+
+
 class RayExecutor(Executor):
     """Rollouts on Ray actors, one thread each, in contiguous chunks of samples.
 
@@ -211,55 +269,15 @@ class RayExecutor(Executor):
             cpus = int(ray.cluster_resources().get("CPU", 1))
             num_workers = max(1, cpus // threads_per_worker)
         self.num_workers, self.threads_per_worker = num_workers, threads_per_worker
-        pythonpath = os.pathsep.join(p for p in (_PROJECT_ROOT, os.environ.get("PYTHONPATH"))
-                                     if p)
         actor = ray.remote(_RolloutWorker).options(
-            num_cpus=threads_per_worker, runtime_env={"env_vars": {"PYTHONPATH": pythonpath}})
+            num_cpus=threads_per_worker,
+            runtime_env={"env_vars": {"PYTHONPATH": worker_pythonpath()}})
         self._workers = [actor.remote(threads_per_worker) for _ in range(num_workers)]
         self._models: dict[int, tuple[RolloutModel, str, Any]] = {}
 
     def _connect(self, address, num_workers, threads_per_worker, timeout) -> None:
-        ray = self._ray
-        if address is None:
-            if not ray.is_initialized():
-                cpus = None if num_workers is None else num_workers * threads_per_worker
-                # on the calling thread: Ray ties the processes it starts to the starting thread
-                try:
-                    ray.init(num_cpus=cpus, include_dashboard=False, log_to_driver=False,
-                             configure_logging=False)
-                except Exception as e:  # noqa: BLE001 (Ray raises many kinds)
-                    raise ExecutorError(f"cannot start a local Ray instance: {e}") from e
-                self._owns_ray = True
-            return
-        if address not in ("auto", "local"):
-            host, port = _host_port(address)
-            try:  # a dead or firewalled address: fail fast instead of Ray's endless retries
-                socket.create_connection((host, port), timeout=timeout).close()
-            except OSError as e:
-                raise RayConnectionError(f"no Ray cluster answers at {address!r} ({e}); start "
-                                         "one with `ray start --head` or check the "
-                                         "address") from None
-        if ray.is_initialized():
-            return  # already connected (to whatever this process joined before)
-        outcome: dict[str, BaseException | bool] = {}
-
-        def _init():
-            try:
-                ray.init(address=address, log_to_driver=False, configure_logging=False)
-                outcome["ok"] = True
-            except BaseException as e:  # noqa: BLE001 (reported below)
-                outcome["error"] = e
-
-        thread = threading.Thread(target=_init, name="mjchar-ray-connect", daemon=True)
-        thread.start()
-        thread.join(timeout)
-        if thread.is_alive():
-            raise RayConnectionError(f"the Ray cluster at {address!r} did not answer within "
-                                     f"{timeout:g} s (is it a Ray GCS / client port?)")
-        if "error" in outcome:
-            raise RayConnectionError(f"cannot connect to Ray at {address!r}: "
-                                     f"{outcome['error']}") from outcome["error"]
-        self._owns_ray = True
+        cpus = None if num_workers is None else num_workers * threads_per_worker
+        self._owns_ray = connect_ray(address, num_cpus=cpus, connect_timeout=timeout)
 
     @property
     def parallelism(self) -> int:

@@ -42,7 +42,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-loop", dest="loop", action="store_false",
                    help="track the clip once through instead of a seamless loop of it")
     p.add_argument("--workers", type=integer("workers", 1), metavar="N",
-                   help="labelling processes (default: every core)")
+                   help="labelling workers (default: every core, or every CPU of the Ray "
+                        "cluster)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="where the labelling runs: worker processes on this machine "
+                        "(default) or Ray actors (needs the ray extra)")
+    p.add_argument("--ray-address", metavar="ADDR",
+                   help="Ray cluster (host:port, ray://host:port, auto); default: start a "
+                        "local Ray instance (with --executor ray)")
     p.add_argument("--label-samples", type=integer("label samples", 2), default=16,
                    metavar="N", help="MPC candidates per label (default 16; the MPC's own "
                                      "default is 48)")
@@ -75,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.learn.dagger import LearnOptions, learn
     from mjchar.learn.train import LearnError, import_torch
 
+    if args.ray_address is not None and args.executor != "ray":
+        raise LearnError("--ray-address needs --executor ray")
     source = motion_source(args.clip)
     if not os.path.isfile(source):
         raise LearnError(f"{args.clip}: no such clip (a BVH file or a bundled name: walk, idle)")
@@ -86,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
                        future_steps=tuple(range(1, args.future_steps + 1)),
                        label_samples=args.label_samples, label_nominal=args.label_nominal)
     opts = LearnOptions(minutes=args.minutes, seed=args.seed, workers=args.workers,
+                        executor=args.executor, ray_address=args.ray_address,
                         episodes=args.episodes, episode_seconds=args.episode_seconds,
                         noise=args.noise)
     progress = None if args.json else Progress()

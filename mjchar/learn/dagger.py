@@ -35,11 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mjchar.controllers.core.workers import process_pool
 from mjchar.controllers.learned.policy_file import clip_hash, save_policy
 
-from .collect import Episode, LearnSetup, init_worker, make_env, run_episode
+from .collect import Episode, LearnSetup, make_env
 from .train import LearnError, Trainer, import_torch
+from .workers import episode_pool
 
 __all__ = ["LearnOptions", "learn", "policy_metadata", "outputs"]
 
@@ -51,7 +51,10 @@ class LearnOptions:
     Attributes:
         minutes: wall-clock budget.
         seed: random seed (episodes, network initialisation, minibatches).
-        workers: worker processes labelling (``None``: every core).
+        workers: labelling workers (``None``: every core, or every CPU of the Ray cluster).
+        executor: where they run: ``"local"`` (worker processes) or ``"ray"`` (Ray actors,
+            :mod:`.workers`).
+        ray_address: the Ray cluster (``None``: a local Ray instance).
         episodes: episodes per iteration (``None``: one per worker).
         episode_seconds: simulated seconds per training episode.
         beta_decay: ``beta_i = beta_decay^i``.
@@ -69,6 +72,8 @@ class LearnOptions:
     minutes: float = 60.0
     seed: int = 0
     workers: int | None = None
+    executor: str = "local"
+    ray_address: str | None = None
     episodes: int | None = None
     episode_seconds: float = 1.5
     beta_decay: float = 0.5
@@ -180,8 +185,6 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
     files = outputs(out)
     t_start = time.perf_counter()
     budget = 60.0 * float(opts.minutes)
-    workers = opts.workers or os.cpu_count() or 1
-    n_episodes = opts.episodes or workers
     env = make_env(setup)
     meta = policy_metadata(setup, env)
     clip_text = Path(setup.clip).read_text() if os.path.isfile(setup.clip) else None
@@ -213,15 +216,16 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
     if progress is not None:
         progress.start(opts.minutes, unit="min", desc="learning")
     summary = {}
-    with process_pool(workers, initializer=init_worker, initargs=(setup,)) as pool:
+    with episode_pool(setup, opts.workers, executor=opts.executor,
+                      address=opts.ray_address) as pool:
+        n_episodes = opts.episodes or pool.parallelism
         while True:
             now = time.perf_counter() - t_start
             if now >= budget and summary:  # (one iteration at least)
                 break
             beta = opts.beta_decay ** it
             w = time.perf_counter()
-            results = list(pool.map(run_episode,
-                                    _episodes(opts, rng, n_episodes, beta, policy)))
+            results = pool.map(_episodes(opts, rng, n_episodes, beta, policy))
             collect_s = time.perf_counter() - w
             new = sum(len(r.obs) for r in results)
             X = np.concatenate([X] + [r.obs for r in results])
@@ -233,7 +237,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
             train_s = time.perf_counter() - w
             policy = trainer.mlp()
             w = time.perf_counter()
-            ev = list(pool.map(run_episode, _eval_jobs(opts, policy)))
+            ev = pool.map(_eval_jobs(opts, policy))
             eval_s = time.perf_counter() - w
             it += 1
             wall = elapsed0 + time.perf_counter() - t_start
