@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import run_command
 
@@ -150,3 +151,34 @@ def test_the_knobs_start_from_the_walkers_defaults():
             assert k.default == rows[k.name], k.name
         else:  # a state field, both states
             assert k.default == rows[f"state0_{k.name}"] == rows[f"state1_{k.name}"], k.name
+
+
+def test_a_candidate_that_falls_in_its_long_walks_is_ruled_out(monkeypatch):
+    """A candidate passing the 20 s check walks CONFIRM_DURATION s before it is kept: one that
+    falls there is ruled out and the search goes on to one that holds (a stand-in walk here:
+    the defaults fall at 5 s, every candidate walks the 20 s with a speed error shrinking as
+    its first knob grows, and the first candidate given long walks falls in them at 30 s)."""
+    knob = cal_mod.KNOBS["ipm"][0]
+    long_walked = []
+
+    def walk(args):
+        _, _, _, overrides, speed, seconds, _ = args
+        x = (0.0 if not overrides else
+             float(np.log(overrides[knob.name] / knob.default) / knob.step))
+        if seconds > 20.0 and overrides not in long_walked:
+            long_walked.append(overrides)
+        fall = (5.0 if not overrides else
+                30.0 if seconds > 20.0 and overrides == long_walked[0] else None)
+        fell = fall is not None and fall < seconds
+        steady = speed - 0.08 + 0.05 * min(max(x, 0.0), 1.6)
+        return {"speed": speed, "fell": fell, "fall_time_s": fall if fell else None,
+                "steady_speed_mps": steady, "own_speed_mps": None, "cpu_s": 0.0}
+
+    monkeypatch.setattr(cal_mod, "_walk_job", walk)
+    cal = cal_mod.calibrate(HUMANOID_XML, "ipm", jobs=1, budget_s=1.0)
+    assert len(long_walked) == 2
+    assert cal.status == "optimised" and len(cal.rejected) == 1
+    assert all(r["fell"] and r["fall_time_s"] == 30.0 for r in cal.rejected[0])
+    assert cal.confirmed and not any(r["fell"] for r in cal.confirmed)
+    assert cal.overrides == long_walked[1] and cal_mod.passes(cal.calibrated)
+    assert Calibration.from_json(cal.to_json()).rejected == cal.rejected

@@ -15,9 +15,8 @@ from mjchar.bvh.mjcf import convert
 from mjchar.controllers import run
 
 #: IPM fell on these at the defaults (docs/calibration.md)
-#: (Bandai dataset 2's body is not among them: calibrated on 20 s walks, its 60 s IPM walk still
-#: falls at 27.3 s, docs/calibration.md)
-IPM_BODIES = ("bandai1_walk_normal_002.bvh", "mixamo_games105.bvh")
+IPM_BODIES = ("bandai1_walk_normal_002.bvh", "bandai2_walk_normal_001.bvh",
+              "mixamo_games105.bvh")
 #: SIMBICON refused this one (an arm's hinge) before it held such hinges at rest
 SIMBICON_BODIES = ("mixamo_ns_walk_circle.bvh",)
 

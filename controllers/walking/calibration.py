@@ -20,8 +20,11 @@ target angles and torso gains for SIMBICON), stored as the factory overrides it 
    pool), on the cost :func:`walk_cost` (a fall costs more than any speed error, and costs less
    the later it comes), while the next generation fits in the time budget (default
    :data:`BUDGET_S`, counted as the walks' CPU time over the worker processes: the wall time
-   on a machine of that many free cores). The best
-   candidate is stored if it beats the defaults; else the defaults are stored, marked
+   on a machine of that many free cores). A candidate that passes the check walks
+   :data:`CONFIRM_DURATION` s at every speed before it is kept: one that falls there is ruled
+   out (a walker fitted on short walks can drift into a fall later) and the search goes on. The
+   best candidate is stored if it beats the defaults (a confirmed one first, else the first
+   ruled out, which passed the check at least); else the defaults are stored, marked
    ``"unimproved"``.
 
 Calibrations are JSON files keyed by the model's physics fingerprint
@@ -70,6 +73,10 @@ STEADY_WINDOW = 8.0
 #: the check passes within this speed error (m/s) at every speed (the must-show's 0.15 less a
 #: margin for the longer walk)
 CHECK_TOLERANCE = 0.1
+#: seconds an optimised candidate that passes the check then walks at every speed before it is
+#: stored (a walker fitted on 20 s walks can drift into a fall later); one that falls is
+#: ruled out and the search goes on
+CONFIRM_DURATION = 60.0
 #: default optimisation time (s) per body (including the check)
 BUDGET_S = 300.0
 #: what the factories' ``calibration`` option and ``MJCHAR_CALIBRATION`` take besides a file
@@ -141,6 +148,9 @@ class Calibration:
             optimisation found nothing better than the defaults within its budget).
         check: per speed, the defaults' walk (``speed``, ``fell``, ``fall_time_s``,
             ``steady_speed_mps``) and, when optimised, ``calibrated``: the best candidate's.
+        confirmed: the stored candidate's :data:`CONFIRM_DURATION` walks (empty: the defaults,
+            or no candidate passed the check, or the budget ended first); ``rejected``: the
+            candidates that passed the check and fell in their long walks, with those walks.
         cost_defaults, cost: :func:`walk_cost` of the defaults and of the stored overrides.
         evaluations: candidates walked (the check included); seconds: wall time; cpu_seconds:
             the walks' CPU time (what the budget counts, spread over ``jobs`` worker processes:
@@ -153,6 +163,8 @@ class Calibration:
     status: str = "defaults"
     check: list[dict] = field(default_factory=list)
     calibrated: list[dict] = field(default_factory=list)
+    confirmed: list[dict] = field(default_factory=list)
+    rejected: list[list[dict]] = field(default_factory=list)
     cost_defaults: float = 0.0
     cost: float = 0.0
     evaluations: int = 0
@@ -401,8 +413,8 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
     if multiprocessing.current_process().daemon:  # a pool's worker (the bench's) has no children
         jobs = 1
     with _pool(jobs) as pool:
-        def walks(xs: list) -> list[list[dict]]:
-            work = [(model, info, walker, candidate_overrides(walker, x), v, duration, seed)
+        def walks(xs: list, seconds: float = duration) -> list[list[dict]]:
+            work = [(model, info, walker, candidate_overrides(walker, x), v, seconds, seed)
                     for x in xs for v in speeds]
             out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
             cal.evaluations += len(xs)
@@ -425,8 +437,11 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
             "popsize": popsize, "seed": seed + 1, "verbose": -9, "verb_log": 0,
             "bounds": [-3.0, 3.0]})
         best_x, best_rows, best = None, cal.check, cal.cost_defaults
+        fallback = None  # the first candidate ruled out by its long walks
         # a generation walks popsize candidates as the check walked one
-        generation_s = machine_s() * popsize
+        check_s = machine_s()
+        generation_s = check_s * popsize
+        confirm_s = check_s * max(CONFIRM_DURATION, duration) / duration
         while not es.stop():
             if machine_s() + generation_s > budget_s:
                 break
@@ -442,7 +457,22 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
             say(f"generation {es.countiter}: best {min(costs):.2f}, so far {best:.2f} "
                 f"({_summary(best_rows)}) [{machine_s():.0f} s on {jobs} core(s)]")
             if passes(best_rows) and best < 0.5:
-                break
+                if CONFIRM_DURATION <= duration:
+                    break
+                if machine_s() + confirm_s > budget_s:
+                    say("the budget ends before the long walks: stored unconfirmed")
+                    break
+                long = walks([best_x], CONFIRM_DURATION)[0]
+                say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
+                if passes(long):
+                    cal.confirmed = long
+                    break
+                # it drifts into a fall after the check's walks: ruled out, the search goes on
+                cal.rejected.append(long)
+                fallback = fallback or (best_x, best_rows, best)
+                best_x, best_rows, best = None, cal.check, cal.cost_defaults
+        if fallback is not None and (best_x is None or not passes(best_rows)):
+            best_x, best_rows, best = fallback  # it passed the check at least
     if best_x is not None:
         cal.overrides = candidate_overrides(walker, best_x)
         cal.status, cal.cost, cal.calibrated = "optimised", best, best_rows

@@ -105,6 +105,12 @@ def _report(args, cal, path, *, cached: bool, json_mod) -> None:
             "unimproved": "no better parameters found within the budget (the defaults kept)"}
     print(f"{cal.walker}: {what[cal.status]}; {cal.evaluations} candidate(s) in "
           f"{cal.seconds:.0f} s on {cal.jobs} process(es){' (cached)' if cached else ''}")
+    if cal.status == "optimised":
+        from mjchar.controllers.walking import calibration as cal_mod
+
+        held = (f"held {cal_mod.CONFIRM_DURATION:.0f} s walks" if cal.confirmed
+                else f"not confirmed by {cal_mod.CONFIRM_DURATION:.0f} s walks")
+        print(f"  {held}; {len(cal.rejected)} candidate(s) ruled out by falls in them")
     for name, value in cal.overrides.items():
         shown = (f"[{', '.join(f'{v:.4g}' for v in value)}]" if isinstance(value, list)
                  else f"{value:.4g}")
