@@ -1,9 +1,10 @@
 """Shared fixtures: the real motion-capture clips in ../shared/data (skipped when absent, a failure
 under CI), and the bundled humanoid, its walk reference and a two-thread executor for the
-sampling tests."""
+sampling tests; the long tiers' tests run longest first (``durations.json``)."""
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -128,3 +129,19 @@ def assert_no_root_help(result) -> None:
     assert result.unaided, (f"{result.controller} / {result.scenario} got help from outside: "
                             f"force up to {result.root_force_max_N:.3g} N, torque up to "
                             f"{result.root_torque_max_Nm:.3g} N m")
+
+
+# -- the long tiers, longest first --------------------------------------------------------------
+#: seconds each test of the slow and claims tiers took on the 2-core machine (two workers), from
+#: a ``--junitxml`` run: ``python tests/update_durations.py RESULT.xml`` (tests not listed: 0)
+DURATIONS = Path(__file__).with_name("durations.json")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Run the tests with a recorded duration longest first (longest processing time first:
+    two workers then finish together instead of one waiting out a long test alone); the others
+    keep their order after them. The default tier has no recorded durations: its order stays."""
+    if not DURATIONS.is_file():
+        return
+    seconds = json.loads(DURATIONS.read_text())["seconds"]
+    items.sort(key=lambda item: -seconds.get(item.nodeid, 0.0))

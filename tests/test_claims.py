@@ -1,7 +1,7 @@
 """The claims tier: every figure README.md states, asserted at the protocol the README states.
 
-Run with ``python -m pytest -m claims`` (CI runs it after the default and slow tiers, on both
-cores: ``-n 2``). Each test names the README line it backs; ``tests/test_readme_claims.py``
+Run with ``python -m pytest -m claims`` (CI runs it with the slow tier after the default one,
+on both cores: ``-n 2``). Each test names the README line it backs; ``tests/test_readme_claims.py``
 checks that every number in the README is covered by one of them and that the README's numbers
 are the bounds below. The protocols are the README's: pushes of 0.2 s at 4 phases of the stride
 (walkers) or 4 moments (standing controllers) x 2 seeds in the four directions, at every force

@@ -171,16 +171,18 @@ def _ci_commands() -> list[str]:
                                              "command -v "))]
 
 
-def test_ci_runs_the_readmes_test_command_then_the_claims_tier():
-    """`.ci/run` runs exactly the README's second set-up command, then `pytest -m claims`, each
-    on both cores, with CI set."""
+def test_ci_runs_the_readmes_test_command_then_the_slow_and_claims_tiers():
+    """`.ci/run` runs exactly the README's second set-up command, then the slow and claims
+    tiers together, each on both cores, with CI set; the README gives the second command."""
     readme = README.read_text()
     setup = re.search(r"## Quick start.*?```bash\n(.*?)```", readme, re.S).group(1)
     commands = [line for line in setup.splitlines() if line and not line.startswith("#")]
     assert len(commands) == 2, "the quick start has exactly two set-up commands"
     assert commands[1].endswith("python -m pytest -q -n 2 -p xdist")
     ci = _ci_commands()
-    assert ci == [commands[1], "python -m pytest -q -m claims -n 2 -p xdist"]
+    long_tiers = 'python -m pytest -q -m "slow or claims" -n 2 -p xdist'
+    assert ci == [commands[1], long_tiers]
+    assert f"`{long_tiers}`" in readme
     assert 'export CI="${CI:-true}"' in (README.parent / ".ci" / "run").read_text()
 
 
