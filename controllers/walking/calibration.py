@@ -152,9 +152,9 @@ class Calibration:
             or no candidate passed the check, or the budget ended first); ``rejected``: the
             candidates that passed the check and fell in their long walks, with those walks.
         cost_defaults, cost: :func:`walk_cost` of the defaults and of the stored overrides.
-        evaluations: candidates walked (the check included); seconds: wall time; cpu_seconds:
-            the walks' CPU time (what the budget counts, spread over ``jobs`` worker processes:
-            the wall time on that many cores of its own).
+        evaluations: candidates walked (the check and each long walk included); seconds: wall
+            time; cpu_seconds: the walks' CPU time (what the budget counts, spread over ``jobs``
+            worker processes: the wall time on that many cores of its own).
     """
 
     walker: str
