@@ -139,8 +139,9 @@ DURATIONS = Path(__file__).with_name("durations.json")
 
 def pytest_collection_modifyitems(config, items):
     """Run the tests with a recorded duration longest first (longest processing time first:
-    two workers then finish together instead of one waiting out a long test alone); the others
-    keep their order after them. The default tier has no recorded durations: its order stays."""
+    with ``--dist worksteal``, two workers then finish together instead of one waiting out a
+    long test alone); the others keep their order after them. The default tier has no recorded
+    durations: its order stays."""
     if not DURATIONS.is_file():
         return
     seconds = json.loads(DURATIONS.read_text())["seconds"]

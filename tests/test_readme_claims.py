@@ -180,7 +180,7 @@ def test_ci_runs_the_readmes_test_command_then_the_slow_and_claims_tiers():
     assert len(commands) == 2, "the quick start has exactly two set-up commands"
     assert commands[1].endswith("python -m pytest -q -n 2 -p xdist")
     ci = _ci_commands()
-    long_tiers = 'python -m pytest -q -m "slow or claims" -n 2 -p xdist'
+    long_tiers = 'python -m pytest -q -m "slow or claims" -n 2 -p xdist --dist worksteal'
     assert ci == [commands[1], long_tiers]
     assert f"`{long_tiers}`" in readme
     assert 'export CI="${CI:-true}"' in (README.parent / ".ci" / "run").read_text()
