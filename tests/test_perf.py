@@ -235,3 +235,21 @@ def test_write_json_is_strict_json(tmp_path):
     path = report.write_json(tmp_path / "x.json", {"a": np.float64(1.5), "b": math.nan,
                                                    "c": (1, np.int64(2)), "d": tmp_path})
     assert json.loads(path.read_text()) == {"a": 1.5, "b": None, "c": [1, 2], "d": str(tmp_path)}
+
+
+def test_the_tour_reads_the_time_every_readme_line_states():
+    """``python -m mjchar.perf.tour`` compares each line with its README comment: every line of
+    the tour states a time (one figure or a range), read as seconds, and a measurement holds
+    within 25 % of it (of a range's ends)."""
+    from mjchar.perf.tour import _tour_block, holds, stated_seconds
+
+    lines = _tour_block(report.ROOT / "README.md")
+    stated = [stated_seconds(line) for line in lines]
+    assert lines and all(s is not None and 0 < s[0] <= s[1] for s in stated), stated
+    assert stated_seconds("mjchar x  # 9-12 s (6 s on 2 cores): mpc") == (9.0, 12.0)
+    assert stated_seconds("mjchar x  # 0.8 s: a replay") == (0.8, 0.8)
+    assert stated_seconds("mjchar x  # no time") is None
+    assert holds(1.25, (1.0, 1.0)) and holds(0.75, (1.0, 1.0)) and not holds(1.3, (1.0, 1.0))
+    assert holds(14.9, (9.0, 12.0)) and not holds(15.1, (9.0, 12.0))
+    assert not holds(6.7, (9.0, 12.0)) and holds(6.75, (9.0, 12.0))
+    assert holds(1.0, None) is None
