@@ -23,6 +23,9 @@ rewrite its block in the docs page named):
 - :mod:`~mjchar.perf.simbicon`, :mod:`~mjchar.perf.ipm`, :mod:`~mjchar.perf.mpc`,
   :mod:`~mjchar.perf.samcon`: the long runs behind docs/simbicon.md, docs/ipm.md, docs/mpc.md
   and docs/sampling.md (robustness and speed; ``python -m mjchar.perf.<name> --help``).
+- :mod:`~mjchar.perf.envelopes`: both walkers on converted bodies (the real exports) at several
+  speeds and seeds, and pushed on the chest while walking (``python -m mjchar.perf.envelopes``,
+  docs/calibration.md).
 - :mod:`~mjchar.perf.report`: paths, the machine line, writing a docs block.
 - :mod:`~mjchar.perf.errors`: :class:`PerfError`, :class:`PerfUnavailable`.
 

@@ -1,0 +1,144 @@
+"""The walkers' envelopes on converted bodies: ``python -m mjchar.perf.envelopes [FILE.bvh ...]``.
+
+Each file (default: every ``*.bvh`` of ``../shared/data/real``) is converted at the defaults
+(as ``mjchar convert FILE -o body.xml``) and both walkers run on the body as a user's run does
+(their calibration included: ``MJCHAR_CALIBRATION`` and the calibration cache apply, so a body
+without a stored calibration is checked, and calibrated where the check fails, first):
+
+- **walks**: ``walk`` from the walker's seeded start state at each of ``--speeds`` (m/s) x
+  ``--seeds`` seeds, ``--duration`` s; a fall, and the mean speed over the last
+  ``--steady-window`` s;
+- **chest pushes**: walking at ``--push-speed``, ``--push`` N for 0.2 s on the chest at
+  ``--phases`` phases of a stride after a 4 s warm-up, towards each of the four directions
+  (heading frame), then ``--after`` s; a fall, or no walk afterwards, counts against it
+  (:func:`~mjchar.controllers.core.scenarios.terrain.push_walk`).
+
+The runs go to ``--jobs`` worker processes (default: every core); the table gives per body and
+walker the falls (of the runs) and the mean steady speeds, ``--json`` every run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from mjchar.bench.config import SHARED_BVH
+from mjchar.controllers.core.workers import process_pool
+
+from .report import write_json
+
+SHARED_REAL = SHARED_BVH.parent / "real"
+WALKERS = ("simbicon", "ipm")
+DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
+
+
+def walk_run(job: tuple) -> dict:
+    """One walk: ``(body, xml, walker, speed, seed, duration, window)``."""
+    from mjchar.controllers import run
+
+    body, xml, walker, speed, seed, duration, window = job
+    r = run(walker, "walk", model=xml, duration=duration, speed=speed, seed=seed,
+            steady_window=window)
+    return {"kind": "walk", "body": body, "walker": walker, "speed": speed, "seed": seed,
+            "fell": bool(r.fell), "fall_time_s": r.fall_time_s,
+            "steady_speed_mps": r.extra.get("steady_speed_mps"),
+            "root_force_max_N": r.root_force_max_N}
+
+
+def push_run(job: tuple) -> dict:
+    """One chest push while walking: ``(body, xml, walker, speed, force, phase, direction,
+    after)``."""
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.scenarios.terrain import push_walk
+
+    body, xml, walker, speed, force, phase, direction, after = job
+    spec = RunSpec(walker, "walk", model=xml, options={"speed": speed})
+    ch = Character(xml)
+    r = push_walk(ch, spec.make_controller(ch), force=force, direction=DIRECTIONS[direction],
+                  phase=phase, push_duration=0.2, warmup=4.0, after=after, seed=0)
+    return {"kind": "push", "body": body, "walker": walker, "speed": speed, "force_N": force,
+            "phase": phase, "direction": direction, "fell": bool(r.fell),
+            "walking_after": bool(r.extra["walking_after"]),
+            "root_force_max_N": r.root_force_max_N}
+
+
+def _run(job: tuple) -> dict:
+    return walk_run(job[1:]) if job[0] == "walk" else push_run(job[1:])
+
+
+def table(rows: list[dict], speeds: list[float]) -> str:
+    """Markdown: per body and walker, falls per speed (of the seeds) with the mean steady speed,
+    and the chest pushes not survived (of the pushes)."""
+    head = ["body", "walker"] + [f"{v:g} m/s" for v in speeds] + ["chest pushes failed"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    keys = dict.fromkeys((r["body"], r["walker"]) for r in rows)
+    for body, walker in keys:
+        mine = [r for r in rows if r["body"] == body and r["walker"] == walker]
+        cells = []
+        for v in speeds:
+            w = [r for r in mine if r["kind"] == "walk" and r["speed"] == v]
+            up = [r["steady_speed_mps"] for r in w if not r["fell"] and r["steady_speed_mps"]]
+            mean = f", {sum(up) / len(up):.2f}" if up else ""
+            cells.append(f"{sum(r['fell'] for r in w)}/{len(w)} fell{mean}")
+        p = [r for r in mine if r["kind"] == "push"]
+        bad = sum(r["fell"] or not r["walking_after"] for r in p)
+        cells.append(f"{bad}/{len(p)}")
+        out.append(f"| {body} | {walker} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m mjchar.perf.envelopes", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("files", nargs="*", metavar="FILE.bvh",
+                   help="captures (default: every file of ../shared/data/real)")
+    p.add_argument("--walkers", nargs="+", choices=WALKERS, default=list(WALKERS))
+    p.add_argument("--speeds", nargs="+", type=float, default=[0.8, 1.0, 1.2])
+    p.add_argument("--seeds", type=int, default=5)
+    p.add_argument("--duration", type=float, default=20.0)
+    p.add_argument("--steady-window", type=float, default=8.0)
+    p.add_argument("--push", type=float, default=100.0, metavar="N")
+    p.add_argument("--push-speed", type=float, default=1.0)
+    p.add_argument("--phases", type=int, default=4)
+    p.add_argument("--after", type=float, default=5.0)
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--json", metavar="OUT.json", help="also write every run as JSON")
+    args = p.parse_args(argv)
+    files = [Path(f) for f in args.files] or sorted(SHARED_REAL.glob("*.bvh"))
+    if not files:
+        p.error(f"no files given and none in {SHARED_REAL}")
+    from mjchar import bvh
+    from mjchar.bvh.mjcf import convert
+
+    with tempfile.TemporaryDirectory() as tmp:
+        jobs = []
+        for f in files:
+            xml = str(Path(tmp) / f"{f.stem}.xml")
+            convert(bvh.load(f)).save(xml)
+            for w in args.walkers:
+                jobs += [("walk", f.stem, xml, w, v, s, args.duration, args.steady_window)
+                         for v in args.speeds for s in range(args.seeds)]
+                jobs += [("push", f.stem, xml, w, args.push_speed, args.push, k / args.phases,
+                          d, args.after) for k in range(args.phases) for d in DIRECTIONS]
+        rows = []
+        with process_pool(args.jobs) as pool:
+            for r in pool.map(_run, jobs):
+                rows.append(r)
+                what = (f"{r['speed']:g} m/s seed {r['seed']}" if r["kind"] == "walk" else
+                        f"push {r['direction']} at phase {r['phase']:g}")
+                print(f"{r['body']} {r['walker']} {what}: "
+                      f"{'fell' if r['fell'] else 'up'}", file=sys.stderr, flush=True)
+    print(table(rows, args.speeds))
+    if any(r["root_force_max_N"] for r in rows):
+        print("root force in some run: see --json")
+    if args.json:
+        write_json(args.json, rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
