@@ -274,6 +274,20 @@ def test_ray_labelling_gives_the_local_pools_episodes():
     _same_results(local, remote)
 
 
+def test_an_episode_depends_only_on_its_job():
+    """A collector gives a job the same episode (observations, MPC labels) whatever it ran
+    before: the labeller restarts from the job's seed (its random stream and noise boost)."""
+    from mjchar.learn.collect import Collector, Episode, LearnSetup
+
+    col = Collector(LearnSetup(clip="walk", loop=True, label_samples=4))
+    job = Episode(seed=5, phase=0.3, seconds=0.2, noise=0.1)
+    first = col.run(job)
+    col.run(Episode(seed=6, phase=0.7, seconds=0.3, noise=0.2))
+    again = col.run(job)
+    col.close()
+    _same_results([first], [again])
+
+
 def test_learn_refuses_a_ray_address_without_ray(tmp_path, capsys):
     assert main(["learn", "walk", "-o", str(tmp_path / "p.npz"), "--ray-address",
                  "127.0.0.1:1"]) == 2

@@ -37,7 +37,7 @@ from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner
 __all__ = [
     "ExecutorError", "RayUnavailableError", "RayConnectionError", "Executor", "LocalExecutor",
     "RayExecutor", "make_executor", "add_executor_arguments", "executor_from_args", "EXECUTORS",
-    "connect_ray", "worker_pythonpath",
+    "connect_ray", "release_ray", "worker_pythonpath",
 ]
 
 EXECUTORS = ("local", "ray")
@@ -218,6 +218,18 @@ def connect_ray(address: str | None = None, *, num_cpus: int | None = None,
     return True
 
 
+def release_ray(ray, actors, owns: bool) -> None:
+    """Kill ``actors`` (those already gone are passed over); shut Ray down when this process
+    connected it for them (``owns``: what :func:`connect_ray` returned)."""
+    for actor in actors:
+        try:
+            ray.kill(actor)
+        except Exception:  # noqa: BLE001 (already gone)
+            pass
+    if owns and ray.is_initialized():
+        ray.shutdown()
+
+
 def worker_pythonpath() -> str:
     """``PYTHONPATH`` for Ray workers: this checkout first (a source checkout imports as on the
     driver), then the driver's own."""
@@ -311,15 +323,9 @@ class RayExecutor(Executor):
         return RolloutResult.concatenate(results)
 
     def close(self) -> None:
-        for worker in self._workers:
-            try:
-                self._ray.kill(worker)
-            except Exception:  # noqa: BLE001 (already gone)
-                pass
+        release_ray(self._ray, self._workers, self._owns_ray)
         self._workers = []
         self._models.clear()
-        if self._owns_ray and self._ray.is_initialized():
-            self._ray.shutdown()
         self._owns_ray = False
 
     def __repr__(self) -> str:

@@ -427,14 +427,21 @@ class MpcController:
             if self._executor is not None:
                 self._executor.close()
             self._executor = LocalExecutor(threads=threads)
-        self.rng = np.random.default_rng(o.seed)
+        self._nstate = self._rmodel.nstate
+        self.restart()
+        self._bound = True
+
+    def restart(self, seed: int | None = None) -> None:
+        """Forget what one plan carries to the next (the noise boost's running cost, the last
+        plan, the statistics) and restart the random stream from ``seed`` (``None``:
+        ``options.seed``): what is planned next depends on nothing planned before (a labeller
+        starting an episode)."""
+        self.rng = np.random.default_rng(self.options.seed if seed is None else seed)
         self._mean_cost = None
         self.last_plan = None
         self._next = 0
-        self._nstate = self._rmodel.nstate
         self.stats = {"replans": 0, "rollouts": 0, "physics_steps": 0, "planning_s": 0.0,
                       "costs": []}
-        self._bound = True
 
     def close(self) -> None:
         """Release the rollout threads."""

@@ -193,6 +193,9 @@ class Collector:
         """Roll ``job`` out (module docstring); the expert's plans start cold."""
         w0 = time.perf_counter()
         env, rng = self.env, np.random.default_rng(job.seed)
+        # the labeller restarts from the job too (its random stream, its noise boost): an
+        # episode depends on nothing the worker ran before it, local or on Ray
+        self.mpc.restart(seed=int(job.seed))
         options = {"phase": self.snap(job.phase)}
         if job.perturb is not None:
             options["perturb"] = tuple(float(x) for x in job.perturb)

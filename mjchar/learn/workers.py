@@ -102,14 +102,10 @@ class RayEpisodePool(EpisodePool):
                                 f"workers?): {e}") from e
 
     def close(self) -> None:
-        for a in self._actors:
-            try:
-                self._ray.kill(a)
-            except Exception:  # noqa: BLE001 (already gone)
-                pass
+        from mjchar.controllers.sampling.executors import release_ray
+
+        release_ray(self._ray, self._actors, self._owns)
         self._actors = []
-        if self._owns and self._ray.is_initialized():
-            self._ray.shutdown()
         self._owns = False
 
 
