@@ -26,13 +26,13 @@ import tempfile
 from pathlib import Path
 
 from mjchar.bench.config import SHARED_BVH
+from mjchar.controllers.core.scenarios.shared import DIRECTIONS
 from mjchar.controllers.core.workers import process_pool
 
 from .report import write_json
 
 SHARED_REAL = SHARED_BVH.parent / "real"
 WALKERS = ("simbicon", "ipm")
-DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 
 
 def walk_run(job: tuple) -> dict:
