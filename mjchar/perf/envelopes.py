@@ -3,7 +3,8 @@
 Each file (default: every ``*.bvh`` of ``../shared/data/real``) is converted at the defaults
 (as ``mjchar convert FILE -o body.xml``) and both walkers run on the body as a user's run does
 (their calibration included: ``MJCHAR_CALIBRATION`` and the calibration cache apply, so a body
-without a stored calibration is checked, and calibrated where the check fails, first):
+without a stored calibration is checked, and calibrated where the check fails, first, once per
+body and walker on every core before the runs start):
 
 - **walks**: ``walk`` from the walker's seeded start state at each of ``--speeds`` (m/s) x
   ``--seeds`` seeds, ``--duration`` s; a fall, and the mean speed over the last
@@ -66,6 +67,18 @@ def push_run(job: tuple) -> dict:
             "root_force_max_N": r.root_force_max_N}
 
 
+def calibrate_first(bodies: list[tuple[str, str, str]]) -> None:
+    """Make each ``(body, xml, walker)``'s calibration once, here, before the runs: a run's
+    worker would otherwise calibrate a body the other workers are calibrating too (and on one
+    core: a pool's workers have no children)."""
+    from mjchar.controllers.core.character import Character
+    from mjchar.controllers.walking.calibration import overrides_for
+
+    for body, xml, walker in bodies:
+        overrides_for(Character(xml), walker,
+                      announce=lambda line, b=body: print(f"{b}: {line}", file=sys.stderr))
+
+
 def _run(job: tuple) -> dict:
     return walk_run(job[1:]) if job[0] == "walk" else push_run(job[1:])
 
@@ -124,6 +137,7 @@ def main(argv: list[str] | None = None) -> int:
                          for v in args.speeds for s in range(args.seeds)]
                 jobs += [("push", f.stem, xml, w, args.push_speed, args.push, k / args.phases,
                           d, args.after) for k in range(args.phases) for d in DIRECTIONS]
+        calibrate_first(sorted({(j[1], j[2], j[3]) for j in jobs}))
         rows = []
         with process_pool(args.jobs) as pool:
             for r in pool.map(_run, jobs):
