@@ -12,7 +12,7 @@ import pytest
 from conftest import shared_clip
 
 from mjchar import bvh
-from mjchar.bvh.gait.analysis import GaitError, _stride_yaws, analyse, analyse_clip, table
+from mjchar.bvh.gait.analysis import GaitAnalysisError, _stride_yaws, analyse, analyse_clip, table
 from mjchar.bvh.rigs import units
 from mjchar.cli import main
 from mjchar.controllers import registry
@@ -207,7 +207,7 @@ def test_cli_seed_perturbs_the_start_and_repeats(capsys):
 def test_too_short_a_window_is_an_error():
     ch = Character(None)
     q = np.tile(ch.model.qpos0, (5, 1))
-    with pytest.raises(GaitError, match="at least 0.5 s"):
+    with pytest.raises(GaitAnalysisError, match="at least 0.5 s"):
         analyse(ch.model, np.arange(5) * 0.01, q)
 
 

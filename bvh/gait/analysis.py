@@ -51,7 +51,7 @@ import numpy as np
 from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.reference.foot_points import FOOT_SIDES, _FootPoints
 
-__all__ = ["GaitError", "GaitStats", "analyse", "analyse_clip", "clip_walk", "table",
+__all__ = ["GaitAnalysisError", "GaitStats", "analyse", "analyse_clip", "clip_walk", "table",
            "CONTACT_HEIGHT"]
 
 #: a foot within this height (m) of its floor may be in stance (loose: mocap stance feet float
@@ -69,7 +69,7 @@ _ROLES = ("pelvis", "head", "left_hip", "left_knee", "left_ankle", "right_hip", 
           "right_ankle")
 
 
-class GaitError(MjcharError):
+class GaitAnalysisError(MjcharError):
     """A walk cannot be analysed (too short, no steps, a model without the roles needed)."""
 
 
@@ -144,8 +144,8 @@ def _bodies(model: mujoco.MjModel, info) -> dict[str, int]:
             continue
         out[role] = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, info.joints[joint].body)
     if missing:
-        raise GaitError(f"gait analysis needs the roles {', '.join(missing)}, which the model "
-                        "does not have")
+        raise GaitAnalysisError(f"gait analysis needs the roles {', '.join(missing)}, which the "
+                                "model does not have")
     return out
 
 
@@ -208,12 +208,12 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
     sel = (times >= start - 1e-9) & (times <= end + 1e-9)
     t, q = times[sel], qpos[sel]
     if len(t) < 10 or t[-1] - t[0] < 0.5:
-        raise GaitError(f"the window [{start:g}, {end:g}] s holds {len(t)} samples; a gait "
-                        "analysis needs at least 0.5 s")
+        raise GaitAnalysisError(f"the window [{start:g}, {end:g}] s holds {len(t)} samples; a gait "
+                                "analysis needs at least 0.5 s")
     bodies = _bodies(model, info)
     feet = _FootPoints(model, info)
     if any(s not in feet.sides for s in FOOT_SIDES):
-        raise GaitError("gait analysis needs both feet (ankle geoms or foot sites)")
+        raise GaitAnalysisError("gait analysis needs both feet (ankle geoms or foot sites)")
 
     data = mujoco.MjData(model)
     n = len(t)

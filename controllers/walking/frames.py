@@ -10,6 +10,8 @@ import math
 import mujoco
 import numpy as np
 
+from ..core.geometry import cross, cross3
+
 
 def rot_x(a: float) -> np.ndarray:
     """``(3, 3)`` rotation by ``a`` rad about the x axis."""
@@ -47,28 +49,6 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     if s < 1e-12:
         return np.zeros(3)
     return ax * (math.atan2(s, float(u @ v)) / s)
-
-
-def cross3(a: list[float], b: list[float]) -> list[float]:
-    """Cross product of two 3-vectors given as Python floats (the same IEEE operations as
-    numpy's element-wise ones, without numpy's per-element overhead)."""
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(3,)`` cross product of two ``(3,)`` vectors (:func:`cross3`'s operations)."""
-    return np.array(cross3(a.tolist(), b.tolist()))
-
-
-def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of ``(k, 3)`` rows and one ``(3,)`` vector, the same element-wise
-    operations (``np.cross`` costs ~10x more at this size)."""
-    out = np.empty_like(a)
-    b0, b1, b2 = b.tolist()
-    out[:, 0] = a[:, 1] * b2 - a[:, 2] * b1
-    out[:, 1] = a[:, 2] * b0 - a[:, 0] * b2
-    out[:, 2] = a[:, 0] * b1 - a[:, 1] * b0
-    return out
 
 
 def world_torque(axes: np.ndarray, tau: np.ndarray) -> np.ndarray:

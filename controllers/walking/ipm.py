@@ -110,11 +110,11 @@ import numpy as np
 from ..balance.static_balance import StaticBalance
 from ..core.base import Action
 from ..core.character import Character
-from ..core.geometry import point_in_polygon_margin, smoothstep
+from ..core.geometry import heading_yaw, point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
-from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle, yaw_of
+from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle
 from .swing import (
     SwingTrajectory,
     frame_from_axes,
@@ -237,7 +237,7 @@ class IPMController:
         self._stopping = False
         self._turning = False
         # commands and state
-        self._start_yaw = yaw_of(ch.state.body_rotations[self._pelvis])
+        self._start_yaw = heading_yaw(ch.state.body_rotations[self._pelvis])
         self.heading_target = self._start_yaw
         self.speed_target = 0.0
         self.speed_bias = 0.0
@@ -315,7 +315,7 @@ class IPMController:
         if self._walk_cache[0] == t:
             return self._walk_cache[1]
         R = ch.state.body_rotations[self._pelvis]
-        turn = abs(wrap_angle(self.desired_heading(t) - yaw_of(R)))
+        turn = abs(wrap_angle(self.desired_heading(t) - heading_yaw(R)))
         walk = (abs(self.desired_speed(t)) > 0.05 or abs(float(self.lateral_speed(t) or 0)) > 0.05
                 or turn > self.params.standing.heading_tolerance)
         self._walk_cache = (t, walk)
@@ -369,7 +369,7 @@ class IPMController:
         q = s.qpos.copy()
         up = self._upper_q
         q[up] = self.upper_pose[up]
-        yaw = yaw_of(s.body_rotations[self._pelvis])
+        yaw = heading_yaw(s.body_rotations[self._pelvis])
         q[ch.root_qpos[3:7]] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
         # pelvis over the middle of the feet (COM offset kept) at standing height
         soles = np.array([s.site_positions[lg.site] for lg in self._legs])
@@ -396,7 +396,7 @@ class IPMController:
             touch[gc.body] = min(touch.get(gc.body, math.inf), float(gc.position[2]))
         targets = []
         for lg in self._legs:
-            fy = yaw_of(s.body_rotations[lg.foot])
+            fy = heading_yaw(s.body_rotations[lg.foot])
             ground = min(touch.get(lg.ankle_name, math.inf), touch.get(lg.toe_name, math.inf),
                          float(s.site_positions[lg.site][2]))
             R = rotation_z(fy)
@@ -436,7 +436,7 @@ class IPMController:
         return np.array([d @ f[:2], d @ l[:2]])
 
     def _heading_axes(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
-        yaw = yaw_of(ch.state.body_rotations[self._pelvis])
+        yaw = heading_yaw(ch.state.body_rotations[self._pelvis])
         c, s = math.cos(yaw), math.sin(yaw)
         return np.array([c, s, 0.0]), np.array([-s, c, 0.0])
 
@@ -643,7 +643,7 @@ class IPMController:
                                    (st, None, tr.ankle_kp, tr.ankle_kd)):
             R_foot = s.body_rotations[leg.foot]
             if R_des is None:  # stance foot: flat, keep its own yaw
-                R_des = rotation_z(yaw_of(R_foot))
+                R_des = rotation_z(heading_yaw(R_foot))
             A = s.joint_axes[leg.ankle_jnt].T
             tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
             D[leg.ankle, leg.ankle] = kd

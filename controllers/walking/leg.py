@@ -57,11 +57,6 @@ def child_hinges(ch: Character, parent: int, skip: set[int]) -> list[np.ndarray]
     return [np.array(dofs) for dofs in by_body.values()]
 
 
-def yaw_of(R: np.ndarray) -> float:
-    """Heading angle (rad) of a body orientation ``(3, 3)``: its x axis projected on the floor."""
-    return math.atan2(R[1, 0], R[0, 0])
-
-
 class Leg:
     """Indices and rest geometry of one leg (hip, knee, ankle, toe) of a Character.
 

@@ -36,11 +36,11 @@ import numpy as np
 
 from ..core.base import Action, ControllerError
 from ..core.character import Character
+from ..core.geometry import cross_rows, heading_yaw
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .frames import (
     angle_between,
-    cross_rows,
     log,
     rot_x,
     rot_y,
@@ -48,7 +48,6 @@ from .frames import (
     world_torque,
 )
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
-from .leg import yaw_of
 from .simbicon_model import (
     AXIS_NAMES,
     HINGE_FIX,
@@ -161,7 +160,7 @@ class Simbicon:
         character.actuation.set_mode("torque")
         self._map(character)
         R = character.state.body_rotations[self._pelvis]
-        self.desired_heading = yaw_of(R) if self.heading is None else float(self.heading)
+        self.desired_heading = heading_yaw(R) if self.heading is None else float(self.heading)
         self.state = 0
         self.state_start = character.time
         self.transitions = [(character.time, 0)]
@@ -551,7 +550,7 @@ class Simbicon:
             h = sw["ankle"]["x"]
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
         Rp = s.body_rotations[self._pelvis]
-        heading = yaw_of(Rp)
+        heading = heading_yaw(Rp)
         H = rot_z(heading)
 
         # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
@@ -606,7 +605,7 @@ class Simbicon:
             tau_st[2] = 0.0
             hz = st["hip"]["z"]
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
-            thigh_yaw = yaw_of(s.body_rotations[st["hip_body"]])
+            thigh_yaw = heading_yaw(s.body_rotations[st["hip_body"]])
             err = math.remainder(thigh_yaw + st["knee_yaw"] - self.desired_heading, 2 * math.pi)
             want = st["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - st["knee_yaw"])
             tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]

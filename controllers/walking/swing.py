@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.base import ControllerError
-from ..core.geometry import smoothstep
+from ..core.geometry import cross, smoothstep
 
 
 class SwingError(ControllerError):
@@ -38,12 +38,6 @@ class SwingError(ControllerError):
 def _unit(v: np.ndarray) -> np.ndarray:
     n = math.sqrt(float(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
     return v / n if n > 1e-12 else v * 0.0
-
-
-def cross(a, b) -> np.ndarray:
-    """``(3,)`` cross product of two 3-vectors (cheaper than ``np.cross`` for one pair)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
 
 
 def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:

@@ -13,6 +13,7 @@ import numpy as np
 
 from mjchar.bvh.errors import MjcharError
 from mjchar.controllers.core.scenarios.push_search import PushProtocol
+from mjchar.controllers.core.scenarios.shared import DIRECTIONS
 from mjchar.perf.report import ROOT, SHARED_BVH  # noqa: F401  (the project root, the shared clips)
 
 #: the results document's JSON Schema, package data of ``mjchar.bench``
@@ -20,7 +21,7 @@ SCHEMA_PATH = Path(__file__).with_name("schema.json")
 SCHEMA_NAME = "mjchar-bench"
 SCHEMA_VERSION = 1
 
-DIRECTION_NAMES = ("forward", "left", "backward", "right")
+DIRECTION_NAMES = tuple(DIRECTIONS)  # (the scenarios' table: forward, left, backward, right)
 #: the reference machine of the bench's stated run times: one core does this many bare
 #: ``mj_step`` per second of the bundled humanoid (``performance.raw``), and it has
 #: ``REFERENCE_CORES`` cores

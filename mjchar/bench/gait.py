@@ -42,7 +42,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
     ``filmstrip`` (a PNG path) every walk's middle stride is drawn there too
     (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the file, or
     says why there is none)."""
-    from mjchar.bvh.gait.analysis import GaitError, analyse, clip_walk
+    from mjchar.bvh.gait.analysis import GaitAnalysisError, analyse, clip_walk
     from mjchar.controllers.core.recording import MotionRecorder
     from mjchar.controllers.core.runs import RunSpec, execute
 
@@ -60,7 +60,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
             walks.append((analyse(ch.model, rec.times, rec.qpos, start=start,
                                   end=result.fall_time_s, info=ch.info, label=label),
                           ch.model, rec.times, rec.qpos))
-        except GaitError as e:
+        except GaitAnalysisError as e:
             skipped[label] = str(e)
             continue
         if progress:

@@ -15,18 +15,19 @@ from .argtypes import add_floor_argument, assignment, integer, non_negative, num
 from .run_options import check_applicable, check_body, check_outputs, check_ranges
 from .suggest import hint
 
-DIRECTION_NAMES = {"forward": 0.0, "left": 90.0, "backward": 180.0, "back": 180.0,
-                   "right": 270.0}
-
 
 def _direction(text: str) -> float:
-    if text.lower() in DIRECTION_NAMES:
-        return DIRECTION_NAMES[text.lower()]
+    """Degrees, or a name of the scenarios' push directions (``back`` for ``backward``)."""
+    from mjchar.controllers.core.scenarios.shared import DIRECTIONS  # (only when parsing)
+
+    names = {**DIRECTIONS, "back": DIRECTIONS["backward"]}
+    if text.lower() in names:
+        return names[text.lower()]
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"direction must be degrees or one of {', '.join(DIRECTION_NAMES)}, got {text!r}"
+            f"direction must be degrees or one of {', '.join(names)}, got {text!r}"
         ) from None
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"direction must be finite, got {text!r}")

@@ -24,13 +24,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from mjchar.controllers.core.character import Character
+from mjchar.controllers.core.geometry import heading_yaw
 from mjchar.controllers.core.registry import make_controller
 from mjchar.controllers.core.scenarios import push, simulate, standing_pose
 from mjchar.controllers.walking.ipm import make_ipm
@@ -58,7 +58,7 @@ def run(ch: Character, ctrl, duration: float):
         times.append(c.time)
         com.append(c.state.com()[:2].copy())
         R = c.state.root_rotation
-        yaw.append(math.atan2(R[1, 0], R[0, 0]))
+        yaw.append(heading_yaw(R))
 
     r = simulate(ch, ctrl, duration=duration, scenario="walk", qpos=standing_pose(ch),
                  frame_callback=record)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..character import Character
 from ..errors import SimulationDiverged
+from ..geometry import heading_yaw
 from ..limits import duration_problem
 from ..metrics import STEP_DISTANCE, FallDetector, Recorder, Result
 from ..progress import Progress
@@ -41,9 +42,7 @@ def standing_pose(character: Character) -> np.ndarray:
 def heading_frame_direction(character: Character, degrees: float) -> np.ndarray:
     """``(3,)`` unit horizontal world vector at ``degrees`` from the character's facing
     direction (its root x axis projected on the floor), counter-clockwise seen from above."""
-    R = character.state.root_rotation
-    yaw = math.atan2(R[1, 0], R[0, 0])
-    a = yaw + math.radians(degrees)
+    a = heading_yaw(character.state.root_rotation) + math.radians(degrees)
     return np.array([math.cos(a), math.sin(a), 0.0])
 
 
