@@ -253,3 +253,34 @@ def test_the_tour_reads_the_time_every_readme_line_states():
     assert holds(14.9, (9.0, 12.0)) and not holds(15.1, (9.0, 12.0))
     assert not holds(6.7, (9.0, 12.0)) and holds(6.75, (9.0, 12.0))
     assert holds(1.0, None) is None
+
+
+def test_envelope_tables_count_falls_and_say_what_a_calibration_changed():
+    """``python -m mjchar.perf.envelopes`` prints per body and walker the falls of the runs at
+    each speed (with the mean steady speed of those that stood) and the failed chest pushes,
+    and per calibration the defaults' check, its cost and the knobs it moved."""
+    from mjchar.controllers.walking.calibration import Calibration, candidate_overrides
+    from mjchar.perf.envelopes import calibration_table, changes, table
+
+    rows = [{"kind": "walk", "body": "b", "walker": "ipm", "speed": 1.0, "fell": f,
+             "steady_speed_mps": s} for f, s in ((False, 0.9), (False, 1.1), (True, None))]
+    rows += [{"kind": "push", "body": "b", "walker": "ipm", "fell": f, "walking_after": w}
+             for f, w in ((False, True), (False, False), (True, False), (False, True))]
+    text = table(rows, [1.0])
+    assert "| b | ipm | 1/3 fell, 1.00 | 2/4 |" in text
+    x = [0.0] * 9
+    x[0], x[6] = 1.0, -2.0  # sagittal scale up one step, hip gains down two
+    over = candidate_overrides("ipm", x)
+    cal = Calibration("ipm", "f" * 64, overrides=over, status="optimised",
+                      check=[{"speed": 1.0, "fell": True, "fall_time_s": 3.25,
+                              "steady_speed_mps": None}],
+                      calibrated=[{"speed": 1.0, "fell": False, "fall_time_s": None,
+                                   "steady_speed_mps": 0.98}],
+                      cost_defaults=9.0, cost=0.1, evaluations=12, cpu_seconds=80.4)
+    said = changes(cal)
+    assert said == (f"placement.sagittal_scale 1 -> {math.exp(0.15):.3g}; "
+                    f"tracking.hip gains x{math.exp(-0.5):.2f}")
+    line = calibration_table([("b", cal)]).splitlines()[-1]
+    assert line == (f"| b | ipm | 1: fell 3.2 s | optimised (cost 9.00 -> 0.10) | 12 | 80 | "
+                    f"1: 0.98 | {said} |")
+    assert changes(Calibration("simbicon", "f" * 64)) == "-"

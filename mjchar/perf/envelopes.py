@@ -14,13 +14,16 @@ body and walker on every core before the runs start):
   (heading frame), then ``--after`` s; a fall, or no walk afterwards, counts against it
   (:func:`~mjchar.controllers.core.scenarios.terrain.push_walk`).
 
-The runs go to ``--jobs`` worker processes (default: every core); the table gives per body and
-walker the falls (of the runs) and the mean steady speeds, ``--json`` every run.
+The runs go to ``--jobs`` worker processes (default: every core). Printed: the calibrations
+(per body and walker: the defaults' check, the outcome, its cost and what it changed:
+:func:`calibration_table`), then per body and walker the falls (of the runs) and the mean
+steady speeds (:func:`table`); ``--json`` writes every run.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -67,16 +70,70 @@ def push_run(job: tuple) -> dict:
             "root_force_max_N": r.root_force_max_N}
 
 
-def calibrate_first(bodies: list[tuple[str, str, str]]) -> None:
-    """Make each ``(body, xml, walker)``'s calibration once, here, before the runs: a run's
-    worker would otherwise calibrate a body the other workers are calibrating too (and on one
-    core: a pool's workers have no children)."""
+def calibrate_first(bodies: list[tuple[str, str, str]]) -> list[tuple[str, object]]:
+    """Make each ``(body, xml, walker)``'s calibration once, here, before the runs (a run's
+    worker would otherwise calibrate a body the other workers are calibrating too, and on one
+    core: a pool's workers have no children); returns ``(body, Calibration)`` of those made or
+    found in the cache (not of the bundled humanoid, nor with ``MJCHAR_CALIBRATION`` set)."""
     from mjchar.controllers.core.character import Character
-    from mjchar.controllers.walking.calibration import overrides_for
+    from mjchar.controllers.walking import calibration as cal_mod
 
+    out = []
     for body, xml, walker in bodies:
-        overrides_for(Character(xml), walker,
-                      announce=lambda line, b=body: print(f"{b}: {line}", file=sys.stderr))
+        ch = Character(xml)
+        cal_mod.overrides_for(ch, walker, announce=lambda line, b=body: print(
+            f"{b}: {line}", file=sys.stderr))
+        path = cal_mod.cache_path(ch.model, walker)
+        if path.exists() and not os.environ.get("MJCHAR_CALIBRATION"):
+            out.append((body, cal_mod.load(path)))
+    return out
+
+
+def changes(cal, least: float = 0.1) -> str:
+    """What a calibration changed: each knob moved from its default by at least ``least`` of
+    its search step (a scaled gain pair as a factor), ``-`` for none."""
+    from mjchar.controllers.walking.calibration import KNOBS, _gain_pairs
+
+    out, pairs = [], _gain_pairs(cal.walker)
+    for knob in KNOBS[cal.walker]:
+        if knob.name.endswith("*"):
+            name, d = pairs[knob.name[:-1]][0]
+            if name not in cal.overrides:
+                continue
+            v = cal.overrides[name]
+            factor = (v[0] / d[0]) if isinstance(v, list) else v / d
+            if abs(math.log(factor)) >= least * knob.step:
+                out.append(f"{knob.name[:-1]} gains x{factor:.2f}")
+        elif knob.name in cal.overrides:
+            v, d = cal.overrides[knob.name], knob.default
+            moved = abs(math.log(v / d)) if knob.how == "scale" else abs(v - d)
+            if moved >= least * knob.step:
+                out.append(f"{knob.name} {d:g} -> {v:.3g}")
+    return "; ".join(out) or "-"
+
+
+def _walks(rows: list[dict]) -> str:
+    return ", ".join(
+        f"{'own' if r['speed'] is None else format(r['speed'], 'g')}: "
+        + (f"fell {r['fall_time_s']:.1f} s" if r["fell"] else f"{r['steady_speed_mps']:.2f}")
+        for r in rows)
+
+
+def calibration_table(cals: list[tuple[str, object]]) -> str:
+    """Markdown: per ``(body, Calibration)``, the defaults' check walks (per commanded speed:
+    the steady speed in m/s, or the fall), the outcome, the candidates and CPU seconds it took,
+    the calibrated walks and what it changed."""
+    head = ["body", "walker", "defaults' check", "outcome", "candidates", "CPU s",
+            "calibrated walks", "changed"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for body, cal in cals:
+        outcome = {"defaults": "defaults pass", "unimproved": "unimproved (defaults kept)",
+                   "optimised": f"optimised (cost {cal.cost_defaults:.2f} -> {cal.cost:.2f})"
+                   }[cal.status]
+        out.append(f"| {body} | {cal.walker} | {_walks(cal.check)} | {outcome} | "
+                   f"{cal.evaluations} | {cal.cpu_seconds:.0f} | "
+                   f"{_walks(cal.calibrated) if cal.calibrated else '-'} | {changes(cal)} |")
+    return "\n".join(out)
 
 
 def _run(job: tuple) -> dict:
@@ -137,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
                          for v in args.speeds for s in range(args.seeds)]
                 jobs += [("push", f.stem, xml, w, args.push_speed, args.push, k / args.phases,
                           d, args.after) for k in range(args.phases) for d in DIRECTIONS]
-        calibrate_first(sorted({(j[1], j[2], j[3]) for j in jobs}))
+        cals = calibrate_first(sorted({(j[1], j[2], j[3]) for j in jobs}))
         rows = []
         with process_pool(args.jobs) as pool:
             for r in pool.map(_run, jobs):
@@ -146,6 +203,9 @@ def main(argv: list[str] | None = None) -> int:
                         f"push {r['direction']} at phase {r['phase']:g}")
                 print(f"{r['body']} {r['walker']} {what}: "
                       f"{'fell' if r['fell'] else 'up'}", file=sys.stderr, flush=True)
+    if cals:
+        print("Calibrations (in the cache, made first where missing):\n")
+        print(calibration_table(cals) + "\n")
     print(table(rows, args.speeds))
     if any(r["root_force_max_N"] for r in rows):
         print("root force in some run: see --json")
