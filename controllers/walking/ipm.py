@@ -114,6 +114,7 @@ from ..core.geometry import heading_yaw, point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
+from .ipm_torques import damped, gravity_compensation, limit_stance_ankle, limit_stance_yaw
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle
 from .swing import (
     SwingTrajectory,
@@ -206,8 +207,6 @@ class IPMController:
                                  in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
         # per-dof data for gravity compensation and PD
         self._act = np.flatnonzero(ch.actuated)
-        self._dof_body = ch.dof_body
-        self._dof_jnt = ch.dof_joint
         self._dof_mass = np.array([ch.dynamics.subtree_mass(b) for b in ch.dof_body])
         legs = np.concatenate([lg.all for lg in self._legs])
         upper = np.setdiff1d(self._act, legs)
@@ -558,36 +557,48 @@ class IPMController:
         return point_in_polygon_margin(cp, ch.contacts.support_polygon()) >= 0.0
 
     def _step_torques(self, ch: Character, t: float) -> np.ndarray:
-        """``(nv,)`` stepping torques. Every PD term is split into a part that depends on the
-        position, ``tau0``, and a linear damping ``-D qdot``; with ``tracking.implicit_damping`` the
-        damping is evaluated at the next step's velocity (stable PD's trick, Tan et al. 2011)::
-
-            (M + dt D) qddot = tau0 - D qdot - C + tau_ext,   tau = tau0 - D (qdot + dt qddot)
-        """
+        """``(nv,)`` stepping torques, in the steps of the module docstring. Every PD term is
+        split into a part that depends on the position, ``tau``, and a linear damping
+        ``-D qdot`` (:func:`~.ipm_torques.damped`: with ``tracking.implicit_damping`` at the next
+        step's velocity)."""
         p = self.params
-        tr = p.tracking  # the PD gains and switches
         s = ch.state
         sw = self._legs[self._swing]
         st = self._legs[1 - self._swing]
-        nv = ch.nv
-        tau = np.zeros(nv)
-        D = np.zeros((nv, nv))
-        qvel = s.qvel
-        qpos = s.qpos
-
+        tau = np.zeros(ch.nv)
+        D = np.zeros((ch.nv, ch.nv))
         c = s.com()
         v = s.com_velocity()
         f, l = self._heading_axes(ch)
         vh = np.array([v @ f, v @ l])
         ground = float(s.site_positions[st.site][2])
-        h = max(c[2] - ground, 0.3)
         vd = self.speed_target
-        vcd = float(self.lateral_speed(t) or 0.0)
         # coming to a stop: the next foot lands at standing width
         self._stopping = (not self._wants_to_walk(ch, t) and abs(vd) < 0.05
                           and abs(vh[0]) < 2 * p.standing.stop_speed)
+        # 1. foot placement and 2. the swing foot's target, reached by the swing leg's IK
+        R_thigh_des, flexion, R_sw_foot = self._swing_leg_targets(
+            ch, sw, st, c, f, l, vh, max(c[2] - ground, 0.3), ground, vd)
+        # 3. tracking: legs and upper body, then the pelvis through the stance hip
+        A_sw = self._track_swing_leg(ch, t, sw, st, R_thigh_des, flexion, tau, D)
+        self._track_feet_and_upper_body(ch, sw, st, R_sw_foot, tau, D)
+        # 4. gravity compensation on everything but the stance leg
+        if p.tracking.gravity_compensation:
+            gdofs = np.concatenate([self._upper, sw.all])
+            tau[gdofs] += gravity_compensation(ch, gdofs, self._dof_mass)
+        self._track_pelvis(ch, sw, st, A_sw, vd, tau, D)
+        # 5. virtual COM force through the stance leg
+        self._virtual_force(ch, t, st, c, f, l, vh, vd, tau)
+        tau = damped(ch, tau, D, p.tracking.implicit_damping)
+        return self._stance_limits(ch, st, tau)
 
-        # 1. foot placement and 2. swing-foot target
+    def _swing_leg_targets(self, ch: Character, sw: Leg, st: Leg, c, f, l, vh, h: float,
+                           ground: float, vd: float) -> tuple[np.ndarray, float, np.ndarray]:
+        """Foot placement (step 1) and the swing foot's target (step 2): ``(R_thigh_des,
+        flexion, R_sw_foot)``, the swing thigh's world orientation and knee flexion that put its
+        ankle at the target (analytic IK), and the swing foot's orientation."""
+        p = self.params
+        s = ch.state
         stance_lat = float((s.site_positions[st.site][:2] - c[:2]) @ l[:2])
         offset = self.foot_placement(vh, h, self._swing, vd, stance_lat)
         self.last_offset = offset
@@ -612,9 +623,18 @@ class IPMController:
         else:
             R_thigh_des, flexion = hinge_leg_ik(hip_pos, ankle_target, sw.bone1, sw.bone2,
                                                 sw.knee_axis, pole)
+        return R_thigh_des, flexion, R_sw_foot
 
-        # 3. tracking: swing hip (world frame), knees, ankles, upper body (joint space)
-        # target velocities by finite differences (feed-forward: no lag from the damping)
+    def _track_swing_leg(self, ch: Character, t: float, sw: Leg, st: Leg,
+                         R_thigh_des: np.ndarray, flexion: float, tau: np.ndarray,
+                         D: np.ndarray) -> np.ndarray:
+        """PD on the swing thigh (world frame) and knee towards the IK targets, with their
+        velocities by finite differences (feed-forward: no lag from the damping), and on the
+        stance knee; returns the swing hip's hinge axes as rows."""
+        p = self.params
+        tr = p.tracking
+        s = ch.state
+        qpos = s.qpos
         w_des, flex_rate = np.zeros(3), 0.0
         if self._prev_swing is not None and tr.feedforward:
             R_prev, flex_prev, t_prev = self._prev_swing
@@ -639,6 +659,16 @@ class IPMController:
             knee_target += (self._knee0 - p.stance.knee) * (1.0 - smoothstep(x))
         tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
         D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = tr.knee_kd
+        return A_sw
+
+    def _track_feet_and_upper_body(self, ch: Character, sw: Leg, st: Leg, R_sw_foot: np.ndarray,
+                                   tau: np.ndarray, D: np.ndarray) -> None:
+        """PD on both feet in the world frame (the swing foot to ``R_sw_foot``, the stance foot
+        flat at its own yaw), the stance foot's push-off late in stance, and joint-space PD on
+        the upper body."""
+        p = self.params
+        tr = p.tracking
+        s = ch.state
         for leg, R_des, kp, kd in ((sw, R_sw_foot, tr.swing_ankle_kp, tr.swing_ankle_kd),
                                    (st, None, tr.ankle_kp, tr.ankle_kd)):
             R_foot = s.body_rotations[leg.foot]
@@ -662,22 +692,17 @@ class IPMController:
             moment = p.feet.push_off * self._push_w * self.mass * GRAVITY
             tau[st.ankle] += s.joint_axes[st.ankle_jnt] @ (R_foot[:, 1] * moment)
         up = self._upper
-        tau[up] = self._upper_kp * (self._q_upper - qpos[self._upper_q])
+        tau[up] = self._upper_kp * (self._q_upper - s.qpos[self._upper_q])
         D[up, up] = self._upper_kd
 
-        # 4. gravity compensation on everything but the stance leg
-        if tr.gravity_compensation:
-            gdofs = np.concatenate([up, sw.all])
-            b = self._dof_body[gdofs]
-            j = self._dof_jnt[gdofs]
-            lever = s.subtree_coms[b] - s.joint_anchors[j]
-            ax = s.joint_axes[j]
-            # a . (lever x z) = a_x lever_y - a_y lever_x
-            tau[gdofs] += GRAVITY * self._dof_mass[gdofs] * (ax[:, 0] * lever[:, 1]
-                                                             - ax[:, 1] * lever[:, 0])
-
-        # pelvis in the world frame; the stance hip takes the difference:
-        # T_stance = -T_pelvis - T_swing_hip - T_spine, each as (position part, damping rows)
+    def _track_pelvis(self, ch: Character, sw: Leg, st: Leg, A_sw: np.ndarray, vd: float,
+                      tau: np.ndarray, D: np.ndarray) -> None:
+        """The pelvis PD-controlled in the world frame through the stance hip, which takes the
+        difference: ``T_stance = -T_pelvis - T_swing_hip - T_spine``, each as its position part
+        and its damping rows."""
+        p = self.params
+        tr = p.tracking
+        s = ch.state
         lean = p.upper.lean * vd
         R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
                                                                   lean)
@@ -699,7 +724,13 @@ class IPMController:
         tau[st.hip] = A_st @ T0
         D[st.hip] = A_st @ DT
 
-        # 5. virtual COM force through the stance leg
+    def _virtual_force(self, ch: Character, t: float, st: Leg, c, f, l, vh, vd: float,
+                       tau: np.ndarray) -> None:
+        """Speed control (step 5): a virtual force on the COM realised by the stance leg,
+        ``tau -= J^T F``."""
+        p = self.params
+        s = ch.state
+        vcd = float(self.lateral_speed(t) or 0.0)
         dc = (c[:2] - s.site_positions[st.site][:2]) @ l[:2]
         side = 1.0 if self._swing == _LEFT else -1.0
         fs = self.mass * p.force.sagittal * (vd - vh[0])
@@ -712,64 +743,22 @@ class IPMController:
         jacp, _ = ch.dynamics.point_jacobian(st.foot, c)
         tau[st.leg] -= jacp[:, st.leg].T @ F
 
-        # damping: explicit or implicit (next-step velocity)
-        if tr.implicit_damping:
-            dt = ch.timestep
-            dyn = ch.dynamics
-            M = dyn.mass_matrix()
-            rhs = (tau - D @ qvel - dyn.bias_forces() + dyn.passive_forces()
-                   + dyn.constraint_forces())
-            qacc = np.linalg.solve(M + dt * D, rhs)
-            tau = tau - D @ (qvel + dt * qacc)
-        else:
-            tau = tau - D @ qvel
-
-        # the stance foot holds only so much yaw moment before it spins on the ground: clamp
-        # the vertical component of the stance hip's world torque
-        A_st = s.joint_axes[st.hip_jnt]
-        T_st = inverse3(A_st) @ tau[st.hip]
-        lim = self._yaw_capacity(ch, st) if abs(T_st[2]) > 2.0 else math.inf
-        if abs(T_st[2]) > lim:
-            T_st[2] = math.copysign(lim, T_st[2])
-            tau[st.hip] = A_st @ T_st
+    def _stance_limits(self, ch: Character, st: Leg, tau: np.ndarray) -> np.ndarray:
+        """What the stance foot holds (its yaw moment; its ankle moment, wider at push-off,
+        narrower in a turning step), no root torque, the actuator limits."""
+        p = self.params
+        limit_stance_yaw(ch, st, tau, p.stance.yaw_friction, p.stance.yaw_limit, self.mass)
         if p.stance.ankle_limit is not None:
-            self._limit_stance_ankle(ch, st, tau)
+            if self._turning:
+                fwd, back, roll = p.turning.ankle_limit
+            else:
+                fwd, back, roll = p.stance.ankle_limit
+                back += self._back * (p.feet.ankle_back - back)
+            if self._push_w > 0:  # heel lifting: the pressure may move up to the ball of the foot
+                fwd += self._push_w * max(self._ball[st.side] - fwd, 0.0)
+            limit_stance_ankle(ch, st, tau, fwd, back, roll, self.mass * GRAVITY)
         tau[ch.root_dofs] = 0.0
         return np.clip(tau, -self._limits, self._limits)
-
-    def _yaw_capacity(self, ch: Character, st: Leg) -> float:
-        """Yaw moment (N m) the stance foot can hold: ``stance.yaw_friction x m g x r``, with
-        ``r`` the mean distance of its floor contact points from their centroid (a flat foot
-        ~0.1 m, a foot on its toes or heel much less), at most ``stance.yaw_limit``."""
-        p = self.params
-        names = {st.ankle_name, st.toe_name}
-        pts = np.array([c.position[:2] for c in ch.contacts.ground() if c.body in names])
-        if len(pts) < 2:
-            return 0.0
-        r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
-        return min(p.stance.yaw_limit, p.stance.yaw_friction * self.mass * GRAVITY * r)
-
-    def _limit_stance_ankle(self, ch: Character, st: Leg, tau: np.ndarray) -> None:
-        """Clamp the stance ankle's world moment (foot frame pitch/roll) so the foot can hold it
-        without rolling: limits are metres x body weight."""
-        s = ch.state
-        p = self.params
-        if self._turning:
-            fwd, back, roll = p.turning.ankle_limit
-        else:
-            fwd, back, roll = p.stance.ankle_limit
-            back += self._back * (p.feet.ankle_back - back)
-        W = self.mass * GRAVITY
-        A = s.joint_axes[st.ankle_jnt].T
-        T = inverse3(A.T) @ tau[st.ankle]
-        R_foot = s.body_rotations[st.foot]
-        Tl = R_foot.T @ T
-        # the moment on the foot about +y (toes down) shifts the pressure forward
-        if self._push_w > 0:  # heel lifting: the pressure may move up to the ball of the foot
-            fwd += self._push_w * max(self._ball[st.side] - fwd, 0.0)
-        Tl[1] = min(max(Tl[1], -back * W), fwd * W)
-        Tl[0] = min(max(Tl[0], -roll * W), roll * W)
-        tau[st.ankle] = A.T @ (R_foot @ Tl)
 
 
 def make_ipm(character: Character | None = None, speed=0.0, heading=None, *,

@@ -1,7 +1,8 @@
 """A walker's legs and the small rotation algebra the walking controllers share: :class:`Leg`
 (the dofs, bodies, sole site and segment lengths of one leg, read through the Character), the
 hinges of the bodies on the pelvis (:func:`child_hinges`), the rotation error between two
-orientations, a 3 x 3 inverse, heading (yaw) and angle wrapping."""
+orientations, a 3 x 3 inverse and angle wrapping (a body's heading:
+:func:`~mjchar.controllers.core.geometry.heading_yaw`)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,88 @@
+"""The torque terms of IPM stepping that need no controller state (the steps are described in
+:mod:`mjchar.controllers.walking.ipm`): gravity compensation, the PD damping evaluated
+explicitly or at the next step's velocity, and the stance foot's limits (the yaw moment its
+contact patch holds, the ankle moment that keeps the centre of pressure inside the foot).
+
+Each takes the Character's state and returns or edits a ``(nv,)`` torque vector."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..core.character import Character
+from .ipm_params import GRAVITY
+from .leg import Leg, inverse3
+
+
+def gravity_compensation(ch: Character, dofs: np.ndarray, dof_mass: np.ndarray) -> np.ndarray:
+    """``(len(dofs),)`` torques holding up the links below ``dofs`` (an upward ``m g`` at each
+    dof's subtree centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with
+    axis ``a_j`` at ``p_j``, subtree mass ``M_j`` (``dof_mass``, indexed by dof) and subtree COM
+    ``C_j``."""
+    s = ch.state
+    b = ch.dof_body[dofs]
+    j = ch.dof_joint[dofs]
+    lever = s.subtree_coms[b] - s.joint_anchors[j]
+    ax = s.joint_axes[j]
+    # a . (lever x z) = a_x lever_y - a_y lever_x
+    return GRAVITY * dof_mass[dofs] * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
+
+
+def damped(ch: Character, tau: np.ndarray, D: np.ndarray, implicit: bool) -> np.ndarray:
+    """``tau - D qdot``; with ``implicit`` the damping at the next step's velocity (stable PD,
+    Tan, Liu and Turk 2011, with a non-diagonal ``D``)::
+
+        (M + dt D) qddot = tau - D qdot - C + tau_ext,    tau - D (qdot + dt qddot)
+    """
+    qvel = ch.state.qvel
+    if not implicit:
+        return tau - D @ qvel
+    dt = ch.timestep
+    dyn = ch.dynamics
+    M = dyn.mass_matrix()
+    rhs = (tau - D @ qvel - dyn.bias_forces() + dyn.passive_forces()
+           + dyn.constraint_forces())
+    qacc = np.linalg.solve(M + dt * D, rhs)
+    return tau - D @ (qvel + dt * qacc)
+
+
+def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: float) -> float:
+    """Yaw moment (N m) the stance foot can hold: ``friction x m g x r``, with ``r`` the mean
+    distance of its floor contact points from their centroid (a flat foot ~0.1 m, a foot on its
+    toes or heel much less), at most ``limit``."""
+    names = {st.ankle_name, st.toe_name}
+    pts = np.array([c.position[:2] for c in ch.contacts.ground() if c.body in names])
+    if len(pts) < 2:
+        return 0.0
+    r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
+    return min(limit, friction * mass * GRAVITY * r)
+
+
+def limit_stance_yaw(ch: Character, st: Leg, tau: np.ndarray, friction: float, limit: float,
+                     mass: float) -> None:
+    """Clamp the vertical component of the stance hip's world torque in ``tau`` to what the
+    stance foot holds before it spins on the ground (:func:`yaw_capacity`)."""
+    A_st = ch.state.joint_axes[st.hip_jnt]
+    T_st = inverse3(A_st) @ tau[st.hip]
+    lim = yaw_capacity(ch, st, friction, limit, mass) if abs(T_st[2]) > 2.0 else math.inf
+    if abs(T_st[2]) > lim:
+        T_st[2] = math.copysign(lim, T_st[2])
+        tau[st.hip] = A_st @ T_st
+
+
+def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back: float,
+                       roll: float, weight: float) -> None:
+    """Clamp the stance ankle's moment in ``tau`` (in the foot's frame: pitch within ``-back``
+    .. ``fwd``, roll within ``+-roll``, each metres x ``weight``) so the foot holds it without
+    rolling."""
+    s = ch.state
+    A = s.joint_axes[st.ankle_jnt].T
+    T = inverse3(A.T) @ tau[st.ankle]
+    R_foot = s.body_rotations[st.foot]
+    Tl = R_foot.T @ T
+    # the moment on the foot about +y (toes down) shifts the pressure forward
+    Tl[1] = min(max(Tl[1], -back * weight), fwd * weight)
+    Tl[0] = min(max(Tl[0], -roll * weight), roll * weight)
+    tau[st.ankle] = A.T @ (R_foot @ Tl)
