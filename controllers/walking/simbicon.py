@@ -30,6 +30,7 @@ flexion is a negative rotation about the lateral axis and knee flexion a positiv
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import mujoco
 import numpy as np
@@ -49,13 +50,15 @@ from .frames import (
 )
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .simbicon_model import (
-    AXIS_NAMES,
     HINGE_FIX,
     Hinge,
     SimbiconModelError,
+    hinge_sign,
+    joint_hinges,
     knee_angle,
     knee_hinge,
     knee_yaw,
+    require_hinge,
     rest_angle,
 )
 
@@ -179,18 +182,7 @@ class Simbicon:
 
     def _hinges(self, character: Character, joint: str) -> dict[str, Hinge]:
         """The joint's hinges keyed by the world axis they are closest to at rest (``x y z``)."""
-        out: dict[str, Hinge] = {}
-        for dof in character.joint_dofs(joint):
-            if not character.hinge_dofs[dof]:
-                raise SimbiconModelError(
-                    f"SIMBICON needs hinge joints; {joint} is not a hinge: {HINGE_FIX}"
-                )
-            j = int(character.dof_joint[dof])
-            a = self._rest.joint_axes[j]
-            key = "xyz"[int(np.argmax(np.abs(a)))]
-            out[key] = Hinge(int(dof), int(character.dof_qpos[dof]), j,
-                              int(self._dof2act[dof]))
-        return out
+        return joint_hinges(character, self._rest.joint_axes, self._dof2act, joint)
 
     def _body_gait(self, ch: Character) -> Gait:
         """The gait for this body (see the class docstring); with a speed command, the gait at
@@ -226,6 +218,10 @@ class Simbicon:
             self._targets = [self._state_targets(s) for s in range(4)]
 
     def _map(self, ch: Character) -> None:
+        """Read the body at rest: an actuator per dof, the legs' hinges and signs
+        (:meth:`_map_leg`), the upper body's base targets and gain groups
+        (:meth:`_map_upper_body`), the gains (:meth:`_set_gains`) and the pelvis's other
+        children, whose torques react on it."""
         if not np.all(ch.actuator_qpos >= 0):
             a = int(np.flatnonzero(ch.actuator_qpos < 0)[0])
             j = mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_JOINT,
@@ -248,101 +244,96 @@ class Simbicon:
         self._pelvis = ch.body_id(pelvis)
         Rp = rest.body_rotations[self._pelvis]
         fwd, left, up = Rp[:, 0], Rp[:, 1], Rp[:, 2]
-
-        def pos(j: str) -> np.ndarray:
-            return rest.body_positions[ch.body_id(j)]
-
-        def sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray,
-                 joint: str = "", needed: bool = True) -> float:
-            """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``;
-            a hinge the walk does not need (an arm's) whose sense the rest pose does not tell
-            gives 0: it is held at its rest angle (plain PD) instead of stopping the walker."""
-            s = float(np.dot(np.cross(axis, lever), towards))
-            if not needed:  # an arm: a sense under 3 degrees of the lever's swing is none
-                return 0.0 if abs(s) < 0.05 * float(np.linalg.norm(lever)) else math.copysign(
-                    1.0, s)
-            if abs(s) < 1e-9:
-                raise SimbiconModelError(
-                    f"{joint or 'a hinge'}: SIMBICON cannot tell which way the hinge turns the "
-                    "limb in the rest pose (its axis is along the bone, or the bone has no "
-                    "length); convert the BVH again so the rest pose stands with legs down "
-                    "(mjchar convert), or map the role to a joint with a bone (--roles)")
-            return 1.0 if s > 0 else -1.0
-
-        def needs(hinges: dict, axis: str, joint: str, what: str) -> None:
-            if axis not in hinges:
-                raise SimbiconModelError(
-                    f"{joint}: SIMBICON needs a {what} hinge (about the {AXIS_NAMES[axis]} axis "
-                    f"at rest) and this joint has {len(hinges)} hinge(s) about "
-                    f"{', '.join(AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
-                    "joint rotation channels, or map the role to a joint that has them (--roles)")
-
-        g = self.gait
-        kp, kd = ch.actuation.default_gains()
-        kp, kd = kp[self._act_dof].copy(), kd[self._act_dof].copy()
-        self._legs = []
-        for side in _SIDES:
-            hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
-            toe = ch.role(f"{side}_toe", required=False)
-            H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
-            needs(H, "y", hip, "flexion")
-            needs(A, "y", ankle, "dorsiflexion")
-            out = left if side == "left" else -left
-            thigh = pos(knee) - pos(hip)
-            shank = pos(ankle) - pos(knee)
-            kh, across = knee_hinge(K, rest.joint_axes, shank, left, knee)
-            K = {"y": kh}
-            sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
-            foot = sole - pos(ankle)
-            knee_flex = -sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
-            leg = {
-                "side": side,
-                "hip": H,
-                "knee": K["y"],
-                "ankle": A,
-                "hip_body": ch.body_id(hip),
-                "ankle_body": ch.body_id(ankle),
-                "hip_joints": np.array([h.jnt for h in H.values()]),
-                "hip_dofs": np.array([h.dof for h in H.values()]),
-                "hip_acts": np.array([h.act for h in H.values()]),
-                "ankle_joints": np.array([h.jnt for h in A.values()]),
-                "ankle_acts": np.array([h.act for h in A.values()]),
-                # hinge signs measured on the model (anatomical + = this many times hinge +)
-                "knee_flex": knee_flex,
-                "knee_across": across,  # a knee tilted off lateral: see knee_angle
-                "ankle_dorsi": sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
-                "hip_flex": sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
-                # heading-frame rotations of the thigh: flexion about left, abduction about fwd
-                "flex_sign": sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, hip),
-                "abd_sign": sign(np.array([1.0, 0.0, 0.0]), thigh, out, hip),
-                "out": out,
-                "thigh_dir": thigh / np.linalg.norm(thigh),
-                # + rotation about the heading frame's lateral axis lifts the toes?
-                "foot_pitch_sign": sign(np.array([0.0, 1.0, 0.0]), foot, up, ankle),
-                # the foot's forward and left axes in its own frame (from the rest pose)
-                "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
-                @ np.stack([fwd, left], axis=1),
-                "twist_sign": (sign(rest.joint_axes[H["z"].jnt], fwd, left, hip) if "z" in H
-                               else 1.0),
-                # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
-                # the hip twists the thigh by minus this so the knee flexes in the sagittal
-                # plane, and the ankle twists the foot back (0 for a knee about lateral)
-                "knee_yaw": knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
-            }
-            leg_hinges = [*H.values(), K["y"], *A.values()]
-            if toe:
-                leg_hinges += list(self._hinges(ch, toe).values())
-            leg["leg_acts"] = np.array([h.act for h in leg_hinges])
-            leg["leg_dofs"] = np.array([h.dof for h in leg_hinges])
-            leg["leg_mass"] = ch.dynamics.subtree_mass(leg["hip_body"])
-            # the stance leg's chain for virtual forces (foot fixed): ankle hinges and knee
-            support = [*A.values(), K["y"]]
-            leg["support_joints"] = np.array([h.jnt for h in support])
-            leg["support_acts"] = np.array([h.act for h in support])
-            self._legs.append(leg)
+        self._legs = [self._map_leg(ch, side, fwd, left, up) for side in _SIDES]
         self._jac = np.zeros((3, ch.nv))
+        base, group = self._map_upper_body(ch, fwd, left, up)
+        self._set_gains(ch, group)
+        self._base = base
+        # hinges (other than the hips') of bodies attached to the pelvis: their torques react on
+        # it; per body, (MuJoCo joints, actuators)
+        hip_bodies = {leg["hip_body"] for leg in self._legs}
+        by_body: dict[int, list[int]] = {}
+        for dof in np.flatnonzero(ch.hinge_dofs):
+            b = int(ch.dof_body[dof])
+            if ch.body_parent[b] == self._pelvis and b not in hip_bodies:
+                by_body.setdefault(b, []).append(int(dof))
+        self._pelvis_children = [(ch.dof_joint[dofs], self._dof2act[dofs])
+                                 for dofs in map(np.array, by_body.values())]
+        self._targets = [self._state_targets(s) for s in range(4)]
 
-        # the rest of the body: spine, head, arms, toes
+    def _rest_position(self, ch: Character, joint: str) -> np.ndarray:
+        return self._rest.body_positions[ch.body_id(joint)]
+
+    def _map_leg(self, ch: Character, side: str, fwd: np.ndarray, left: np.ndarray,
+                 up: np.ndarray) -> dict:
+        """One leg's hinges, bodies, actuators and the signs measured on the model at rest
+        (anatomical + = this many times hinge +)."""
+        rest, pos = self._rest, partial(self._rest_position, ch)
+        hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
+        toe = ch.role(f"{side}_toe", required=False)
+        H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
+        require_hinge(H, "y", hip, "flexion")
+        require_hinge(A, "y", ankle, "dorsiflexion")
+        out = left if side == "left" else -left
+        thigh = pos(knee) - pos(hip)
+        shank = pos(ankle) - pos(knee)
+        kh, across = knee_hinge(K, rest.joint_axes, shank, left, knee)
+        K = {"y": kh}
+        sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
+        foot = sole - pos(ankle)
+        knee_flex = -hinge_sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
+        leg = {
+            "side": side,
+            "hip": H,
+            "knee": K["y"],
+            "ankle": A,
+            "hip_body": ch.body_id(hip),
+            "ankle_body": ch.body_id(ankle),
+            "hip_joints": np.array([h.jnt for h in H.values()]),
+            "hip_dofs": np.array([h.dof for h in H.values()]),
+            "hip_acts": np.array([h.act for h in H.values()]),
+            "ankle_joints": np.array([h.jnt for h in A.values()]),
+            "ankle_acts": np.array([h.act for h in A.values()]),
+            # hinge signs measured on the model (anatomical + = this many times hinge +)
+            "knee_flex": knee_flex,
+            "knee_across": across,  # a knee tilted off lateral: see knee_angle
+            "ankle_dorsi": hinge_sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
+            "hip_flex": hinge_sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
+            # heading-frame rotations of the thigh: flexion about left, abduction about fwd
+            "flex_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, hip),
+            "abd_sign": hinge_sign(np.array([1.0, 0.0, 0.0]), thigh, out, hip),
+            "out": out,
+            "thigh_dir": thigh / np.linalg.norm(thigh),
+            # + rotation about the heading frame's lateral axis lifts the toes?
+            "foot_pitch_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), foot, up, ankle),
+            # the foot's forward and left axes in its own frame (from the rest pose)
+            "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
+            @ np.stack([fwd, left], axis=1),
+            "twist_sign": (hinge_sign(rest.joint_axes[H["z"].jnt], fwd, left, hip) if "z" in H
+                           else 1.0),
+            # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
+            # the hip twists the thigh by minus this so the knee flexes in the sagittal
+            # plane, and the ankle twists the foot back (0 for a knee about lateral)
+            "knee_yaw": knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
+        }
+        leg_hinges = [*H.values(), K["y"], *A.values()]
+        if toe:
+            leg_hinges += list(self._hinges(ch, toe).values())
+        leg["leg_acts"] = np.array([h.act for h in leg_hinges])
+        leg["leg_dofs"] = np.array([h.dof for h in leg_hinges])
+        leg["leg_mass"] = ch.dynamics.subtree_mass(leg["hip_body"])
+        # the stance leg's chain for virtual forces (foot fixed): ankle hinges and knee
+        support = [*A.values(), K["y"]]
+        leg["support_joints"] = np.array([h.jnt for h in support])
+        leg["support_acts"] = np.array([h.act for h in support])
+        return leg
+
+    def _map_upper_body(self, ch: Character, fwd: np.ndarray, left: np.ndarray,
+                        up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(base, group)`` per actuator: the base PD target (arms lowered from a T-pose,
+        elbows flexed, a tilted knee's twist undone at hip and ankle) and the gain group; the
+        spine's pitch hinges and the shoulders' swing hinges with their signs."""
+        g, rest, pos = self.gait, self._rest, partial(self._rest_position, ch)
         self._arm_swing: dict[str, tuple[int, float]] = {}
         base = np.zeros(ch.nu)
         group = np.array(["other"] * ch.nu, dtype=object)
@@ -359,8 +350,8 @@ class Simbicon:
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
-                self._spine_pitch.append((hs["y"].act, sign(rest.joint_axes[hs["y"].jnt], up, fwd,
-                                                                   j)))
+                self._spine_pitch.append(
+                    (hs["y"].act, hinge_sign(rest.joint_axes[hs["y"].jnt], up, fwd, j)))
         head = ch.role("head", required=False)
         if head:
             for h in self._hinges(ch, head).values():
@@ -384,10 +375,10 @@ class Simbicon:
                     # less what the rest pose already lowers it (an A-pose rig's arm hangs
                     # part of the way down at rest; a T-pose's drop is 0)
                     drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
-                    base[hs["x"].act] = (g.shoulder_down - drop) * sign(
+                    base[hs["x"].act] = (g.shoulder_down - drop) * hinge_sign(
                         rest.joint_axes[hs["x"].jnt], arm, -up, sh, needed=False)
                 if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh, needed=False)
+                    s_y = hinge_sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh, needed=False)
                     self._arm_swing[side] = (hs["y"].act, s_y)
                     # the swing is about the arm hanging in the coronal plane: a rest arm
                     # that points forward or back is brought back to it first
@@ -400,7 +391,7 @@ class Simbicon:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
                     # flexion brings the forearm forward once the arm hangs down
-                    s_e = sign(rest.joint_axes[h.jnt], fore, fwd, el, needed=False)
+                    s_e = hinge_sign(rest.joint_axes[h.jnt], fore, fwd, el, needed=False)
                     # less the rest pose's own flexion (a rig whose elbow is bent at rest)
                     ax = rest.joint_axes[h.jnt]
                     bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
@@ -409,16 +400,23 @@ class Simbicon:
             # the foot turned back by what the hip turns the thigh (see "knee_yaw")
             if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
                 hz = leg["ankle"]["z"]
-                base[hz.act] = leg["knee_yaw"] * sign(rest.joint_axes[hz.jnt], fwd, left,
+                base[hz.act] = leg["knee_yaw"] * hinge_sign(rest.joint_axes[hz.jnt], fwd, left,
                                                             ch.role(f"{leg['side']}_ankle"))
                 base[leg["hip"]["z"].act] = -leg["knee_yaw"] * leg["twist_sign"]
+        return base, group
+
+    def _set_gains(self, ch: Character, group: np.ndarray) -> None:
+        """The joint-space gains per actuator (the model's defaults, the gait's per group) and
+        the world-frame gains of the torso, swing hip and ankles."""
+        g = self.gait
+        kp, kd = ch.actuation.default_gains()
+        kp, kd = kp[self._act_dof].copy(), kd[self._act_dof].copy()
         for grp, (gkp, gkd) in g.gains.items():
             sel = group == grp
             if grp in ("hip",):
                 sel = group == "hip"
             kp[sel], kd[sel] = gkp, gkd
         self._kp, self._kd = kp, kd
-        self._base = base
         kpt, kdt = g.gains["torso"]
         kpy, kdy = g.gains.get("torso_yaw", (kpt, kdt))
         self._twist_kp, self._twist_kd = g.gains["stance_twist"]
@@ -431,17 +429,6 @@ class Simbicon:
             axis: g.gains[grp] for axis, grp in _STANCE_ANKLE_GROUPS.items() if grp in g.gains
         }
         self._swing_level_gains = g.gains.get("swing_ankle_level")
-        # hinges (other than the hips') of bodies attached to the pelvis: their torques react on
-        # it; per body, (MuJoCo joints, actuators)
-        hip_bodies = {leg["hip_body"] for leg in self._legs}
-        by_body: dict[int, list[int]] = {}
-        for dof in np.flatnonzero(ch.hinge_dofs):
-            b = int(ch.dof_body[dof])
-            if ch.body_parent[b] == self._pelvis and b not in hip_bodies:
-                by_body.setdefault(b, []).append(int(dof))
-        self._pelvis_children = [(ch.dof_joint[dofs], self._dof2act[dofs])
-                                 for dofs in map(np.array, by_body.values())]
-        self._targets = [self._state_targets(s) for s in range(4)]
 
     def _stance_leg(self, state: int) -> int:
         first = _SIDES.index(self.first_stance)

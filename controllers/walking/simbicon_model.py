@@ -1,7 +1,8 @@
 """What SIMBICON reads from a model's hinges at rest: the error it raises when a body lacks
-what the walk needs, a hinge dof's indices, the knee's flexion hinge and its yaw, and a rest
-pose's offset angles (:mod:`mjchar.controllers.walking.simbicon` uses them when it maps a
-body at reset)."""
+what the walk needs, a joint's hinges keyed by their rest axes, which way a hinge turns a limb,
+the knee's flexion hinge and its yaw, and a rest pose's offset angles
+(:mod:`mjchar.controllers.walking.simbicon` uses them when it maps a body at reset:
+``Simbicon._map``, ``_map_leg``, ``_map_upper_body``, ``_set_gains``)."""
 
 from __future__ import annotations
 
@@ -89,3 +90,47 @@ class Hinge:
 
     def __init__(self, dof: int, qadr: int, jnt: int, act: int):
         self.dof, self.qadr, self.jnt, self.act = dof, qadr, jnt, act
+
+
+def joint_hinges(character, rest_axes: np.ndarray, dof2act: np.ndarray,
+                 joint: str) -> dict[str, Hinge]:
+    """``joint``'s hinges keyed by the world axis they are closest to at rest (``x y z``;
+    ``rest_axes``: the joints' world axes at rest, ``dof2act``: the actuator of each dof)."""
+    out: dict[str, Hinge] = {}
+    for dof in character.joint_dofs(joint):
+        if not character.hinge_dofs[dof]:
+            raise SimbiconModelError(
+                f"SIMBICON needs hinge joints; {joint} is not a hinge: {HINGE_FIX}"
+            )
+        j = int(character.dof_joint[dof])
+        a = rest_axes[j]
+        key = "xyz"[int(np.argmax(np.abs(a)))]
+        out[key] = Hinge(int(dof), int(character.dof_qpos[dof]), j, int(dof2act[dof]))
+    return out
+
+
+def require_hinge(hinges: dict, axis: str, joint: str, what: str) -> None:
+    """A one-line :class:`SimbiconModelError` unless ``hinges`` has one about ``axis``."""
+    if axis not in hinges:
+        raise SimbiconModelError(
+            f"{joint}: SIMBICON needs a {what} hinge (about the {AXIS_NAMES[axis]} axis "
+            f"at rest) and this joint has {len(hinges)} hinge(s) about "
+            f"{', '.join(AXIS_NAMES[k] for k in hinges) or 'nothing'}: give the BVH "
+            "joint rotation channels, or map the role to a joint that has them (--roles)")
+
+
+def hinge_sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray, joint: str = "",
+               needed: bool = True) -> float:
+    """+1 if a positive rotation about ``axis`` moves ``lever``'s tip to ``towards``, else -1;
+    a hinge the walk does not need (an arm's) whose sense the rest pose does not tell gives 0:
+    it is held at its rest angle (plain PD) instead of stopping the walker."""
+    s = float(np.dot(np.cross(axis, lever), towards))
+    if not needed:  # an arm: a sense under 3 degrees of the lever's swing is none
+        return 0.0 if abs(s) < 0.05 * float(np.linalg.norm(lever)) else math.copysign(1.0, s)
+    if abs(s) < 1e-9:
+        raise SimbiconModelError(
+            f"{joint or 'a hinge'}: SIMBICON cannot tell which way the hinge turns the "
+            "limb in the rest pose (its axis is along the bone, or the bone has no "
+            "length); convert the BVH again so the rest pose stands with legs down "
+            "(mjchar convert), or map the role to a joint with a bone (--roles)")
+    return 1.0 if s > 0 else -1.0
