@@ -505,22 +505,37 @@ class Simbicon:
 
     # -- control --------------------------------------------------------------------------------
     def torques(self, character: Character, t: float) -> np.ndarray:
-        """``(nu,)`` actuator torques (N m) for this control step (advances the FSM first)."""
+        """``(nu,)`` actuator torques (N m) for this control step (advances the FSM first): local
+        PD on every joint, the swing hip in the world frame with balance feedback, the torso
+        through the stance hip, the virtual forces and the swing foot in the world frame."""
         if not self._ready:
             raise ControllerError("simbicon: act() called before reset()")
         self._advance(character, t)
         s = character.state
         g = self.gait
-        p = g.states[self.state % 2]
-        lim = self._limits
         q = s.qpos[self._act_qpos_sel]
         qd = s.qvel[self._act_dof_sel]
         com, com_vel = s.com(), s.com_velocity()  # (read once per step)
-        # every joint: local PD towards the state's pose
-        tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
-
         si = self._stance_leg(self.state)
         st, sw = self._legs[si], self._legs[1 - si]
+        tau = self._joint_pd(character, st, sw, q, qd)
+        Rp = s.body_rotations[self._pelvis]
+        heading = heading_yaw(Rp)
+        H = rot_z(heading)
+        tau_sw = self._swing_hip(character, st, sw, H, heading, com, com_vel, q, qd, tau)
+        self._stance_hip(character, st, Rp, tau_sw, q, qd, tau)
+        if g.stance_support or g.velocity_force or g.velocity_force_coronal:
+            tau[st["support_acts"]] += self._virtual_force(character, st, H, com, com_vel)
+        if g.swing_ankle_world:
+            self._swing_foot(character, sw, tau)
+        return np.minimum(np.maximum(tau, self._neg_limits), self._limits)
+
+    def _joint_pd(self, character: Character, st: dict, sw: dict, q: np.ndarray,
+                  qd: np.ndarray) -> np.ndarray:
+        """``(nu,)`` local PD towards the state's pose on every joint, the stance ankle's roll
+        and twist with their own gains, the swing sole levelled in the world in a swing state."""
+        s = character.state
+        tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
         for axis, (kpa, kda) in self._stance_ankle_gains.items():
             h = st["ankle"].get(axis)
             if h is not None:
@@ -536,17 +551,23 @@ class Simbicon:
             tau_l = (-kpl * lat[2] / np.linalg.norm(lat) - kdl * w) * f
             h = sw["ankle"]["x"]
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
-        Rp = s.body_rotations[self._pelvis]
-        heading = heading_yaw(Rp)
-        H = rot_z(heading)
+        return tau
 
-        # balance feedback: theta_d = theta_d0 + cd d + cv v, sagittal and coronal
+    def _swing_hip(self, character: Character, st: dict, sw: dict, H: np.ndarray,
+                   heading: float, com: np.ndarray, com_vel: np.ndarray, q: np.ndarray,
+                   qd: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """The swing hip towards the balance feedback's target, ``theta_d = theta_d0 + cd d +
+        cv v`` (sagittal and coronal), in the heading frame; its twist local; the swing leg's
+        weight compensated; clamped. Sets ``tau``'s swing hip; returns its world torque."""
+        s = character.state
+        g = self.gait
+        p = g.states[self.state % 2]
         dd, vv = self._feedback_terms(character, st, H, com, com_vel)
         sag = p.swing_hip + p.cd * dd[0] + p.cv * vv[0] + self.speed_offset
         cor = p.swing_hip_coronal + p.cd_coronal * dd[1] + p.cv_coronal * vv[1]
         self.last_swing_target = np.array([sag, cor])
 
-        # swing hip, world (heading) frame: the thigh's direction u -> u_d
+        # the thigh's direction u -> u_d
         u_d = H @ (rot_x(sw["abd_sign"] * cor) @ (rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
         u = s.body_rotations[sw["hip_body"]] @ sw["thigh_dir"]
         w = s.body_angular_velocities[sw["hip_body"]]
@@ -570,14 +591,18 @@ class Simbicon:
         lo, hi = sw["hip_limits"]
         clamped = np.minimum(np.maximum(tau[acts], lo), hi)
         tau[acts] = clamped
-        tau_sw = world_torque(axes_sw, clamped)
+        return world_torque(axes_sw, clamped)
 
-        # torso (pelvis), world frame: desired heading and forward lean
+    def _stance_hip(self, character: Character, st: dict, Rp: np.ndarray, tau_sw: np.ndarray,
+                    q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> None:
+        """The torso (pelvis) towards the desired heading and forward lean in the world frame,
+        through the stance hip: whatever makes the net torque of the joints on the pelvis the
+        torso's (SIMBICON's rule); its twist a local PD towards the desired heading."""
+        s = character.state
+        g = self.gait
         Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
         tau_torso = (self._torso_kp * log(Rpd @ Rp.T)
                      - self._torso_kd * s.body_angular_velocities[self._pelvis])
-
-        # stance hip: whatever makes the net torque of the joints on the pelvis tau_torso
         react = np.zeros(3)
         for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
             clamped = np.minimum(np.maximum(tau[a], lo), hi)
@@ -599,17 +624,17 @@ class Simbicon:
         else:
             tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
 
-        if g.stance_support or g.velocity_force or g.velocity_force_coronal:
-            tau[st["support_acts"]] += self._virtual_force(character, st, H, com, com_vel)
-        if g.swing_ankle_world:
-            # swing foot pitched by swing_ankle (toes up) in the desired-heading frame
-            Rfd = self._world_target("foot", self.desired_heading,
-                                     sw["foot_pitch_sign"] * p.swing_ankle)
-            Rf = s.body_rotations[sw["ankle_body"]]
-            kpa, kda = self._ankle_world_gains
-            tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
-            tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
-        return np.minimum(np.maximum(tau, self._neg_limits), lim)
+    def _swing_foot(self, character: Character, sw: dict, tau: np.ndarray) -> None:
+        """The swing foot pitched by ``swing_ankle`` (toes up) in the desired-heading frame,
+        PD in the world frame."""
+        s = character.state
+        p = self.gait.states[self.state % 2]
+        Rfd = self._world_target("foot", self.desired_heading,
+                                 sw["foot_pitch_sign"] * p.swing_ankle)
+        Rf = s.body_rotations[sw["ankle_body"]]
+        kpa, kda = self._ankle_world_gains
+        tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
+        tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
 
     def _world_target(self, key: str, yaw: float, pitch: float) -> np.ndarray:
         """``(3, 3)`` ``R_z(yaw) R_y(pitch)``: a world target orientation (torso, swing foot),
