@@ -413,66 +413,14 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
     if multiprocessing.current_process().daemon:  # a pool's worker (the bench's) has no children
         jobs = 1
     with _pool(jobs) as pool:
-        def walks(xs: list, seconds: float = duration) -> list[list[dict]]:
-            work = [(model, info, walker, candidate_overrides(walker, x), v, seconds, seed)
-                    for x in xs for v in speeds]
-            out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
-            cal.evaluations += len(xs)
-            cal.cpu_seconds += sum(r.pop("cpu_s") for r in out)
-            return [out[i * len(speeds):(i + 1) * len(speeds)] for i in range(len(xs))]
-
-        def machine_s() -> float:  # the walks' CPU time, spread over the jobs' cores
-            return cal.cpu_seconds / jobs
-
-        cal.check = walks([None])[0]
+        walks = _Walks(pool, jobs, model, info, walker, speeds, seed, cal)
+        cal.check = walks([None], duration)[0]
         cal.cost_defaults = cal.cost = walk_cost(cal.check, duration)
         say(f"defaults: cost {cal.cost_defaults:.2f} ({_summary(cal.check)})")
         if passes(cal.check):
             cal.seconds = time.monotonic() - start
             return cal
-        import cma
-
-        n = len(KNOBS[walker])
-        es = cma.CMAEvolutionStrategy(np.zeros(n), 1.0, {
-            "popsize": popsize, "seed": seed + 1, "verbose": -9, "verb_log": 0,
-            "bounds": [-3.0, 3.0]})
-        best_x, best_rows, best = None, cal.check, cal.cost_defaults
-        fallback = None  # the first candidate ruled out by its long walks
-        # a generation walks popsize candidates as the check walked one
-        check_s = machine_s()
-        generation_s = check_s * popsize
-        confirm_s = check_s * max(CONFIRM_DURATION, duration) / duration
-        while not es.stop():
-            if machine_s() + generation_s > budget_s:
-                break
-            t0 = machine_s()
-            xs = es.ask()
-            rows = walks(xs)
-            costs = [walk_cost(r, duration) for r in rows]
-            es.tell(xs, costs)
-            i = int(np.argmin(costs))
-            if costs[i] < best:
-                best_x, best_rows, best = np.array(xs[i]), rows[i], costs[i]
-            generation_s = machine_s() - t0
-            say(f"generation {es.countiter}: best {min(costs):.2f}, so far {best:.2f} "
-                f"({_summary(best_rows)}) [{machine_s():.0f} s on {jobs} core(s)]")
-            if passes(best_rows) and best < 0.5:
-                if CONFIRM_DURATION <= duration:
-                    break
-                if machine_s() + confirm_s > budget_s:
-                    say("the budget ends before the long walks: stored unconfirmed")
-                    break
-                long = walks([best_x], CONFIRM_DURATION)[0]
-                say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
-                if passes(long):
-                    cal.confirmed = long
-                    break
-                # it drifts into a fall after the check's walks: ruled out, the search goes on
-                cal.rejected.append(long)
-                fallback = fallback or (best_x, best_rows, best)
-                best_x, best_rows, best = None, cal.check, cal.cost_defaults
-        if fallback is not None and (best_x is None or not passes(best_rows)):
-            best_x, best_rows, best = fallback  # it passed the check at least
+        best_x, best_rows, best = _search(walks, cal, duration, budget_s, popsize, seed, say)
     if best_x is not None:
         cal.overrides = candidate_overrides(walker, best_x)
         cal.status, cal.cost, cal.calibrated = "optimised", best, best_rows
@@ -480,6 +428,83 @@ def calibrate(model: mujoco.MjModel | str | os.PathLike, walker: str, *, info=No
         cal.status = "unimproved"
     cal.seconds = time.monotonic() - start
     return cal
+
+
+class _Walks:
+    """The walks of one calibration: candidates (normalised knob vectors, ``None`` for the
+    defaults) walked at every speed on ``pool`` of ``jobs`` processes (``None``: here, one),
+    counted in ``cal`` (evaluations, CPU seconds)."""
+
+    def __init__(self, pool, jobs: int, model, info, walker: str, speeds, seed: int,
+                 cal: Calibration):
+        self.pool, self.jobs, self.model, self.info, self.walker = pool, jobs, model, info, walker
+        self.speeds, self.seed, self.cal = speeds, seed, cal
+
+    def __call__(self, xs: list, seconds: float) -> list[list[dict]]:
+        """Per candidate, its walks (one per speed) of ``seconds`` s."""
+        work = [(self.model, self.info, self.walker, candidate_overrides(self.walker, x), v,
+                 seconds, self.seed) for x in xs for v in self.speeds]
+        pool = self.pool
+        out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
+        self.cal.evaluations += len(xs)
+        self.cal.cpu_seconds += sum(r.pop("cpu_s") for r in out)
+        n = len(self.speeds)
+        return [out[i * n:(i + 1) * n] for i in range(len(xs))]
+
+    def machine_s(self) -> float:
+        """The walks' CPU time so far, spread over the walking processes' cores."""
+        return self.cal.cpu_seconds / self.jobs
+
+
+def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, popsize: int,
+            seed: int, say: Callable[[str], None]) -> tuple[np.ndarray | None, list, float]:
+    """CMA-ES from the defaults while a generation fits in the budget; a candidate that passes
+    the check is confirmed by :data:`CONFIRM_DURATION` s walks (a fall there rules it out and the
+    search goes on). Returns ``(x, walks, cost)`` of the candidate to store (``x`` ``None``:
+    none beat the defaults); ``cal.confirmed`` and ``cal.rejected`` are filled in."""
+    import cma
+
+    es = cma.CMAEvolutionStrategy(np.zeros(len(KNOBS[cal.walker])), 1.0, {
+        "popsize": popsize, "seed": seed + 1, "verbose": -9, "verb_log": 0,
+        "bounds": [-3.0, 3.0]})
+    best_x, best_rows, best = None, cal.check, cal.cost_defaults
+    fallback = None  # the first candidate ruled out by its long walks
+    # a generation walks popsize candidates as the check walked one
+    check_s = walks.machine_s()
+    generation_s = check_s * popsize
+    confirm_s = check_s * max(CONFIRM_DURATION, duration) / duration
+    while not es.stop():
+        if walks.machine_s() + generation_s > budget_s:
+            break
+        t0 = walks.machine_s()
+        xs = es.ask()
+        rows = walks(xs, duration)
+        costs = [walk_cost(r, duration) for r in rows]
+        es.tell(xs, costs)
+        i = int(np.argmin(costs))
+        if costs[i] < best:
+            best_x, best_rows, best = np.array(xs[i]), rows[i], costs[i]
+        generation_s = walks.machine_s() - t0
+        say(f"generation {es.countiter}: best {min(costs):.2f}, so far {best:.2f} "
+            f"({_summary(best_rows)}) [{walks.machine_s():.0f} s on {walks.jobs} core(s)]")
+        if passes(best_rows) and best < 0.5:
+            if CONFIRM_DURATION <= duration:
+                break
+            if walks.machine_s() + confirm_s > budget_s:
+                say("the budget ends before the long walks: stored unconfirmed")
+                break
+            long = walks([best_x], CONFIRM_DURATION)[0]
+            say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
+            if passes(long):
+                cal.confirmed = long
+                break
+            # it drifts into a fall after the check's walks: ruled out, the search goes on
+            cal.rejected.append(long)
+            fallback = fallback or (best_x, best_rows, best)
+            best_x, best_rows, best = None, cal.check, cal.cost_defaults
+    if fallback is not None and (best_x is None or not passes(best_rows)):
+        best_x, best_rows, best = fallback  # it passed the check at least
+    return best_x, best_rows, best
 
 
 @contextlib.contextmanager
