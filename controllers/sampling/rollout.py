@@ -160,6 +160,76 @@ def set_state(model: mujoco.MjModel, data: mujoco.MjData, state: np.ndarray) -> 
 # the prepared model
 
 
+def _obj_name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
+    return mujoco.mj_id2name(model, obj, i) or ""
+
+
+def _check_names(model: mujoco.MjModel, obj: mujoco.mjtObj, names: Sequence[str],
+                 what: str) -> tuple[str, ...]:
+    """``names`` as a tuple; a :class:`RolloutError` naming those ``model`` lacks."""
+    names = tuple(names)
+    missing = [n for n in names if mujoco.mj_name2id(model, obj, n) < 0]
+    if missing:
+        raise RolloutError(f"unknown {what} {missing} in the model")
+    return names
+
+
+def _root_name(model: mujoco.MjModel) -> str:
+    """The character's root body: the first free body on the world, else its first child."""
+    roots = [i for i in range(1, model.nbody) if model.body_parentid[i] == 0]
+    if not roots:
+        raise RolloutError("the model has no body besides the world")
+    free = [i for i in roots if model.body_jntnum[i] and
+            model.jnt_type[model.body_jntadr[i]] == mujoco.mjtJoint.mjJNT_FREE]
+    root = _obj_name(model, mujoco.mjtObj.mjOBJ_BODY, (free or roots)[0])
+    if not root:
+        raise RolloutError("the root body has no name; name it to record the centre of mass")
+    return root
+
+
+def _contact_bodies(spec: mujoco.MjSpec, model: mujoco.MjModel, floor: str | None,
+                    contact_bodies: Sequence[str] | None,
+                    foot_bodies: Sequence[str] | None) -> tuple[tuple[str, ...], set[str]]:
+    """``(contact bodies, feet)`` checked against ``model`` (see
+    :meth:`RolloutModel.from_source`); none without a ``floor``."""
+    body = mujoco.mjtObj.mjOBJ_BODY
+    if floor is None:
+        return (), set()
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, floor) < 0:
+        raise RolloutError(f"no floor geom named {floor!r} in the model (pass floor=None "
+                           "to record no contacts)")
+    if contact_bodies is None:
+        contact_bodies = [_obj_name(model, body, i) for i in range(1, model.nbody)
+                          if model.body_geomnum[i] and _obj_name(model, body, i)]
+    contact_bodies = _check_names(model, body, contact_bodies, "contact bodies")
+    if foot_bodies is None:
+        foot_bodies = _default_feet(spec, model)
+    return contact_bodies, set(_check_names(model, body, foot_bodies, "foot bodies"))
+
+
+def _with_sensors(spec: mujoco.MjSpec, root: str, sites: Sequence[str],
+                  contact_bodies: Sequence[str], floor: str | None) -> mujoco.MjModel:
+    """``spec`` compiled with the cost sensors added (it is modified): the root's subtree COM
+    and its velocity, each site's position, each contact body's floor contact."""
+    body = mujoco.mjtObj.mjOBJ_BODY
+    specs = [("com", mujoco.mjtSensor.mjSENS_SUBTREECOM, body, root, None),
+             ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL, body, root, None)]
+    specs += [(f"site/{s}", mujoco.mjtSensor.mjSENS_FRAMEPOS, mujoco.mjtObj.mjOBJ_SITE, s,
+               None) for s in sites]
+    specs += [(f"contact/{b}", mujoco.mjtSensor.mjSENS_CONTACT, body, b, floor)
+              for b in contact_bodies]
+    for name, stype, objtype, objname, ref in specs:
+        sensor = spec.add_sensor(name=_PREFIX + name, type=stype, objtype=objtype,
+                                 objname=objname)
+        if ref is not None:  # contact sensor: body1=objname, geom2=floor, data="found"
+            sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
+            sensor.intprm = [1, 0, 1]
+    try:
+        return spec.compile()
+    except ValueError as e:
+        raise RolloutError(f"cannot compile the model with rollout sensors: {e}") from e
+
+
 @dataclass(frozen=True, eq=False)
 class RolloutModel:
     """A model compiled for rollouts, with sensors for the quantities sampling costs need.
@@ -212,61 +282,13 @@ class RolloutModel:
             plain = spec.compile()
         except ValueError as e:
             raise RolloutError(f"cannot compile the model: {e}") from e
-
-        def _name(obj: mujoco.mjtObj, i: int) -> str:
-            return mujoco.mj_id2name(plain, obj, i) or ""
-
-        def _check(obj: mujoco.mjtObj, names: Sequence[str], what: str) -> tuple[str, ...]:
-            names = tuple(names)
-            missing = [n for n in names if mujoco.mj_name2id(plain, obj, n) < 0]
-            if missing:
-                raise RolloutError(f"unknown {what} {missing} in the model")
-            return names
-
-        body = mujoco.mjtObj.mjOBJ_BODY
         if sites is None:
-            sites = [n for n in (_name(mujoco.mjtObj.mjOBJ_SITE, i) for i in range(plain.nsite))
-                     if n]
-        sites = _check(mujoco.mjtObj.mjOBJ_SITE, sites, "sites")
-        roots = [i for i in range(1, plain.nbody) if plain.body_parentid[i] == 0]
-        if not roots:
-            raise RolloutError("the model has no body besides the world")
-        free = [i for i in roots if plain.body_jntnum[i] and
-                plain.jnt_type[plain.body_jntadr[i]] == mujoco.mjtJoint.mjJNT_FREE]
-        root = _name(body, (free or roots)[0])
-        if not root:
-            raise RolloutError("the root body has no name; name it to record the centre of mass")
-
-        if floor is None:
-            contact_bodies, feet = (), set()
-        else:
-            if mujoco.mj_name2id(plain, mujoco.mjtObj.mjOBJ_GEOM, floor) < 0:
-                raise RolloutError(f"no floor geom named {floor!r} in the model (pass floor=None "
-                                   "to record no contacts)")
-            if contact_bodies is None:
-                contact_bodies = [_name(body, i) for i in range(1, plain.nbody)
-                                  if plain.body_geomnum[i] and _name(body, i)]
-            contact_bodies = _check(body, contact_bodies, "contact bodies")
-            if foot_bodies is None:
-                foot_bodies = _default_feet(spec, plain)
-            feet = set(_check(body, foot_bodies, "foot bodies"))
-
-        specs = [("com", mujoco.mjtSensor.mjSENS_SUBTREECOM, body, root, None),
-                 ("com_vel", mujoco.mjtSensor.mjSENS_SUBTREELINVEL, body, root, None)]
-        specs += [(f"site/{s}", mujoco.mjtSensor.mjSENS_FRAMEPOS, mujoco.mjtObj.mjOBJ_SITE, s,
-                   None) for s in sites]
-        specs += [(f"contact/{b}", mujoco.mjtSensor.mjSENS_CONTACT, body, b, floor)
-                  for b in contact_bodies]
-        for name, stype, objtype, objname, ref in specs:
-            sensor = spec.add_sensor(name=_PREFIX + name, type=stype, objtype=objtype,
-                                     objname=objname)
-            if ref is not None:  # contact sensor: body1=objname, geom2=floor, data="found"
-                sensor.reftype, sensor.refname = mujoco.mjtObj.mjOBJ_GEOM, ref
-                sensor.intprm = [1, 0, 1]
-        try:
-            model = spec.compile()
-        except ValueError as e:
-            raise RolloutError(f"cannot compile the model with rollout sensors: {e}") from e
+            sites = [n for n in (_obj_name(plain, mujoco.mjtObj.mjOBJ_SITE, i)
+                                 for i in range(plain.nsite)) if n]
+        sites = _check_names(plain, mujoco.mjtObj.mjOBJ_SITE, sites, "sites")
+        root = _root_name(plain)
+        contact_bodies, feet = _contact_bodies(spec, plain, floor, contact_bodies, foot_bodies)
+        model = _with_sensors(spec, root, sites, contact_bodies, floor)
 
         def _slice(name: str) -> slice:
             i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, _PREFIX + name)

@@ -225,6 +225,25 @@ def _reference_acceleration(reference, times: np.ndarray, h: float) -> np.ndarra
     return a
 
 
+def _without_root_wrench(m: mujoco.MjModel, d: mujoco.MjData, tau: np.ndarray,
+                         stance: list[int], root, contact_weight: float, moment_weight: float,
+                         jacp: np.ndarray, jacr: np.ndarray) -> np.ndarray:
+    """``tau - J^T x``: the inverse-dynamics torques ``tau`` ``(nv,)`` with the root rows carried
+    by wrenches ``x`` (force, moment) at the ``stance`` sole sites, ``A x = tau[root]`` (``A``:
+    the root rows of the contact Jacobians' transpose), minimum norm with moments weighted
+    ``moment_weight`` and forces ``contact_weight``; ``jacp``, ``jacr``: ``(3, nv)`` scratch."""
+    cols = []
+    for s in stance:
+        mujoco.mj_jacSite(m, d, jacp, jacr, s)
+        cols.append(np.vstack([jacp, jacr]).T)  # (nv, 6): generalised force of (f, m)
+    J = np.hstack(cols)  # (nv, 6k)
+    A = J[root]  # (6, 6k)
+    wdiag = np.tile(np.r_[np.full(3, contact_weight), np.full(3, moment_weight)], len(stance))
+    Winv = 1.0 / wdiag
+    x = Winv * (A.T @ np.linalg.solve((A * Winv) @ A.T + 1e-9 * np.eye(6), tau[root]))
+    return tau - J @ x
+
+
 def inverse_dynamics_targets(character: Character, reference, times: np.ndarray, *,
                              smoothing: float = 0.03, contact_weight: float = 1.0,
                              moment_weight: float = 10.0, max_offset: float = 1.0,
@@ -293,17 +312,8 @@ def inverse_dynamics_targets(character: Character, reference, times: np.ndarray,
         stance = [s for s, c in zip(feet, contacts[n], strict=True) if c]
         if not stance:
             stance = feet if unlabelled == "both" else [min(feet, key=lambda s: d.site_xpos[s, 2])]
-        cols = []
-        for s in stance:
-            mujoco.mj_jacSite(mi, d, jacp, jacr, s)
-            cols.append(np.vstack([jacp, jacr]).T)  # (nv, 6): generalised force of (f, m)
-        J = np.hstack(cols)  # (nv, 6k)
-        A = J[root]  # (6, 6k)
-        wdiag = np.tile(np.r_[np.full(3, contact_weight), np.full(3, moment_weight)],
-                        len(stance))
-        Winv = 1.0 / wdiag
-        x = Winv * (A.T @ np.linalg.solve((A * Winv) @ A.T + 1e-9 * np.eye(6), tau[root]))
-        tau_act = tau - J @ x
+        tau_act = _without_root_wrench(mi, d, tau, stance, root, contact_weight,
+                                       moment_weight, jacp, jacr)
         off = (tau_act[act] + kd[act] * v[n, act]) / np.where(kp[act] > 0, kp[act], 1.0)
         offsets[n] = np.clip(off, -max_offset, max_offset)
     if smoothing > 0 and len(times) > 1:

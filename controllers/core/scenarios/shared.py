@@ -107,7 +107,17 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
     finally:
         if progress is not None:
             progress.close()
-    wall = time.perf_counter() - wall0
+    return _result(character, controller, scenario, rec, fell=fell, fall_time=fall_time,
+                   reason=reason, diverged=diverged, steps=steps,
+                   wall=time.perf_counter() - wall0, control_dt=dt * n_sub, seed=seed)
+
+
+def _result(character: Character, controller, scenario: str, rec: Recorder, *, fell: bool,
+            fall_time: float | None, reason: str | None, diverged: bool, steps: int,
+            wall: float, control_dt: float, seed: int | None) -> Result:
+    """The :class:`Result` of a run :func:`simulate` ended: what ``rec`` recorded (errors also
+    against a conditioned clip's raw one) and how the run went."""
+    dt = character.timestep
     agg = rec.aggregates()
     track, root_err = rec.tracking_errors()
     extra = {}
@@ -126,9 +136,10 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
         root_torque_mean_Nm=agg["root_torque_mean_Nm"],
         root_torque_max_Nm=agg["root_torque_max_Nm"], max_push_N=None,
         wall_s=wall, steps_per_s=steps / wall if wall > 0 else 0.0, timestep_s=dt,
-        control_dt_s=dt * n_sub, n_steps=steps, seed=seed, diverged=diverged, fall_reason=reason,
-        foot_travel_m=agg["foot_travel_m"], stepped=agg["foot_travel_m"] > STEP_DISTANCE,
-        com_drop_m=agg["com_drop_m"], extra=extra)
+        control_dt_s=control_dt, n_steps=steps, seed=seed, diverged=diverged,
+        fall_reason=reason, foot_travel_m=agg["foot_travel_m"],
+        stepped=agg["foot_travel_m"] > STEP_DISTANCE, com_drop_m=agg["com_drop_m"],
+        extra=extra)
 
 
 @dataclass(frozen=True)
