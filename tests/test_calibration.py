@@ -179,6 +179,62 @@ def test_a_candidate_that_falls_in_its_long_walks_is_ruled_out(monkeypatch):
     assert len(long_walked) == 2
     assert cal.status == "optimised" and len(cal.rejected) == 1
     assert all(r["fell"] and r["fall_time_s"] == 30.0 for r in cal.rejected[0])
+    assert [r["speed"] for r in cal.confirmed] == list(cal_mod.CONFIRM_SPEEDS["ipm"])
     assert cal.confirmed and not any(r["fell"] for r in cal.confirmed)
     assert cal.overrides == long_walked[1] and cal_mod.passes(cal.calibrated)
     assert Calibration.from_json(cal.to_json()).rejected == cal.rejected
+
+
+def test_a_candidate_that_falls_between_the_checks_speeds_is_ruled_out(monkeypatch):
+    """The long walks cover the check's range 0.1 m/s apart: a candidate that walks 0.8, 1.0
+    and 1.2 m/s but falls at 0.9 m/s (as SIMBICON fitted at 0.8 and 1.2 m/s only did on a CMU
+    body) is ruled out, and the stored candidate walks every speed of the range."""
+    knob = cal_mod.KNOBS["simbicon"][0]
+    between = []
+
+    def walk(args):
+        _, _, _, overrides, speed, seconds, _ = args
+        x = 0.0 if not overrides else (overrides[knob.name] - knob.default) / knob.step
+        if not overrides:  # the defaults: too slow everywhere
+            steady = (speed or 1.0) - 0.2
+            return {"speed": speed, "fell": False, "fall_time_s": None,
+                    "steady_speed_mps": steady, "own_speed_mps": 1.0, "cpu_s": 0.0}
+        if speed == 0.9 and not between:
+            between.append(overrides)
+        fell = speed == 0.9 and overrides == between[0]
+        return {"speed": speed, "fell": fell, "fall_time_s": 12.0 if fell else None,
+                "steady_speed_mps": (speed or 1.0) - 0.09 + 0.02 * min(max(x, 0.0), 3.0),
+                "own_speed_mps": 1.0,
+                "cpu_s": 0.0}
+
+    monkeypatch.setattr(cal_mod, "_walk_job", walk)
+    cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
+    assert [r["speed"] for r in cal.check] == [None, 0.8, 1.0, 1.2]
+    assert len(cal.rejected) == 1 and [r["speed"] for r in cal.rejected[0] if r["fell"]] == [0.9]
+    assert cal.status == "optimised" and cal.overrides != between[0]
+    assert [r["speed"] for r in cal.confirmed] == [None, 0.8, 0.9, 1.0, 1.1, 1.2]
+    assert cal_mod.passes(cal.confirmed) and cal.protocol == cal_mod.PROTOCOL
+
+
+def test_a_calibration_stored_by_an_earlier_procedure_is_made_again(tmp_path, cache,
+                                                                      monkeypatch):
+    calls, lines = [], []
+    real = cal_mod.calibrate
+
+    def tiny(model, walker, **kw):
+        calls.append(walker)
+        return real(model, walker, **{**kw, "budget_s": 0.0, "duration": 0.3, "jobs": 1})
+
+    monkeypatch.setattr(cal_mod, "calibrate", tiny)
+    ch = Character(heavier_humanoid(tmp_path))
+    path = cal_mod.cache_path(ch.model, "ipm")
+    old = json.loads(Calibration("ipm", model_fingerprint(ch.model),
+                                 overrides={"stance.knee": 0.2}).to_json())
+    del old["protocol"]  # a file written before the field existed
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(old))
+    assert cal_mod.load(path).protocol == 1
+    assert cal_mod.overrides_for(ch, "ipm", announce=lines.append) == {}
+    assert calls == ["ipm"] and "again" in lines[0]
+    assert cal_mod.load(path).protocol == cal_mod.PROTOCOL
+    assert cal_mod.overrides_for(ch, "ipm", announce=lines.append) == {} and calls == ["ipm"]

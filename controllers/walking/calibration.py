@@ -21,8 +21,10 @@ target angles and torso gains for SIMBICON), stored as the factory overrides it 
    the later it comes), while the next generation fits in the time budget (default
    :data:`BUDGET_S`, counted as the walks' CPU time over the worker processes: the wall time
    on a machine of that many free cores). A candidate that passes the check walks
-   :data:`CONFIRM_DURATION` s at every speed before it is kept: one that falls there is ruled
-   out (a walker fitted on short walks can drift into a fall later) and the search goes on. The
+   :data:`CONFIRM_DURATION` s at every speed of the check's range, 0.1 m/s apart
+   (:data:`CONFIRM_SPEEDS`), before it is kept: one that falls there or misses a speed is ruled
+   out (a walker fitted on short walks can drift into a fall later, and one fitted at a few
+   speeds can fall between them) and the search goes on. The
    best candidate is stored if it beats the defaults (a confirmed one first, else the first
    ruled out, which passed the check at least); else the defaults are stored, marked
    ``"unimproved"``.
@@ -33,7 +35,8 @@ Calibrations are JSON files keyed by the model's physics fingerprint
 else ``~/.cache/mjchar/calibration``), written atomically. The walkers' factories ask
 :func:`overrides_for` for a body's calibration: the bundled humanoid's is its defaults (no file,
 no run: its figures are the defaults' to the bit); another body's is read from the cache, or made
-there first (one line on standard error says so). ``calibration="none"`` (or the environment
+there first (one line on standard error says so; a stored one made by an earlier
+:data:`PROTOCOL` is made again). ``calibration="none"`` (or the environment
 variable ``MJCHAR_CALIBRATION=none``) runs the defaults; a file name uses that file, which must
 have been made for the same body and walker.
 """
@@ -65,7 +68,12 @@ from ..core.workers import process_pool
 #: the walkers that take a calibration
 WALKERS = ("ipm", "simbicon")
 #: the speeds (m/s) the check and the optimisation walk at; ``None``: SIMBICON's own gait speed
-SPEEDS = {"ipm": (0.8, 1.0, 1.2), "simbicon": (None, 0.8, 1.2)}
+SPEEDS = {"ipm": (0.8, 1.0, 1.2), "simbicon": (None, 0.8, 1.0, 1.2)}
+#: the speeds a candidate that passes the check then walks :data:`CONFIRM_DURATION` s at: the
+#: check's range at 0.1 m/s spacing (a candidate fitted at the check's speeds can fall between
+#: them: SIMBICON fitted at 0.8 and 1.2 m/s on a CMU body fell at 0.9-1.1 m/s)
+CONFIRM_SPEEDS = {"ipm": (0.8, 0.9, 1.0, 1.1, 1.2),
+                  "simbicon": (None, 0.8, 0.9, 1.0, 1.1, 1.2)}
 #: seconds walked per speed by the check and by every candidate
 CHECK_DURATION = 20.0
 #: the last seconds of a walk whose mean speed is compared with the command (m/s)
@@ -83,6 +91,9 @@ BUDGET_S = 300.0
 NO_CALIBRATION = "none"
 FORMAT = "mjchar-calibration"
 VERSION = 1
+#: the calibration procedure's version (its speeds, durations and tolerances): a calibration in
+#: the cache made by another is made again
+PROTOCOL = 2
 
 
 class CalibrationError(ControllerError):
@@ -155,6 +166,8 @@ class Calibration:
         evaluations: candidates walked (the check and each long walk included); seconds: wall
             time; cpu_seconds: the walks' CPU time (what the budget counts, spread over ``jobs``
             worker processes: the wall time on that many cores of its own).
+        protocol: the :data:`PROTOCOL` that made it (a file written before the field existed
+            reads as 1).
     """
 
     walker: str
@@ -172,6 +185,7 @@ class Calibration:
     cpu_seconds: float = 0.0
     jobs: int = 1
     version: str = __version__
+    protocol: int = PROTOCOL
 
     def to_json(self) -> str:
         return json.dumps({"format": FORMAT, "format_version": VERSION, **asdict(self)},
@@ -189,7 +203,8 @@ class Calibration:
         if data.get("format_version") != VERSION:
             raise CalibrationError(f"{where}: calibration format {data.get('format_version')!r}"
                                    f", this mjchar reads {VERSION}: run mjchar calibrate again")
-        data = {k: v for k, v in data.items() if k not in ("format", "format_version")}
+        data = {"protocol": 1, **{k: v for k, v in data.items()
+                                  if k not in ("format", "format_version")}}
         try:
             cal = cls(**data)
         except TypeError as e:
@@ -280,11 +295,16 @@ def overrides_for(character, walker: str, calibration: str | os.PathLike | None 
     if is_bundled(model):
         return {}
     path = cache_path(model, walker)
+    again = ""
     if path.exists():
-        return dict(load(path).overrides)
+        stored = load(path)
+        if stored.protocol == PROTOCOL:
+            return dict(stored.overrides)
+        again = " again (the stored one was made by an earlier calibration procedure)"
     say = announce or _stderr
-    say(f"calibrating {walker} for this body first (once, at most {BUDGET_S / 60:.0f} min; "
-        f"stored in {path.parent}; calibration='none' or --calibration none skips it)")
+    say(f"calibrating {walker} for this body{again or ' first'} (once, at most "
+        f"{BUDGET_S / 60:.0f} min; stored in {path.parent}; calibration='none' or "
+        "--calibration none skips it)")
     cal = calibrate(model, walker, info=character.info)
     save(cal, path)
     return dict(cal.overrides)
@@ -440,15 +460,16 @@ class _Walks:
         self.pool, self.jobs, self.model, self.info, self.walker = pool, jobs, model, info, walker
         self.speeds, self.seed, self.cal = speeds, seed, cal
 
-    def __call__(self, xs: list, seconds: float) -> list[list[dict]]:
-        """Per candidate, its walks (one per speed) of ``seconds`` s."""
+    def __call__(self, xs: list, seconds: float, speeds=None) -> list[list[dict]]:
+        """Per candidate, its walks of ``seconds`` s, one per speed (default: the check's)."""
+        speeds = self.speeds if speeds is None else speeds
         work = [(self.model, self.info, self.walker, candidate_overrides(self.walker, x), v,
-                 seconds, self.seed) for x in xs for v in self.speeds]
+                 seconds, self.seed) for x in xs for v in speeds]
         pool = self.pool
         out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
         self.cal.evaluations += len(xs)
         self.cal.cpu_seconds += sum(r.pop("cpu_s") for r in out)
-        n = len(self.speeds)
+        n = len(speeds)
         return [out[i * n:(i + 1) * n] for i in range(len(xs))]
 
     def machine_s(self) -> float:
@@ -459,9 +480,10 @@ class _Walks:
 def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, popsize: int,
             seed: int, say: Callable[[str], None]) -> tuple[np.ndarray | None, list, float]:
     """CMA-ES from the defaults while a generation fits in the budget; a candidate that passes
-    the check is confirmed by :data:`CONFIRM_DURATION` s walks (a fall there rules it out and the
-    search goes on). Returns ``(x, walks, cost)`` of the candidate to store (``x`` ``None``:
-    none beat the defaults); ``cal.confirmed`` and ``cal.rejected`` are filled in."""
+    the check is confirmed by :data:`CONFIRM_DURATION` s walks at :data:`CONFIRM_SPEEDS` (a fall
+    or a speed off by more than the tolerance there rules it out and the search goes on).
+    Returns ``(x, walks, cost)`` of the candidate to store (``x`` ``None``: none beat the
+    defaults); ``cal.confirmed`` and ``cal.rejected`` are filled in."""
     import cma
 
     es = cma.CMAEvolutionStrategy(np.zeros(len(KNOBS[cal.walker])), 1.0, {
@@ -472,7 +494,9 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
     # a generation walks popsize candidates as the check walked one
     check_s = walks.machine_s()
     generation_s = check_s * popsize
-    confirm_s = check_s * max(CONFIRM_DURATION, duration) / duration
+    confirm = CONFIRM_SPEEDS[cal.walker]
+    confirm_s = (check_s * max(CONFIRM_DURATION, duration) / duration
+                 * len(confirm) / len(walks.speeds))
     while not es.stop():
         if walks.machine_s() + generation_s > budget_s:
             break
@@ -493,7 +517,7 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
             if walks.machine_s() + confirm_s > budget_s:
                 say("the budget ends before the long walks: stored unconfirmed")
                 break
-            long = walks([best_x], CONFIRM_DURATION)[0]
+            long = walks([best_x], CONFIRM_DURATION, confirm)[0]
             say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
             if passes(long):
                 cal.confirmed = long

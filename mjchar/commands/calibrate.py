@@ -71,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
         path = cal_mod.cache_path(ch.model, walker)
         if args.output is None and path.exists() and not args.force:
             cal = cal_mod.load(path)
-            _report(args, cal, path, cached=True, json_mod=json)
-            continue
+            if cal.protocol == cal_mod.PROTOCOL:
+                _report(args, cal, path, cached=True, json_mod=json)
+                continue  # (one made by an earlier procedure is made again)
         bar = None if args.json else Progress(desc=f"calibrating {walker}")
         start = time.monotonic()
         if bar is not None:
