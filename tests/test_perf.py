@@ -260,7 +260,7 @@ def test_envelope_tables_count_falls_and_say_what_a_calibration_changed():
     each speed (with the mean steady speed of those that stood) and the failed chest pushes,
     and per calibration the defaults' check, its cost and the knobs it moved."""
     from mjchar.controllers.walking.calibration import Calibration, candidate_overrides
-    from mjchar.perf.envelopes import calibration_table, changes, table
+    from mjchar.perf.envelopes import bar_table, calibration_table, changes, table
 
     rows = [{"kind": "walk", "body": "b", "walker": "ipm", "speed": 1.0, "fell": f,
              "steady_speed_mps": s} for f, s in ((False, 0.9), (False, 1.1), (True, None))]
@@ -280,7 +280,16 @@ def test_envelope_tables_count_falls_and_say_what_a_calibration_changed():
     said = changes(cal)
     assert said == (f"placement.sagittal_scale 1 -> {math.exp(0.15):.3g}; "
                     f"tracking.hip gains x{math.exp(-0.5):.2f}")
+    cal.confirmed = [{"speed": v, "fell": False, "fall_time_s": None, "steady_speed_mps": v}
+                     for v in (0.9, 1.1)]
+    cal.rejected = [cal.confirmed]
     line = calibration_table([("b", cal)]).splitlines()[-1]
     assert line == (f"| b | ipm | 1: fell 3.2 s | optimised (cost 9.00 -> 0.10) | 12 | 80 | "
-                    f"1: 0.98 | {said} |")
+                    f"1: 0.98 | 0.9: 0.90, 1.1: 1.10 (1 ruled out) | {said} |")
     assert changes(Calibration("simbicon", "f" * 64)) == "-"
+    bar = [{"kind": "bar", "body": "b", "run": "static_balance", "fell": False,
+            "sim_time_s": 30.0},
+           {"kind": "bar", "body": "b", "run": "simbicon", "fell": False, "sim_time_s": 60.0,
+            "distance_m": 61.6},
+           {"kind": "bar", "body": "b", "run": "ipm", "fell": True, "fall_time_s": 13.64}]
+    assert bar_table(bar).splitlines()[-1] == "| b | 30 s | 60 s, 62 m | fell 13.6 s |"

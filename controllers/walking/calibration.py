@@ -295,16 +295,15 @@ def overrides_for(character, walker: str, calibration: str | os.PathLike | None 
     if is_bundled(model):
         return {}
     path = cache_path(model, walker)
-    again = ""
+    why = "first (once,"
     if path.exists():
         stored = load(path)
         if stored.protocol == PROTOCOL:
             return dict(stored.overrides)
-        again = " again (the stored one was made by an earlier calibration procedure)"
+        why = "again (its stored calibration was made by an earlier procedure;"
     say = announce or _stderr
-    say(f"calibrating {walker} for this body{again or ' first'} (once, at most "
-        f"{BUDGET_S / 60:.0f} min; stored in {path.parent}; calibration='none' or "
-        "--calibration none skips it)")
+    say(f"calibrating {walker} for this body {why} at most {BUDGET_S / 60:.0f} min; stored in "
+        f"{path.parent}; calibration='none' or --calibration none skips it)")
     cal = calibrate(model, walker, info=character.info)
     save(cal, path)
     return dict(cal.overrides)

@@ -1,7 +1,9 @@
 """The walkers' envelopes on converted bodies: ``python -m mjchar.perf.envelopes [FILE.bvh ...]``.
 
 Each file (default: every ``*.bvh`` of ``../shared/data/real``) is converted at the defaults
-(as ``mjchar convert FILE -o body.xml``) and both walkers run on the body as a user's run does
+(as ``mjchar convert FILE -o body.xml``) and run as a user's runs do. ``--what bar``: the bar's
+runs (:data:`BAR`: static balance 30 s, SIMBICON 60 s, IPM 60 s at 1.0 m/s, as ``mjchar run``
+runs them). ``--what envelopes``: both walkers on the body
 (their calibration included: ``MJCHAR_CALIBRATION`` and the calibration cache apply, so a body
 without a stored calibration is checked, and calibrated where the check fails, first, once per
 body and walker on every core before the runs start):
@@ -37,6 +39,9 @@ from .report import write_json
 
 SHARED_REAL = SHARED_BVH.parent / "real"
 WALKERS = ("simbicon", "ipm")
+#: the bar's runs per body (issue's must-show, as a user runs them with the calibrations):
+#: static balance 30 s, SIMBICON 60 s at its own speed, IPM 60 s at 1.0 m/s
+BAR = ("static_balance", "simbicon", "ipm")
 
 
 def walk_run(job: tuple) -> dict:
@@ -119,12 +124,18 @@ def _walks(rows: list[dict]) -> str:
         for r in rows)
 
 
+def _long_walks(cal) -> str:
+    """The stored candidate's long walks and how many were ruled out by theirs."""
+    held = _walks(cal.confirmed) if cal.confirmed else "-"
+    return held + (f" ({len(cal.rejected)} ruled out)" if cal.rejected else "")
+
+
 def calibration_table(cals: list[tuple[str, object]]) -> str:
     """Markdown: per ``(body, Calibration)``, the defaults' check walks (per commanded speed:
     the steady speed in m/s, or the fall), the outcome, the candidates and CPU seconds it took,
-    the calibrated walks and what it changed."""
+    the calibrated walks, the long walks that confirmed it and what it changed."""
     head = ["body", "walker", "defaults' check", "outcome", "candidates", "CPU s",
-            "calibrated walks", "changed"]
+            "calibrated walks", "long walks", "changed"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for body, cal in cals:
         outcome = {"defaults": "defaults pass", "unimproved": "unimproved (defaults kept)",
@@ -132,12 +143,56 @@ def calibration_table(cals: list[tuple[str, object]]) -> str:
                    }[cal.status]
         out.append(f"| {body} | {cal.walker} | {_walks(cal.check)} | {outcome} | "
                    f"{cal.evaluations} | {cal.cpu_seconds:.0f} | "
-                   f"{_walks(cal.calibrated) if cal.calibrated else '-'} | {changes(cal)} |")
+                   f"{_walks(cal.calibrated) if cal.calibrated else '-'} | "
+                   f"{_long_walks(cal)} | {changes(cal)} |")
+    return "\n".join(out)
+
+
+def bar_run(job: tuple) -> dict:
+    """One of the bar's runs on a body: ``(body, xml, what)``, ``what`` one of :data:`BAR`."""
+    from mjchar.controllers import run
+
+    body, xml, what = job
+    if what == "static_balance":
+        r = run("static_balance", model=xml, duration=30.0)
+    elif what == "simbicon":
+        r = run("simbicon", "walk", model=xml, duration=60.0)
+    else:
+        r = run("ipm", "walk", model=xml, duration=60.0, speed=1.0, steady_window=10.0)
+    return {"kind": "bar", "body": body, "run": what, "fell": bool(r.fell),
+            "fall_time_s": r.fall_time_s, "sim_time_s": r.sim_time_s, "distance_m": r.distance_m,
+            "steady_speed_mps": r.extra.get("steady_speed_mps"),
+            "root_force_max_N": r.root_force_max_N}
+
+
+def bar_table(rows: list[dict]) -> str:
+    """Markdown: per body, the bar's runs (:data:`BAR`): the time stood or walked (the fall's
+    time), the distance of SIMBICON's walk, IPM's steady speed over the last 10 s."""
+    out = ["| body | static balance 30 s | SIMBICON 60 s | IPM 60 s at 1.0 m/s |",
+           "|---|---|---|---|"]
+    for body in dict.fromkeys(r["body"] for r in rows if r["kind"] == "bar"):
+        cells = []
+        for what in BAR:
+            r = next((r for r in rows if r["kind"] == "bar" and r["body"] == body
+                      and r["run"] == what), None)
+            if r is None:
+                cells.append("-")
+            elif r["fell"]:
+                cells.append(f"fell {r['fall_time_s']:.1f} s")
+            elif what == "simbicon":
+                cells.append(f"{r['sim_time_s']:.0f} s, {r['distance_m']:.0f} m")
+            elif what == "ipm":
+                cells.append(f"{r['sim_time_s']:.0f} s, {r['steady_speed_mps']:.2f} m/s")
+            else:
+                cells.append(f"{r['sim_time_s']:.0f} s")
+        out.append(f"| {body} | " + " | ".join(cells) + " |")
     return "\n".join(out)
 
 
 def _run(job: tuple) -> dict:
-    return walk_run(job[1:]) if job[0] == "walk" else push_run(job[1:])
+    kind, rest = job[0], job[1:]
+    return walk_run(rest) if kind == "walk" else push_run(rest) if kind == "push" else (
+        bar_run(rest))
 
 
 def table(rows: list[dict], speeds: list[float]) -> str:
@@ -176,6 +231,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--phases", type=int, default=4)
     p.add_argument("--after", type=float, default=5.0)
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--what", nargs="+", choices=("bar", "envelopes"),
+                   default=["bar", "envelopes"],
+                   help="the bar's runs (static balance 30 s, SIMBICON 60 s, IPM 60 s at 1.0 m/s)"
+                        " and/or the envelopes (default both)")
     p.add_argument("--json", metavar="OUT.json", help="also write every run as JSON")
     args = p.parse_args(argv)
     files = [Path(f) for f in args.files] or sorted(SHARED_REAL.glob("*.bvh"))
@@ -189,24 +248,35 @@ def main(argv: list[str] | None = None) -> int:
         for f in files:
             xml = str(Path(tmp) / f"{f.stem}.xml")
             convert(bvh.load(f)).save(xml)
-            for w in args.walkers:
-                jobs += [("walk", f.stem, xml, w, v, s, args.duration, args.steady_window)
-                         for v in args.speeds for s in range(args.seeds)]
-                jobs += [("push", f.stem, xml, w, args.push_speed, args.push, k / args.phases,
-                          d, args.after) for k in range(args.phases) for d in DIRECTIONS]
-        cals = calibrate_first(sorted({(j[1], j[2], j[3]) for j in jobs}))
+            if "bar" in args.what:
+                jobs += [("bar", f.stem, xml, what) for what in BAR]
+            if "envelopes" in args.what:
+                for w in args.walkers:
+                    jobs += [("walk", f.stem, xml, w, v, s, args.duration, args.steady_window)
+                             for v in args.speeds for s in range(args.seeds)]
+                    jobs += [("push", f.stem, xml, w, args.push_speed, args.push,
+                              k / args.phases, d, args.after)
+                             for k in range(args.phases) for d in DIRECTIONS]
+        walked = {(f.stem, str(Path(tmp) / f"{f.stem}.xml"), w) for f in files
+                  for w in (WALKERS if "bar" in args.what else ())}
+        walked |= {(j[1], j[2], j[3]) for j in jobs if j[0] != "bar"}
+        cals = calibrate_first(sorted(walked))
         rows = []
         with process_pool(args.jobs) as pool:
             for r in pool.map(_run, jobs):
                 rows.append(r)
                 what = (f"{r['speed']:g} m/s seed {r['seed']}" if r["kind"] == "walk" else
-                        f"push {r['direction']} at phase {r['phase']:g}")
+                        f"push {r['direction']} at phase {r['phase']:g}" if r["kind"] == "push"
+                        else r["run"])
                 print(f"{r['body']} {r['walker']} {what}: "
                       f"{'fell' if r['fell'] else 'up'}", file=sys.stderr, flush=True)
     if cals:
         print("Calibrations (in the cache, made first where missing):\n")
         print(calibration_table(cals) + "\n")
-    print(table(rows, args.speeds))
+    if "bar" in args.what:
+        print(bar_table(rows) + "\n")
+    if "envelopes" in args.what:
+        print(table([r for r in rows if r["kind"] != "bar"], args.speeds))
     if any(r["root_force_max_N"] for r in rows):
         print("root force in some run: see --json")
     if args.json:
