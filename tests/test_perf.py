@@ -293,3 +293,33 @@ def test_envelope_tables_count_falls_and_say_what_a_calibration_changed():
             "distance_m": 61.6},
            {"kind": "bar", "body": "b", "run": "ipm", "fell": True, "fall_time_s": 13.64}]
     assert bar_table(bar).splitlines()[-1] == "| b | 30 s | 60 s, 62 m | fell 13.6 s |"
+
+
+def test_envelopes_main_prints_the_bar_table(monkeypatch, capsys):
+    """``python -m mjchar.perf.envelopes FILE --what bar``: one line per run on standard error
+    and the bar's table (the runs stand in here; the conversion is real)."""
+    import contextlib
+
+    from conftest import real_export
+
+    from mjchar.perf import envelopes
+
+    f = real_export("xsens_mvn_walk.bvh")
+
+    @contextlib.contextmanager
+    def here(jobs):
+        yield type("Pool", (), {"map": staticmethod(map)})()
+
+    def fake(job):
+        body, xml, what = job[1:]
+        return {"kind": "bar", "body": body, "run": what, "fell": what == "ipm",
+                "fall_time_s": 2.5, "sim_time_s": 30.0 if what == "static_balance" else 60.0,
+                "distance_m": 59.0, "steady_speed_mps": None, "root_force_max_N": 0.0}
+
+    monkeypatch.setattr(envelopes, "process_pool", here)
+    monkeypatch.setattr(envelopes, "_run", fake)
+    monkeypatch.setattr(envelopes, "calibrate_first", lambda bodies: [])
+    assert envelopes.main([str(f), "--what", "bar"]) == 0
+    out, err = capsys.readouterr()
+    assert "| xsens_mvn_walk | 30 s | 60 s, 59 m | fell 2.5 s |" in out
+    assert "xsens_mvn_walk simbicon: up" in err and "xsens_mvn_walk ipm: fell" in err

@@ -265,10 +265,11 @@ def main(argv: list[str] | None = None) -> int:
         with process_pool(args.jobs) as pool:
             for r in pool.map(_run, jobs):
                 rows.append(r)
-                what = (f"{r['speed']:g} m/s seed {r['seed']}" if r["kind"] == "walk" else
-                        f"push {r['direction']} at phase {r['phase']:g}" if r["kind"] == "push"
-                        else r["run"])
-                print(f"{r['body']} {r['walker']} {what}: "
+                what = (f"{r['walker']} {r['speed']:g} m/s seed {r['seed']}"
+                        if r["kind"] == "walk" else
+                        f"{r['walker']} push {r['direction']} at phase {r['phase']:g}"
+                        if r["kind"] == "push" else r["run"])
+                print(f"{r['body']} {what}: "
                       f"{'fell' if r['fell'] else 'up'}", file=sys.stderr, flush=True)
     if cals:
         print("Calibrations (in the cache, made first where missing):\n")
