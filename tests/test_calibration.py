@@ -27,6 +27,21 @@ def cache(tmp_path, monkeypatch) -> Path:
     return tmp_path / "cache" / "calibration"
 
 
+@pytest.fixture
+def tiny_calibrations(monkeypatch) -> list[str]:
+    """Calibrations on a tiny budget (0.3 s walks, no search); the walkers they were made for,
+    in order."""
+    calls: list[str] = []
+    real = cal_mod.calibrate
+
+    def tiny(model, walker, **kw):
+        calls.append(walker)
+        return real(model, walker, **{**kw, "budget_s": 0.0, "duration": 0.3, "jobs": 1})
+
+    monkeypatch.setattr(cal_mod, "calibrate", tiny)
+    return calls
+
+
 def heavier_humanoid(tmp_path, kg: float = 5.0) -> str:
     """The bundled humanoid with a heavier pelvis: another body, another fingerprint."""
     text = HUMANOID_XML.read_text()
@@ -73,17 +88,10 @@ def test_the_bundled_humanoids_calibration_is_its_defaults(cache):
     assert not cache.exists()  # nothing made, nothing stored
 
 
-def test_an_uncalibrated_body_is_calibrated_once(tmp_path, cache, monkeypatch):
+def test_an_uncalibrated_body_is_calibrated_once(tmp_path, cache, tiny_calibrations):
     """The first walker made on a new body calibrates it (saying so in one line) and stores the
     result; the next one reads it. A tiny budget: 0.3 s walks, no search."""
-    calls, lines = [], []
-    real = cal_mod.calibrate
-
-    def tiny(model, walker, **kw):
-        calls.append(walker)
-        return real(model, walker, **{**kw, "budget_s": 0.0, "duration": 0.3, "jobs": 1})
-
-    monkeypatch.setattr(cal_mod, "calibrate", tiny)
+    calls, lines = tiny_calibrations, []
     ch = Character(heavier_humanoid(tmp_path))
     cal_mod.overrides_for(ch, "ipm", announce=lines.append)
     assert calls == ["ipm"] and len(lines) == 1 and "calibrating ipm" in lines[0]
@@ -217,15 +225,8 @@ def test_a_candidate_that_falls_between_the_checks_speeds_is_ruled_out(monkeypat
 
 
 def test_a_calibration_stored_by_an_earlier_procedure_is_made_again(tmp_path, cache,
-                                                                      monkeypatch):
-    calls, lines = [], []
-    real = cal_mod.calibrate
-
-    def tiny(model, walker, **kw):
-        calls.append(walker)
-        return real(model, walker, **{**kw, "budget_s": 0.0, "duration": 0.3, "jobs": 1})
-
-    monkeypatch.setattr(cal_mod, "calibrate", tiny)
+                                                                      tiny_calibrations):
+    calls, lines = tiny_calibrations, []
     ch = Character(heavier_humanoid(tmp_path))
     path = cal_mod.cache_path(ch.model, "ipm")
     old = json.loads(Calibration("ipm", model_fingerprint(ch.model),

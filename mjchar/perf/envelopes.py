@@ -244,22 +244,21 @@ def main(argv: list[str] | None = None) -> int:
     from mjchar.bvh.mjcf import convert
 
     with tempfile.TemporaryDirectory() as tmp:
-        jobs = []
+        jobs, walked = [], set()  # walked: (body, xml, walker) to calibrate first
         for f in files:
             xml = str(Path(tmp) / f"{f.stem}.xml")
             convert(bvh.load(f)).save(xml)
             if "bar" in args.what:
                 jobs += [("bar", f.stem, xml, what) for what in BAR]
+                walked |= {(f.stem, xml, w) for w in WALKERS}
             if "envelopes" in args.what:
+                walked |= {(f.stem, xml, w) for w in args.walkers}
                 for w in args.walkers:
                     jobs += [("walk", f.stem, xml, w, v, s, args.duration, args.steady_window)
                              for v in args.speeds for s in range(args.seeds)]
                     jobs += [("push", f.stem, xml, w, args.push_speed, args.push,
                               k / args.phases, d, args.after)
                              for k in range(args.phases) for d in DIRECTIONS]
-        walked = {(f.stem, str(Path(tmp) / f"{f.stem}.xml"), w) for f in files
-                  for w in (WALKERS if "bar" in args.what else ())}
-        walked |= {(j[1], j[2], j[3]) for j in jobs if j[0] != "bar"}
         cals = calibrate_first(sorted(walked))
         rows = []
         with process_pool(args.jobs) as pool:
