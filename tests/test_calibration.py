@@ -179,7 +179,8 @@ def test_a_candidate_that_falls_in_its_long_walks_is_ruled_out(monkeypatch):
                 30.0 if seconds > 20.0 and overrides == long_walked[0] else None)
         fell = fall is not None and fall < seconds
         steady = speed - 0.08 + 0.05 * min(max(x, 0.0), 1.6)
-        return {"speed": speed, "fell": fell, "fall_time_s": fall if fell else None,
+        return {"speed": speed, "seed": args[-1], "fell": fell,
+                "fall_time_s": fall if fell else None,
                 "steady_speed_mps": steady, "own_speed_mps": None, "cpu_s": 0.0}
 
     monkeypatch.setattr(cal_mod, "_walk_job", walk)
@@ -187,7 +188,9 @@ def test_a_candidate_that_falls_in_its_long_walks_is_ruled_out(monkeypatch):
     assert len(long_walked) == 2
     assert cal.status == "optimised" and len(cal.rejected) == 1
     assert all(r["fell"] and r["fall_time_s"] == 30.0 for r in cal.rejected[0])
-    assert [r["speed"] for r in cal.confirmed] == list(cal_mod.CONFIRM_SPEEDS["ipm"])
+    # the long walks: every speed from the seeded start, then every speed from rest
+    assert [r["speed"] for r in cal.confirmed] == list(cal_mod.CONFIRM_SPEEDS["ipm"]) * 2
+    assert [r["seed"] for r in cal.confirmed] == [0] * 5 + [None] * 5
     assert cal.confirmed and not any(r["fell"] for r in cal.confirmed)
     assert cal.overrides == long_walked[1] and cal_mod.passes(cal.calibrated)
     assert Calibration.from_json(cal.to_json()).rejected == cal.rejected
@@ -218,10 +221,76 @@ def test_a_candidate_that_falls_between_the_checks_speeds_is_ruled_out(monkeypat
     monkeypatch.setattr(cal_mod, "_walk_job", walk)
     cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
     assert [r["speed"] for r in cal.check] == [None, 0.8, 1.0, 1.2]
-    assert len(cal.rejected) == 1 and [r["speed"] for r in cal.rejected[0] if r["fell"]] == [0.9]
+    assert len(cal.rejected) == 1
+    assert [r["speed"] for r in cal.rejected[0] if r["fell"]] == [0.9, 0.9]  # both starts
     assert cal.status == "optimised" and cal.overrides != between[0]
-    assert [r["speed"] for r in cal.confirmed] == [None, 0.8, 0.9, 1.0, 1.1, 1.2]
+    assert [r["speed"] for r in cal.confirmed] == [None, 0.8, 0.9, 1.0, 1.1, 1.2] * 2
     assert cal_mod.passes(cal.confirmed) and cal.protocol == cal_mod.PROTOCOL
+
+
+def test_defaults_kept_by_an_unchanged_check_are_not_made_again(tmp_path, cache,
+                                                                tiny_calibrations):
+    """Protocol 3 changed only the long walks an optimised candidate must show: a stored
+    calibration that kept the defaults by protocol 2's check is still current; an optimised
+    one, or one from before the check changed, is made again."""
+    ch = Character(heavier_humanoid(tmp_path))
+    path = cal_mod.cache_path(ch.model, "ipm")
+    fp = model_fingerprint(ch.model)
+    for status, protocol, current in (("defaults", 2, True), ("optimised", 2, False),
+                                      ("defaults", 1, False), ("optimised", 3, True)):
+        cal = Calibration("ipm", fp, status=status, protocol=protocol)
+        assert cal_mod.is_current(cal) == current, (status, protocol)
+    cal_mod.save(Calibration("ipm", fp, status="defaults", protocol=2), path)
+    assert cal_mod.overrides_for(ch, "ipm") == {} and tiny_calibrations == []
+
+
+def test_defaults_that_walk_are_kept_over_candidates_that_fall_in_their_long_walks(
+        monkeypatch):
+    """Defaults that walk every check too slowly but never fall are kept (``unimproved``) when
+    every candidate that walks the check at speed falls in its long walks (SIMBICON on the Xia
+    body: candidates that walked 0.8-1.2 m/s for 20 s fell at 1.0-1.1 m/s within 60 s)."""
+    def walk(args):
+        _, _, _, overrides, speed, seconds, seed = args
+        fell = bool(overrides) and seconds > 20.0 and speed == 1.0
+        return {"speed": speed, "seed": seed, "fell": fell, "fall_time_s": 30.0 if fell else None,
+                "steady_speed_mps": (speed or 1.0) - (0.02 if overrides else 0.2),
+                "own_speed_mps": 1.0, "cpu_s": 0.01}
+
+    monkeypatch.setattr(cal_mod, "_walk_job", walk)
+    cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
+    assert cal.rejected and not cal.confirmed
+    assert cal.status == "unimproved" and cal.overrides == {}
+
+
+def test_a_candidate_that_falls_from_rest_is_ruled_out(monkeypatch):
+    """The long walks start from rest as well as from the check's seeded start: a candidate
+    that walks every speed from the seeded start but falls from the standing pose at rest (as
+    SIMBICON calibrated from the seeded start only did on the Xia body, at 5.0 s) is ruled out,
+    and the one stored walks from both starts."""
+    knob = cal_mod.KNOBS["simbicon"][0]
+    from_rest = []
+
+    def walk(args):
+        _, _, _, overrides, speed, seconds, seed = args
+        x = 0.0 if not overrides else (overrides[knob.name] - knob.default) / knob.step
+        if not overrides:  # the defaults: too slow everywhere
+            return {"speed": speed, "seed": seed, "fell": False, "fall_time_s": None,
+                    "steady_speed_mps": (speed or 1.0) - 0.2, "own_speed_mps": 1.0,
+                    "cpu_s": 0.0}
+        if seed is None and not from_rest:
+            from_rest.append(overrides)
+        fell = seed is None and speed is None and overrides == from_rest[0]
+        return {"speed": speed, "seed": seed, "fell": fell, "fall_time_s": 5.0 if fell else None,
+                "steady_speed_mps": (speed or 1.0) - 0.09 + 0.02 * min(max(x, 0.0), 3.0),
+                "own_speed_mps": 1.0, "cpu_s": 0.0}
+
+    monkeypatch.setattr(cal_mod, "_walk_job", walk)
+    cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
+    assert len(cal.rejected) == 1
+    assert [(r["speed"], r["seed"]) for r in cal.rejected[0] if r["fell"]] == [(None, None)]
+    assert cal.status == "optimised" and cal.overrides != from_rest[0]
+    assert {r["seed"] for r in cal.confirmed} == {0, None}
+    assert cal_mod.passes(cal.confirmed)
 
 
 def test_a_calibration_stored_by_an_earlier_procedure_is_made_again(tmp_path, cache,

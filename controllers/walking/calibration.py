@@ -22,12 +22,15 @@ target angles and torso gains for SIMBICON), stored as the factory overrides it 
    :data:`BUDGET_S`, counted as the walks' CPU time over the worker processes: the wall time
    on a machine of that many free cores). A candidate that passes the check walks
    :data:`CONFIRM_DURATION` s at every speed of the check's range, 0.1 m/s apart
-   (:data:`CONFIRM_SPEEDS`), before it is kept: one that falls there or misses a speed is ruled
-   out (a walker fitted on short walks can drift into a fall later, and one fitted at a few
-   speeds can fall between them) and the search goes on. The
+   (:data:`CONFIRM_SPEEDS`), from the check's seeded start and again from the standing pose at
+   rest (what ``mjchar run`` starts from), before it is kept: one that falls there or misses a
+   speed is ruled out (a walker fitted on short walks can drift into a fall later, one fitted at
+   a few speeds can fall between them, and one fitted from a walking start can fall from rest)
+   and the search goes on. The
    best candidate is stored if it beats the defaults (a confirmed one first, else the first
-   ruled out, which passed the check at least); else the defaults are stored, marked
-   ``"unimproved"``.
+   ruled out, which passed the check at least, but only where the defaults fell: defaults that
+   walk too slowly or too fast fall less than a candidate that falls in its long walks); else
+   the defaults are stored, marked ``"unimproved"``.
 
 Calibrations are JSON files keyed by the model's physics fingerprint
 (:func:`~mjchar.controllers.sampling.trajectory.model_fingerprint`), in the cache folder
@@ -91,9 +94,13 @@ BUDGET_S = 300.0
 NO_CALIBRATION = "none"
 FORMAT = "mjchar-calibration"
 VERSION = 1
-#: the calibration procedure's version (its speeds, durations and tolerances): a calibration in
-#: the cache made by another is made again
-PROTOCOL = 2
+#: the calibration procedure's version (its speeds, durations, starts and tolerances): a
+#: calibration in the cache made by another is made again (3: the long walks start from rest
+#: too), but for one that kept the defaults by a check that has not changed since
+PROTOCOL = 3
+#: the last :data:`PROTOCOL` that changed the check (its speeds, duration and tolerance): the
+#: whole result of a calibration that kept the defaults
+CHECK_PROTOCOL = 2
 
 
 class CalibrationError(ControllerError):
@@ -298,7 +305,7 @@ def overrides_for(character, walker: str, calibration: str | os.PathLike | None 
     why = "first (once,"
     if path.exists():
         stored = load(path)
-        if stored.protocol == PROTOCOL:
+        if is_current(stored):
             return dict(stored.overrides)
         why = "again (its stored calibration was made by an earlier procedure;"
     say = announce or _stderr
@@ -307,6 +314,14 @@ def overrides_for(character, walker: str, calibration: str | os.PathLike | None 
     cal = calibrate(model, walker, info=character.info)
     save(cal, path)
     return dict(cal.overrides)
+
+
+def is_current(cal: Calibration) -> bool:
+    """Whether the procedure of today would make ``cal`` again: it was made by this
+    :data:`PROTOCOL`, or it kept the defaults by the check of today (:data:`CHECK_PROTOCOL`:
+    the later protocols changed only what an optimised candidate must then show)."""
+    return cal.protocol == PROTOCOL or (cal.status == "defaults"
+                                        and CHECK_PROTOCOL <= cal.protocol <= PROTOCOL)
 
 
 def _stderr(line: str) -> None:
@@ -374,7 +389,9 @@ def passes(rows: list[dict]) -> bool:
 def walk_once(model: mujoco.MjModel, info, walker: str, overrides: dict, speed: float | None,
               duration: float = CHECK_DURATION, seed: int = 0) -> dict:
     """One walk of ``walker`` with ``overrides`` (uncalibrated otherwise) on the body, from its
-    seeded start state: ``{speed, fell, fall_time_s, steady_speed_mps, own_speed_mps}``."""
+    seeded start state, or with ``seed=None`` from the standing pose at rest as ``mjchar run``
+    walks it (at the walker's own speed: the very run of ``mjchar run simbicon``):
+    ``{speed, seed, fell, fall_time_s, steady_speed_mps, own_speed_mps}``."""
     from ..core.character import Character
     from ..core.registry import make_controller
     from ..core.scenarios.registry import run_scenario
@@ -385,13 +402,17 @@ def walk_once(model: mujoco.MjModel, info, walker: str, overrides: dict, speed: 
     if speed is not None:
         opts["speed"] = speed
     c = make_controller(walker, ch, **opts)
-    r = run_scenario("walk", ch, c, duration=duration, seed=seed,
-                     steady_window=min(STEADY_WINDOW, duration / 2))
+    window = None if seed is None and speed is None else min(STEADY_WINDOW, duration / 2)
+    r = run_scenario("walk", ch, c, duration=duration, seed=seed, steady_window=window)
     own = _own_speed(c) if speed is None else None  # SIMBICON's own gait speed
-    return {"speed": speed, "fell": bool(r.fell),
+    return {"speed": speed, "seed": seed, "fell": bool(r.fell),
             "fall_time_s": float(r.fall_time_s) if r.fell else None,
-            "steady_speed_mps": float(r.extra.get("steady_speed_mps") or 0.0),
+            "steady_speed_mps": _float_or_none(r.extra.get("steady_speed_mps")),
             "own_speed_mps": own, "cpu_s": time.process_time() - cpu}
+
+
+def _float_or_none(v) -> float | None:
+    return None if v is None else float(v)
 
 
 def _own_speed(controller) -> float:
@@ -459,16 +480,20 @@ class _Walks:
         self.pool, self.jobs, self.model, self.info, self.walker = pool, jobs, model, info, walker
         self.speeds, self.seed, self.cal = speeds, seed, cal
 
-    def __call__(self, xs: list, seconds: float, speeds=None) -> list[list[dict]]:
-        """Per candidate, its walks of ``seconds`` s, one per speed (default: the check's)."""
+    def __call__(self, xs: list, seconds: float, speeds=None, rest: bool = False
+                 ) -> list[list[dict]]:
+        """Per candidate, its walks of ``seconds`` s, one per speed (default: the check's) from
+        the seeded start, and with ``rest`` one more per speed from the standing pose at
+        rest."""
         speeds = self.speeds if speeds is None else speeds
+        starts = (self.seed, None) if rest else (self.seed,)
         work = [(self.model, self.info, self.walker, candidate_overrides(self.walker, x), v,
-                 seconds, self.seed) for x in xs for v in speeds]
+                 seconds, s) for x in xs for s in starts for v in speeds]
         pool = self.pool
         out = list(pool.map(_walk_job, work) if pool is not None else map(_walk_job, work))
         self.cal.evaluations += len(xs)
         self.cal.cpu_seconds += sum(r.pop("cpu_s") for r in out)
-        n = len(speeds)
+        n = len(speeds) * len(starts)
         return [out[i * n:(i + 1) * n] for i in range(len(xs))]
 
     def machine_s(self) -> float:
@@ -479,8 +504,9 @@ class _Walks:
 def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, popsize: int,
             seed: int, say: Callable[[str], None]) -> tuple[np.ndarray | None, list, float]:
     """CMA-ES from the defaults while a generation fits in the budget; a candidate that passes
-    the check is confirmed by :data:`CONFIRM_DURATION` s walks at :data:`CONFIRM_SPEEDS` (a fall
-    or a speed off by more than the tolerance there rules it out and the search goes on).
+    the check is confirmed by :data:`CONFIRM_DURATION` s walks at :data:`CONFIRM_SPEEDS`, from
+    the seeded start and from rest (a fall or a speed off by more than the tolerance there rules
+    it out and the search goes on).
     Returns ``(x, walks, cost)`` of the candidate to store (``x`` ``None``: none beat the
     defaults); ``cal.confirmed`` and ``cal.rejected`` are filled in."""
     import cma
@@ -495,7 +521,7 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
     generation_s = check_s * popsize
     confirm = CONFIRM_SPEEDS[cal.walker]
     confirm_s = (check_s * max(CONFIRM_DURATION, duration) / duration
-                 * len(confirm) / len(walks.speeds))
+                 * 2 * len(confirm) / len(walks.speeds))
     while not es.stop():
         if walks.machine_s() + generation_s > budget_s:
             break
@@ -516,7 +542,7 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
             if walks.machine_s() + confirm_s > budget_s:
                 say("the budget ends before the long walks: stored unconfirmed")
                 break
-            long = walks([best_x], CONFIRM_DURATION, confirm)[0]
+            long = walks([best_x], CONFIRM_DURATION, confirm, rest=True)[0]
             say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
             if passes(long):
                 cal.confirmed = long
@@ -527,6 +553,10 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
             best_x, best_rows, best = None, cal.check, cal.cost_defaults
     if fallback is not None and (best_x is None or not passes(best_rows)):
         best_x, best_rows, best = fallback  # it passed the check at least
+    if (best_x is not None and not cal.confirmed and not any(r["fell"] for r in cal.check)
+            and (cal.rejected or any(r["fell"] for r in best_rows))):
+        # the defaults walk, if not at every speed asked: better slow than fallen
+        best_x, best_rows, best = None, cal.check, cal.cost_defaults
     return best_x, best_rows, best
 
 
@@ -542,6 +572,8 @@ def _pool(jobs: int):
 
 def _summary(rows: list[dict]) -> str:
     return ", ".join(
-        f"{'own' if r['speed'] is None else r['speed']:}: "
-        + (f"fell {r['fall_time_s']:.1f} s" if r["fell"] else f"{r['steady_speed_mps']:.2f} m/s")
+        f"{'own' if r['speed'] is None else r['speed']:}"
+        f"{' from rest' if 'seed' in r and r['seed'] is None else ''}: "
+        + (f"fell {r['fall_time_s']:.1f} s" if r["fell"] else "walked" if r["steady_speed_mps"]
+           is None else f"{r['steady_speed_mps']:.2f} m/s")
         for r in rows)

@@ -8,13 +8,16 @@ import argparse
 
 from .argtypes import integer, non_negative
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "fit the walkers (ipm, simbicon) to a converted body, ahead of its runs"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``calibrate`` subcommand to ``mjchar``'s subparsers."""
     from mjchar.controllers.walking.calibration import BUDGET_S, CHECK_DURATION, WALKERS
 
     p = sub.add_parser(
-        "calibrate", help="fit the walkers (ipm, simbicon) to a converted body, ahead of its runs",
+        "calibrate", help=HELP,
         description="Fit the walkers' body-dependent parameters to a converted body: the "
                     "defaults are checked on short walks at three speeds; a body that passes "
                     "keeps them, one that fails gets a CMA-ES search (at most --budget seconds "
@@ -71,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         path = cal_mod.cache_path(ch.model, walker)
         if args.output is None and path.exists() and not args.force:
             cal = cal_mod.load(path)
-            if cal.protocol == cal_mod.PROTOCOL:
+            if cal_mod.is_current(cal):
                 _report(args, cal, path, cached=True, json_mod=json)
                 continue  # (one made by an earlier procedure is made again)
         bar = None if args.json else Progress(desc=f"calibrating {walker}")

@@ -118,10 +118,17 @@ def changes(cal, least: float = 0.1) -> str:
 
 
 def _walks(rows: list[dict]) -> str:
-    return ", ".join(
-        f"{'own' if r['speed'] is None else format(r['speed'], 'g')}: "
-        + (f"fell {r['fall_time_s']:.1f} s" if r["fell"] else f"{r['steady_speed_mps']:.2f}")
-        for r in rows)
+    """Per speed, the steady speed or the fall; the walks from rest (``seed`` ``None``, in the
+    long walks of calibrations made since protocol 3) after the seeded ones."""
+    def one(r):
+        rest_own = r["speed"] is None and r.get("seed", 0) is None  # no steady speed measured
+        return (f"{'own' if r['speed'] is None else format(r['speed'], 'g')}: "
+                + (f"fell {r['fall_time_s']:.1f} s" if r["fell"] else "held"
+                   if rest_own or r["steady_speed_mps"] is None
+                   else f"{r['steady_speed_mps']:.2f}"))
+    seeded = [one(r) for r in rows if r.get("seed", 0) is not None]
+    rest = [one(r) for r in rows if r.get("seed", 0) is None]
+    return ", ".join(seeded) + (f"; from rest: {', '.join(rest)}" if rest else "")
 
 
 def _long_walks(cal) -> str:
