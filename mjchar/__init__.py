@@ -12,8 +12,9 @@ One import namespace, in layers (each imports only from those below it):
   (:mod:`mjchar.perf`) and video rendering (:mod:`mjchar.render`);
 - :mod:`mjchar.assets`: the bundled data (humanoid, motions, trajectories), no code.
 
-``import mjchar`` is light: it registers the Gymnasium ids (``gymnasium.make("mjchar/...")``
-works after it) and imports nothing else. ``python -m mjchar ...`` is the ``mjchar`` command.
+``import mjchar`` is light: it imports neither Gymnasium nor the controllers, and
+``gymnasium.make("mjchar/...")`` works after it (the ids are registered once Gymnasium is
+imported: :mod:`mjchar.gym_ids`). ``python -m mjchar ...`` is the ``mjchar`` command.
 """
 
 import os
@@ -32,4 +33,6 @@ except PackageNotFoundError:  # a source tree that was never installed
     __version__ = "0+unknown"
 
 
-from mjchar import envs as _envs  # noqa: E402, F401  (registers the Gymnasium ids, lightly)
+from mjchar.gym_ids import register_with_gymnasium as _register  # noqa: E402
+
+_register()  # the mjchar/... ids, when Gymnasium is (or once it is) imported

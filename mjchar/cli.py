@@ -88,11 +88,16 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``mjchar`` parser for the command line ``argv`` (default: every subcommand's own
+    parser). Given ``argv``, only the subcommand it names gets its parser (which may import the
+    controllers for its choices); the others are a name and a line of help (each module's
+    ``HELP``), so ``mjchar --help`` and a misspelt subcommand import no controller."""
     parser = _Parser(prog="mjchar", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"mjchar {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_Parser)
+    named = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
     for name in COMMANDS:
         try:
             module = importlib.import_module(f"mjchar.commands.{name}")
@@ -100,7 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
             if e.name == f"mjchar.commands.{name}":
                 continue  # subcommand not built yet
             raise
-        module.register(sub)
+        if named is None or name == named:
+            module.register(sub)
+        else:
+            sub.add_parser(name, help=module.HELP)
     parser.commands = sub.choices  # each subcommand's parser, for its own error messages
     return parser
 
@@ -112,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     command = "mjchar"
     _printable_paths()
     try:
-        parser = build_parser()
+        argv = sys.argv[1:] if argv is None else list(argv)
+        parser = build_parser(argv)
         args, extra = parser.parse_known_args(argv)
         if extra:  # the subcommand's error: `mjchar run: error: unrecognized arguments: ...`
             parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")

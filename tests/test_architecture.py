@@ -34,6 +34,7 @@ import pytest
 from mjchar import bench as B
 from mjchar.bvh.bundled.assets import TRAJECTORIES
 from mjchar.cli import main
+from mjchar.commands import COMMANDS
 from mjchar.controllers.core import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.action import Action
@@ -132,18 +133,51 @@ def test_layers_import_only_from_below():
     assert not upward, "\n".join(upward)
 
 
-def test_import_mjchar_registers_the_envs_and_stays_light():
-    """``import mjchar`` registers the Gymnasium ids and loads nothing else of the project (no
-    MuJoCo): the env classes load when ``gymnasium.make`` asks for them."""
-    code = ("import sys, mjchar, gymnasium as gym; "
-            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('mjchar', 'mujoco'))); "
-            "print(gym.spec('mjchar/Imitation-v0').entry_point)")
+def _imports(code: str) -> list[str]:
+    """The lines ``code`` prints, run in a fresh interpreter from the checkout's parent."""
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                        cwd=ROOT.parent)
     assert r.returncode == 0, f"exit status {r.returncode}; stderr:\n{r.stderr}"
-    out = r.stdout.splitlines()
-    assert out[0] == "['mjchar', 'mjchar.envs']"
-    assert out[1] == "mjchar.envs.imitation:ImitationEnv"
+    return r.stdout.splitlines()
+
+
+PROJECT_MODULES = "sorted(m for m in sys.modules if m.split('.')[0] in ('mjchar', 'mujoco'))"
+
+
+@pytest.mark.parametrize("order", ["mjchar, gymnasium as gym", "gymnasium as gym, mjchar"])
+def test_import_mjchar_registers_the_envs_and_stays_light(order):
+    """``import mjchar`` loads nothing of the project but the id registration (no MuJoCo, no
+    Gymnasium); ``gymnasium.make`` finds the ids whichever was imported first, and the env
+    classes load when it asks for them."""
+    out = _imports(f"import sys; import mjchar; print({PROJECT_MODULES}, "
+                   "'gymnasium' in sys.modules)")
+    assert out == ["['mjchar', 'mjchar.gym_ids'] False"]
+    out = _imports(f"import sys, {order}; print({PROJECT_MODULES}); "
+                   "print(gym.spec('mjchar/Imitation-v0').entry_point)")
+    assert out == ["['mjchar', 'mjchar.envs', 'mjchar.gym_ids']",
+                   "mjchar.envs.imitation:ImitationEnv"]
+
+
+def test_the_kinematic_layer_loads_neither_gymnasium_nor_the_controllers():
+    out = _imports("import sys, mjchar.bvh; print(sorted({m.split('.')[0] for m in sys.modules "
+                   "if m.startswith(('gymnasium', 'mjchar.controllers', 'mjchar.envs'))}))")
+    assert out == ["[]"]
+
+
+def test_mjchar_help_imports_no_controller():
+    """``mjchar --help`` (and a misspelt subcommand) builds only the subcommands' names and
+    lines of help; ``mjchar run --help`` builds run's parser, which lists the controllers."""
+    code = ("import sys, contextlib, io; from mjchar.cli import main\n"
+            "for argv in (['--help'], ['rnu']):\n"
+            "    with contextlib.redirect_stdout(io.StringIO()), "
+            "contextlib.redirect_stderr(io.StringIO()):\n"
+            "        try: main(argv)\n"
+            "        except SystemExit: pass\n"
+            "print([m for m in sys.modules if m.startswith(('mjchar.controllers', 'gymnasium'))])")
+    assert _imports(code) == ["[]"]
+    r = subprocess.run([sys.executable, "-m", "mjchar", "--help"], capture_output=True,
+                       text=True, cwd=ROOT.parent)
+    assert r.returncode == 0 and all(f"    {c}" in r.stdout for c in COMMANDS), r.stdout
 
 
 def test_controller_subpackages_keep_their_order():

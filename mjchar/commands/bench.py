@@ -7,6 +7,9 @@ import argparse
 
 from .argtypes import integer
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "benchmark every controller in every scenario; table, JSON, plots"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``bench`` subcommand to ``mjchar``'s subparsers (rows and scenarios from the
@@ -17,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     controllers = tuple(matrix())
     p = sub.add_parser(
-        "bench", help="benchmark every controller in every scenario; table, JSON, plots",
+        "bench", help=HELP,
         description="Run the controllers (rows) in the scenarios that make sense for them, print "
                     "a table (survival, push survival per direction, distance, speed, tracking "
                     "error, root force, step cost over mj_step) and write results.json, "

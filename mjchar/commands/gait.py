@@ -8,6 +8,9 @@ import argparse
 
 from .argtypes import integer, non_negative, number, positive
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "gait statistics of a walker or a clip against reference clips"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers import registry
@@ -15,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     walkers = registry.names("walker")
     p = sub.add_parser(
-        "gait", help="gait statistics of a walker or a clip against reference clips",
+        "gait", help=HELP,
         description="Measure speed, cadence, step length and width, stance and double support, "
                     "trunk lean, pelvis rotation, knee and hip flexion, foot clearance, stance "
                     "slip and COM excursion of a simulated walk or a BVH clip (see "

@@ -21,9 +21,13 @@ def _fraction(name: str):
     return parse
 
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "learn a tracking policy from the MPC (DAgger; needs the rl extra)"
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "learn", help="learn a tracking policy from the MPC (DAgger; needs the rl extra)",
+        "learn", help=HELP,
         description="Distil the closed-loop sampling MPC into a network that tracks the clip "
                     "faster than real time: roll out the learner mixed with the MPC, with action "
                     "noise, perturbed starts and pushes; label the visited states with the MPC; "

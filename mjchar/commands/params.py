@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import argparse
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "list a controller's tunables (--param NAME=VALUE of mjchar run)"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``params`` subcommand to ``mjchar``'s subparsers."""
@@ -13,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     with_params = [s.name for s in registry.specs() if s.tunables is not None]
     p = sub.add_parser(
-        "params", help="list a controller's tunables (--param NAME=VALUE of mjchar run)",
+        "params", help=HELP,
         description="List every tunable of a controller that mjchar run takes as --param "
                     "NAME=VALUE: its type, unit, accepted range, default and meaning. "
                     f"Controllers with tunables: {', '.join(with_params)}. Ranges of "

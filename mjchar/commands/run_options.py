@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mjchar.bvh.errors import MjcharError
-from mjchar.controllers.core.limits import MAX_CONTROL_DT_S, MAX_TIMESTEP_S, MIN_TIMESTEP_S
 
 #: push forces (``--push``, ``--max-force``) above this many body weights are refused
 MAX_PUSH_BODY_WEIGHTS = 10.0
@@ -171,6 +170,7 @@ def _bad(flag: str, value, what: str) -> MjcharError:
 def check_ranges(args: argparse.Namespace, cspec, sspec) -> None:
     """One-line :class:`MjcharError` for a value the run does not support (before anything is
     built). Scenario options are checked against their declared bounds."""
+    from mjchar.controllers.core.limits import MAX_CONTROL_DT_S, MAX_TIMESTEP_S, MIN_TIMESTEP_S
     from mjchar.controllers.core.scenarios import registry
 
     for o in registry.options():

@@ -19,9 +19,13 @@ from .samcon import (
 TASKS = ("track", "jump")
 
 
+#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
+HELP = "CMA-ES trajectory optimisation (clip tracking or a vertical jump)"
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "trajopt", help="CMA-ES trajectory optimisation (clip tracking or a vertical jump)",
+        "trajopt", help=HELP,
         description="Optimise PD-target offsets at spline knots with CMA-ES over overlapping "
                     "windows (each generation simulated as one batch) and save the trajectory "
                     "for `mjchar run replay FILE`. Give a clip to track it, or --task jump.")
