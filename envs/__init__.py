@@ -1,4 +1,4 @@
-"""Gymnasium environments, registered as ``mjchar/...`` when ``mjchar`` is imported.
+"""Gymnasium environments, registered as ``mjchar/...`` (see :mod:`mjchar.gym_ids`).
 
 =========================  =====================================================================
 ``mjchar/Imitation-v0``    imitate a reference motion (DeepMimic reward),
@@ -6,9 +6,10 @@
 :mod:`mjchar.envs.stand` =========================
 =====================================================================
 
-Gymnasium 1.x has no plugin discovery (no entry-point group): importing ``mjchar`` (or
-``mjchar.envs``) registers the ids, or let ``gymnasium.make`` import it for you with the
-``module:id`` form::
+Gymnasium 1.x has no plugin discovery (no entry-point group): importing this package
+registers the ids, and so does importing ``mjchar`` (at once when Gymnasium is already
+imported, else when it is), or let ``gymnasium.make`` import it for you with the ``module:id``
+form::
 
     import gymnasium as gym
     import mjchar.envs  # noqa: F401  (registers mjchar/...)
