@@ -133,7 +133,7 @@ def test_layers_import_only_from_below():
     assert not upward, "\n".join(upward)
 
 
-def _imports(code: str) -> list[str]:
+def _printed(code: str) -> list[str]:
     """The lines ``code`` prints, run in a fresh interpreter from the checkout's parent."""
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                        cwd=ROOT.parent)
@@ -149,17 +149,17 @@ def test_import_mjchar_registers_the_envs_and_stays_light(order):
     """``import mjchar`` loads nothing of the project but the id registration (no MuJoCo, no
     Gymnasium); ``gymnasium.make`` finds the ids whichever was imported first, and the env
     classes load when it asks for them."""
-    out = _imports(f"import sys; import mjchar; print({PROJECT_MODULES}, "
+    out = _printed(f"import sys; import mjchar; print({PROJECT_MODULES}, "
                    "'gymnasium' in sys.modules)")
     assert out == ["['mjchar', 'mjchar.gym_ids'] False"]
-    out = _imports(f"import sys, {order}; print({PROJECT_MODULES}); "
+    out = _printed(f"import sys, {order}; print({PROJECT_MODULES}); "
                    "print(gym.spec('mjchar/Imitation-v0').entry_point)")
     assert out == ["['mjchar', 'mjchar.envs', 'mjchar.gym_ids']",
                    "mjchar.envs.imitation:ImitationEnv"]
 
 
 def test_the_kinematic_layer_loads_neither_gymnasium_nor_the_controllers():
-    out = _imports("import sys, mjchar.bvh; print(sorted({m.split('.')[0] for m in sys.modules "
+    out = _printed("import sys, mjchar.bvh; print(sorted({m.split('.')[0] for m in sys.modules "
                    "if m.startswith(('gymnasium', 'mjchar.controllers', 'mjchar.envs'))}))")
     assert out == ["[]"]
 
@@ -174,7 +174,7 @@ def test_mjchar_help_imports_no_controller():
             "        try: main(argv)\n"
             "        except SystemExit: pass\n"
             "print([m for m in sys.modules if m.startswith(('mjchar.controllers', 'gymnasium'))])")
-    assert _imports(code) == ["[]"]
+    assert _printed(code) == ["[]"]
     r = subprocess.run([sys.executable, "-m", "mjchar", "--help"], capture_output=True,
                        text=True, cwd=ROOT.parent)
     assert r.returncode == 0 and all(f"    {c}" in r.stdout for c in COMMANDS), r.stdout
@@ -280,6 +280,22 @@ def test_the_character_has_no_flat_forwarders_left():
     bad = [f"{f.relative_to(ROOT)}: {m.group(0)}" for f in files
            for m in flat.finditer(f.read_text())]
     assert not bad, "\n".join(bad)
+
+
+MAX_FUNCTION_LINES = 80
+
+
+@pytest.mark.parametrize("folder", ["controllers"])
+def test_no_function_over_80_lines(folder):
+    """The kinematic and dynamic layers read as steps: no function (``def`` to its last line)
+    over :data:`MAX_FUNCTION_LINES` lines."""
+    long = [f"{path.relative_to(ROOT)}:{node.lineno} {node.name} "
+            f"({node.end_lineno - node.lineno + 1} lines)"
+            for name, path in MODULES.items() if name.startswith(FOLDERS[folder])
+            for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES]
+    assert not long, "\n".join(long)
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))
