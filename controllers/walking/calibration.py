@@ -540,7 +540,7 @@ def _search(walks: _Walks, cal: Calibration, duration: float, budget_s: float, p
             if CONFIRM_DURATION <= duration:
                 break
             if walks.machine_s() + confirm_s > budget_s:
-                say("the budget ends before the long walks: stored unconfirmed")
+                say("the budget ends before the long walks of the best candidate")
                 break
             long = walks([best_x], CONFIRM_DURATION, confirm, rest=True)[0]
             say(f"confirming over {CONFIRM_DURATION:.0f} s: {_summary(long)}")
