@@ -477,6 +477,32 @@ def keyframes_to_motion(skeleton: Skeleton, key_times: np.ndarray, key_rotations
     if not (np.isfinite(frame_time) and frame_time > 0):
         raise InterpolationError(
             f"frame_time must be a positive number of seconds, got {frame_time}")
+    times, rot, root, klp = _checked_keys(skeleton, key_times, key_rotations, key_root_positions,
+                                          key_local_positions)
+    if cyclic:
+        rot = _closed_loop(skeleton, rot)
+    n_j = skeleton.n_joints
+    extra = skeleton.has_position_channels()
+    extra[0] = False
+    n = _frame_count(times[-1] - times[0], frame_time)
+    t = times[0] + np.arange(n) * frame_time
+    rule = "finite_difference" if method == "hermite" else "catmull_rom"
+    pos = np.broadcast_to(skeleton.offsets, (n, n_j, 3)).copy()
+    pos[:, 0] = _key_positions(times, root, t, method, rule, cyclic, drift=True)
+    if klp is not None and np.any(extra):
+        pos[:, extra] = _key_positions(times, klp[:, extra], t, method, rule, cyclic, drift=False)
+    if method == "linear":
+        rots = slerp_keys(times, rot, t)
+    else:
+        rots = quat_spline(times, rot, t, rule=rule, cyclic=cyclic)
+    return Motion(skeleton, float(frame_time), pos, quat_fix_continuity(rots, axis=0))
+
+
+def _checked_keys(skeleton: Skeleton, key_times: np.ndarray, key_rotations: np.ndarray,
+                  key_root_positions: np.ndarray, key_local_positions: np.ndarray | None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """The keys of :func:`keyframes_to_motion` checked against each other and ``skeleton``:
+    ``(times, rotations (normalised), root positions, local positions or None)``."""
     times = _check_times(key_times)
     n_k, n_j = len(times), skeleton.n_joints
     rot = _check_values(key_rotations, "key_rotations")
@@ -486,8 +512,6 @@ def keyframes_to_motion(skeleton: Skeleton, key_times: np.ndarray, key_rotations
     root = _check_values(key_root_positions, "key_root_positions")
     if root.shape != (n_k, 3):
         raise InterpolationError(f"key_root_positions must be ({n_k}, 3), got {root.shape}")
-    extra = skeleton.has_position_channels()
-    extra[0] = False
     if key_local_positions is not None:
         klp = _check_values(key_local_positions, "key_local_positions")
         if klp.shape != (n_k, n_j, 3):
@@ -495,45 +519,42 @@ def keyframes_to_motion(skeleton: Skeleton, key_times: np.ndarray, key_rotations
                 f"key_local_positions must be ({n_k}, {n_j}, 3), got {klp.shape}")
     else:
         klp = None
-    if cyclic:
-        _check_cyclic(rot, cyclic)
-        seam = np.linalg.norm(quat_to_rotvec(quat_mul(quat_conj(rot[-1]), rot[0])), axis=-1)
-        if np.any(seam > 1e-3):
-            j = int(np.argmax(seam))
-            raise InterpolationError(
-                f"cyclic keys: the last key's rotation of joint {skeleton.names[j]!r} differs "
-                f"from the first by {np.degrees(seam[j]):.3g} degrees; a loop must end where it "
-                f"starts")
-        rot = rot.copy()
-        rot[-1] = rot[0] * np.sign(np.sum(rot[-1] * rot[0], axis=-1, keepdims=True) + 1e-300)
+    return times, rot, root, klp
 
-    n = _frame_count(times[-1] - times[0], frame_time)
-    t = times[0] + np.arange(n) * frame_time
-    rule = "finite_difference" if method == "hermite" else "catmull_rom"
 
-    def positions(values: np.ndarray, drift: bool) -> np.ndarray:
-        if method == "linear":
-            return linear(times, values, t)
-        if not cyclic:
-            tang = _tangents_from_differences(times, np.diff(values, axis=0), rule, False)
-            return hermite(times, values, t, tangents=tang)
-        period = times[-1] - times[0]
-        disp = values[-1] - values[0]
-        phase_k = ((times - times[0]) / period).reshape((-1,) + (1,) * (values.ndim - 1))
-        phase_t = ((t - times[0]) / period).reshape((-1,) + (1,) * (values.ndim - 1))
-        periodic = values - phase_k * disp if drift else values.copy()
-        if not drift:
-            periodic[-1] = periodic[0]
-        tang = _tangents_from_differences(times, np.diff(periodic, axis=0), rule, True)
-        out = hermite(times, periodic, t, tangents=tang)
-        return out + phase_t * disp if drift else out
+def _closed_loop(skeleton: Skeleton, rot: np.ndarray) -> np.ndarray:
+    """Cyclic key rotations ``(K, J, 4)`` whose last key must repeat the first (within 1e-3
+    rad); a copy with the last key set to the first in the same hemisphere."""
+    _check_cyclic(rot, True)
+    seam = np.linalg.norm(quat_to_rotvec(quat_mul(quat_conj(rot[-1]), rot[0])), axis=-1)
+    if np.any(seam > 1e-3):
+        j = int(np.argmax(seam))
+        raise InterpolationError(
+            f"cyclic keys: the last key's rotation of joint {skeleton.names[j]!r} differs "
+            f"from the first by {np.degrees(seam[j]):.3g} degrees; a loop must end where it "
+            f"starts")
+    rot = rot.copy()
+    rot[-1] = rot[0] * np.sign(np.sum(rot[-1] * rot[0], axis=-1, keepdims=True) + 1e-300)
+    return rot
 
-    pos = np.broadcast_to(skeleton.offsets, (n, n_j, 3)).copy()
-    pos[:, 0] = positions(root, drift=True)
-    if klp is not None and np.any(extra):
-        pos[:, extra] = positions(klp[:, extra], drift=False)
+
+def _key_positions(times: np.ndarray, values: np.ndarray, t: np.ndarray, method: str, rule: str,
+                   cyclic: bool, drift: bool) -> np.ndarray:
+    """Key ``values`` ``(K, ...)`` at the frame times ``t``: linear, or Hermite with ``rule``
+    tangents; cyclic keys loop C1 through the seam, with the per-cycle displacement taken out
+    and added back (``drift``) or the last key set to the first."""
     if method == "linear":
-        rots = slerp_keys(times, rot, t)
-    else:
-        rots = quat_spline(times, rot, t, rule=rule, cyclic=cyclic)
-    return Motion(skeleton, float(frame_time), pos, quat_fix_continuity(rots, axis=0))
+        return linear(times, values, t)
+    if not cyclic:
+        tang = _tangents_from_differences(times, np.diff(values, axis=0), rule, False)
+        return hermite(times, values, t, tangents=tang)
+    period = times[-1] - times[0]
+    disp = values[-1] - values[0]
+    phase_k = ((times - times[0]) / period).reshape((-1,) + (1,) * (values.ndim - 1))
+    phase_t = ((t - times[0]) / period).reshape((-1,) + (1,) * (values.ndim - 1))
+    periodic = values - phase_k * disp if drift else values.copy()
+    if not drift:
+        periodic[-1] = periodic[0]
+    tang = _tangents_from_differences(times, np.diff(periodic, axis=0), rule, True)
+    out = hermite(times, periodic, t, tangents=tang)
+    return out + phase_t * disp if drift else out

@@ -202,6 +202,50 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         from mjchar.bvh.mjcf import ModelInfo
 
         info = ModelInfo.from_model(model)
+    t, q = _window(times, qpos, start, end)
+    bodies = _bodies(model, info)
+    feet = _FootPoints(model, info)
+    if any(s not in feet.sides for s in FOOT_SIDES):
+        raise GaitAnalysisError("gait analysis needs both feet (ankle geoms or foot sites)")
+    pos, com, pts = _sample(model, q, bodies, feet)
+    n = len(t)
+    root = pos["pelvis"]
+    travel = root[-1, :2] - root[0, :2]
+    duration = float(t[-1] - t[0])
+    path = float(np.sum(np.linalg.norm(np.diff(root[:, :2], axis=0), axis=1)))
+    speed = float(np.linalg.norm(travel) / duration)
+    stance, floor, centre = _stance(pts, t, path, duration)
+    # strikes (a stance that begins inside the window) and steps
+    strikes = sorted((a, s) for s in FOOT_SIDES for a, b in _runs(stance[s]) if a > 0)
+    lengths, widths, step_times = _steps(strikes, stance, centre, root, t)
+    fractions, slips, clearances = _foot_phases(strikes, stance, pts, floor, n)
+    both = stance["left"] & stance["right"]
+    curves, lean, knees, hips = _angles(pos, root, t)
+    left = [a for a, side in strikes if side == "left"]
+    excursions, cycles, rotations = _left_strides(left, pos, com, root, t, curves)
+    return GaitStats(
+        label=label, duration_s=duration, speed_mps=speed,
+        cadence_spm=60.0 / float(np.mean(step_times)) if step_times else None,
+        step_length_m=_mean(lengths), step_width_m=_mean(widths), steps=len(lengths),
+        stance_fraction=_mean(fractions),
+        double_support_fraction=float(both.mean()) if lengths else None,
+        trunk_lean_deg=float(lean.mean()), trunk_lean_range_deg=float(np.ptp(lean)),
+        pelvis_rotation_deg=_mean(rotations),
+        knee_flexion_deg=float(np.mean(knees)), hip_flexion_deg=float(np.mean(hips)),
+        foot_clearance_m=_mean(clearances), stance_slip_m=_mean(slips),
+        com_excursion_m=_mean(excursions),
+        cycle_mean={k: np.mean(v, axis=0) for k, v in cycles.items() if v},
+        cycle_std={k: np.std(v, axis=0) for k, v in cycles.items() if v},
+        strides=len(excursions), left_strikes=[float(t[a]) for a in left])
+
+
+def _mean(v) -> float | None:
+    """The mean of ``v``, ``None`` when it is empty."""
+    return float(np.mean(v)) if len(v) else None
+
+
+def _window(times, qpos, start: float, end: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, q)``: the samples within ``[start, end]`` (at least 10 over 0.5 s)."""
     times = np.asarray(times, dtype=float)
     qpos = np.asarray(qpos, dtype=float)
     end = times[-1] if end is None else end
@@ -210,13 +254,15 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
     if len(t) < 10 or t[-1] - t[0] < 0.5:
         raise GaitAnalysisError(f"the window [{start:g}, {end:g}] s holds {len(t)} samples; a gait "
                                 "analysis needs at least 0.5 s")
-    bodies = _bodies(model, info)
-    feet = _FootPoints(model, info)
-    if any(s not in feet.sides for s in FOOT_SIDES):
-        raise GaitAnalysisError("gait analysis needs both feet (ankle geoms or foot sites)")
+    return t, q
 
+
+def _sample(model: mujoco.MjModel, q: np.ndarray, bodies: dict[str, int],
+            feet: _FootPoints) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+    """``(pos, com, pts)`` per sample of ``q``: the role bodies' positions ``(n, 3)``, the
+    centre of mass ``(n, 3)`` and each foot's points ``(n, P, 3)``."""
     data = mujoco.MjData(model)
-    n = len(t)
+    n = len(q)
     pos = {r: np.empty((n, 3)) for r in bodies}
     com = np.empty((n, 3))
     pts = {s: [] for s in FOOT_SIDES}
@@ -229,15 +275,13 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         com[k] = data.subtree_com[0]
         for s in FOOT_SIDES:
             pts[s].append(feet.sample(data, feet.sides[s]))
-    pts = {s: np.array(v) for s, v in pts.items()}                    # (n, P, 3)
+    return pos, com, {s: np.array(v) for s, v in pts.items()}                    # (n, P, 3)
 
-    root = pos["pelvis"]
-    travel = root[-1, :2] - root[0, :2]
-    duration = float(t[-1] - t[0])
-    path = float(np.sum(np.linalg.norm(np.diff(root[:, :2], axis=0), axis=1)))
-    speed = float(np.linalg.norm(travel) / duration)
 
-    # stance per foot
+def _stance(pts: dict[str, np.ndarray], t: np.ndarray, path: float,
+            duration: float) -> tuple[dict[str, np.ndarray], dict[str, float], dict]:
+    """Per foot: ``(stance (n,) bool, floor height, centre (n, 3))``; a foot stands while it is
+    slow (against the root's ``path`` length over ``duration``) and near its floor."""
     stance, floor, centre = {}, {}, {}
     n_min = max(1, int(round(MIN_PHASE / np.median(np.diff(t)))))
     for s in FOOT_SIDES:
@@ -247,9 +291,13 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         v = np.linalg.norm(np.gradient(centre[s][:, :2], t, axis=0), axis=1)
         limit = STANCE_SPEED_FACTOR * path / duration + 0.1
         stance[s] = _debounce((low - floor[s] < CONTACT_HEIGHT) & (v < limit), n_min)
+    return stance, floor, centre
 
-    # strikes (a stance that begins inside the window) and steps
-    strikes = sorted((a, s) for s in FOOT_SIDES for a, b in _runs(stance[s]) if a > 0)
+
+def _steps(strikes: list, stance: dict, centre: dict, root: np.ndarray,
+           t: np.ndarray) -> tuple[list[float], list[float], list[float]]:
+    """``(lengths, widths, times)`` of the steps between strikes of opposite feet: the stance
+    feet's distance along and across the root's travel, and the time between the strikes."""
     stance_pos = {}
     for s in FOOT_SIDES:
         for a, b in _runs(stance[s]):
@@ -266,8 +314,12 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         lengths.append(float(step @ f))
         widths.append(float(abs(step @ np.array([-f[1], f[0]]))))
         step_times.append(float(t[a1] - t[a0]))
+    return lengths, widths, step_times
 
-    # per-foot strides: stance fraction, slip, clearance
+
+def _foot_phases(strikes: list, stance: dict, pts: dict, floor: dict,
+                 n: int) -> tuple[list[float], list[float], list[float]]:
+    """Per-foot strides: ``(stance fractions, stance slips, swing clearances)``."""
     fractions, slips, clearances = [], [], []
     for s in FOOT_SIDES:
         own = [a for a, side in strikes if side == s]
@@ -283,9 +335,14 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         for a, b in _runs(~stance[s]):
             if a > 0 and b < n:
                 clearances.append(float((pts[s][a:b, :, 2].min(axis=1) - floor[s]).max()))
-    both = stance["left"] & stance["right"]
+    return fractions, slips, clearances
 
-    # angles
+
+def _angles(pos: dict[str, np.ndarray], root: np.ndarray,
+            t: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, list, list]:
+    """``(curves, lean, knees, hips)``: trunk lean, and knee and hip flexion per side (deg per
+    sample), the curves by name."""
+    n = len(t)
     up = pos["head"] - pos["pelvis"]
     lean = _angle(up, np.array([0.0, 0.0, 1.0]))
     vel = np.gradient(root[:, :2], t, axis=0)
@@ -304,9 +361,13 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         curves[f"{s}_knee_flexion"], curves[f"{s}_hip_flexion"] = kf, hf
         knees.append(kf)
         hips.append(hf)
+    return curves, lean, knees, hips
 
-    # strides of the left foot: COM excursion and cycle curves
-    left = [a for a, side in strikes if side == "left"]
+
+def _left_strides(left: list, pos: dict[str, np.ndarray], com: np.ndarray, root: np.ndarray,
+                  t: np.ndarray, curves: dict[str, np.ndarray]) -> tuple[list, dict, list]:
+    """Over the strides of the left foot (strike sample indices ``left``): ``(COM vertical
+    excursions, cycle curves by name, pelvis rotation ranges)``."""
     excursions, cycles = [], {k: [] for k in [*curves, "pelvis_rotation"]}
     grid = np.linspace(0.0, 1.0, CYCLE_SAMPLES)
     yaws = _stride_yaws(pos["left_hip"], pos["right_hip"], root, left)
@@ -318,24 +379,7 @@ def analyse(model: mujoco.MjModel, times, qpos, *, start: float = 0.0,
         if a0 in yaws:
             cycles["pelvis_rotation"].append(np.interp(grid, phase, yaws[a0]))
     rotations = [float(np.ptp(y)) for y in yaws.values()]
-
-    def mean(v):
-        return float(np.mean(v)) if len(v) else None
-
-    return GaitStats(
-        label=label, duration_s=duration, speed_mps=speed,
-        cadence_spm=60.0 / float(np.mean(step_times)) if step_times else None,
-        step_length_m=mean(lengths), step_width_m=mean(widths), steps=len(lengths),
-        stance_fraction=mean(fractions),
-        double_support_fraction=float(both.mean()) if lengths else None,
-        trunk_lean_deg=float(lean.mean()), trunk_lean_range_deg=float(np.ptp(lean)),
-        pelvis_rotation_deg=mean(rotations),
-        knee_flexion_deg=float(np.mean(knees)), hip_flexion_deg=float(np.mean(hips)),
-        foot_clearance_m=mean(clearances), stance_slip_m=mean(slips),
-        com_excursion_m=mean(excursions),
-        cycle_mean={k: np.mean(v, axis=0) for k, v in cycles.items() if v},
-        cycle_std={k: np.std(v, axis=0) for k, v in cycles.items() if v},
-        strides=len(excursions), left_strikes=[float(t[a]) for a in left])
+    return excursions, cycles, rotations
 
 
 def clip_walk(path: str | os.PathLike, *, model=None):

@@ -90,31 +90,11 @@ def fast_frames(body: str, n_frames: int | None, n_ch: int) -> np.ndarray | None
     work = _SCRATCH
     b = np.frombuffer(raw, dtype=np.uint8)
     n = len(b)
-    # tokens: maximal runs of non-separators, [starts, ends)
-    solid = work.get("solid", n + 2, bool)
-    solid[0] = solid[-1] = False
-    np.greater(b, 32, out=solid[1:-1])
-    flags = work.get("flags", n + 1, bool)
-    np.not_equal(solid[1:], solid[:-1], out=flags)
-    bounds = np.flatnonzero(flags)
-    starts, ends = bounds[0::2], bounds[1::2]
+    starts, ends, flags = _token_bounds(b, work)
     # byte classes, one at a time in the same work array
     is_ = flags[:n]
-    n_signs = int(np.count_nonzero(np.equal(b, 45, out=is_)))
-    n_signs += int(np.count_nonzero(np.equal(b, 43, out=is_)))
-    n_dots = int(np.count_nonzero(np.equal(b, 46, out=is_)))
-    dots = np.flatnonzero(is_) if n_dots != len(starts) or n_dots == 0 else None
-    # line breaks: LF, CRLF or a lone CR
-    breaks = np.flatnonzero(np.equal(b, 13, out=is_))  # CRs
-    if not len(breaks):
-        breaks = np.flatnonzero(np.equal(b, 10, out=is_))  # LF only
-    elif breaks[-1] + 1 < n and int(np.count_nonzero(np.equal(b, 10, out=is_))) == len(breaks) \
-            and bool(np.all(b[breaks + 1] == 10)):
-        pass  # CRLF only: the CRs mark the breaks
-    else:  # mixed, or lone CRs: a CR not followed by LF and every LF
-        lone = np.equal(b, 13, out=is_).copy()
-        lone[:-1] &= b[1:] != 10
-        breaks = np.flatnonzero(lone | (b == 10))
+    n_signs, n_dots, dots = _signs_and_dots(b, is_, len(starts))
+    breaks = _line_breaks(b, is_)
     # tokens per line: only whole, well-formed frames take this path
     per_line = np.diff(np.searchsorted(starts, np.concatenate([breaks, [n]])), prepend=0)
     rows = per_line[per_line > 0]
@@ -130,9 +110,73 @@ def fast_frames(body: str, n_frames: int | None, n_ch: int) -> np.ndarray | None
     signed = neg | (first == 43)
     if int(np.count_nonzero(signed)) != n_signs:
         return None  # a sign that is not a token's first character
-    # decimal points: at most one per token. Common case: every token has the same number of
-    # decimals (a fixed "%.Nf" writer); then a '.' sits N bytes before each token's end, and if
-    # the text holds no other dots, each token holds exactly that one.
+    layout = _dot_layout(raw, b, starts, ends, lens, n_dots, dots)
+    if layout is None:
+        return None
+    redo = _long_tokens(lens, signed, layout[1])
+    if redo is None:
+        return None
+    values = _values(digits, ends, lens, neg, layout, work)
+    for r in range(int(np.searchsorted(ends, 16))):  # no 16-byte window: let Python read them
+        values[r] = float(raw[starts[r]:ends[r]])
+    for r in redo:  # too long for an exact 15-digit mantissa: let Python round it
+        values[r] = float(raw[starts[r]:ends[r]])
+    if len(redo) and not np.all(np.isfinite(values[redo])):
+        return None
+    return values.reshape(n_frames, n_ch)
+
+
+def _token_bounds(b: np.ndarray, work: _Scratch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(starts, ends, flags)``: the tokens of ``b`` (maximal runs of bytes above the space,
+    ``[starts, ends)``) and the ``(n + 1,)`` bool work array they were found with."""
+    n = len(b)
+    solid = work.get("solid", n + 2, bool)
+    solid[0] = solid[-1] = False
+    np.greater(b, 32, out=solid[1:-1])
+    flags = work.get("flags", n + 1, bool)
+    np.not_equal(solid[1:], solid[:-1], out=flags)
+    bounds = np.flatnonzero(flags)
+    return bounds[0::2], bounds[1::2], flags
+
+
+def _signs_and_dots(b: np.ndarray, is_: np.ndarray,
+                    n_tok: int) -> tuple[int, int, np.ndarray | None]:
+    """``(signs, dots, dot positions)`` in ``b`` (the positions only when the dots cannot be
+    one per token; ``is_``: an ``(n,)`` bool work array)."""
+    n_signs = int(np.count_nonzero(np.equal(b, 45, out=is_)))
+    n_signs += int(np.count_nonzero(np.equal(b, 43, out=is_)))
+    n_dots = int(np.count_nonzero(np.equal(b, 46, out=is_)))
+    dots = np.flatnonzero(is_) if n_dots != n_tok or n_dots == 0 else None
+    return n_signs, n_dots, dots
+
+
+def _line_breaks(b: np.ndarray, is_: np.ndarray) -> np.ndarray:
+    """Positions of the line breaks in ``b``: LF, CRLF or a lone CR (``is_``: an ``(n,)``
+    bool work array)."""
+    n = len(b)
+    breaks = np.flatnonzero(np.equal(b, 13, out=is_))  # CRs
+    if not len(breaks):
+        breaks = np.flatnonzero(np.equal(b, 10, out=is_))  # LF only
+    elif breaks[-1] + 1 < n and int(np.count_nonzero(np.equal(b, 10, out=is_))) == len(breaks) \
+            and bool(np.all(b[breaks + 1] == 10)):
+        pass  # CRLF only: the CRs mark the breaks
+    else:  # mixed, or lone CRs: a CR not followed by LF and every LF
+        lone = np.equal(b, 13, out=is_).copy()
+        lone[:-1] &= b[1:] != 10
+        breaks = np.flatnonzero(lone | (b == 10))
+    return breaks
+
+
+def _dot_layout(raw: bytes, b: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                lens: np.ndarray, n_dots: int, dots: np.ndarray | None) -> tuple | None:
+    """Where the decimal points are: ``(fixed, has_dot, all_dots, decimals)``, ``fixed`` the
+    decimals every token has (a fixed ``"%.Nf"`` writer) or -1, ``has_dot`` per token (or
+    ``True``), ``decimals`` per token (``None`` when fixed); ``None`` when a token holds two
+    dots."""
+    n_tok = len(starts)
+    # Common case: every token has the same number of decimals (a fixed "%.Nf" writer); then a
+    # '.' sits N bytes before each token's end, and if the text holds no other dots, each token
+    # holds exactly that one.
     first_dot = raw.find(b".", int(starts[0]), int(ends[0]))
     fixed = -1 if first_dot < 0 else int(ends[0]) - 1 - first_dot
     if not (n_dots == n_tok and fixed >= 0 and bool(np.all(lens > fixed))
@@ -153,8 +197,12 @@ def fast_frames(body: str, n_frames: int | None, n_ch: int) -> np.ndarray | None
         has_dot[owner] = True
         decimals = np.zeros(n_tok, dtype=np.intp)
         decimals[owner] = ends[owner] - 1 - dots
-    # digits per token: at least 1 ('-', '.', '-.' are not numbers), at most 15 for an exact
-    # float64 mantissa (longer tokens are redone with float() below)
+    return fixed, has_dot, all_dots, decimals
+
+
+def _long_tokens(lens: np.ndarray, signed: np.ndarray, has_dot) -> np.ndarray | None:
+    """Indices of the tokens with more digits than an exact float64 mantissa holds (redone
+    with ``float()``); ``None`` when a token has no digit ('-', '.', '-.' are not numbers)."""
     lo, hi = int(lens.min()), int(lens.max())
     redo = np.zeros(0, dtype=np.intp)
     if lo <= 2 or hi > _MAX_FAST_DIGITS:
@@ -162,6 +210,16 @@ def fast_frames(body: str, n_frames: int | None, n_ch: int) -> np.ndarray | None
         if np.any(n_dig < 1):
             return None
         redo = np.flatnonzero((n_dig > _MAX_FAST_DIGITS) | (lens > 16))
+    return redo
+
+
+def _values(digits: bytes, ends: np.ndarray, lens: np.ndarray, neg: np.ndarray, layout: tuple,
+            work: _Scratch) -> np.ndarray:
+    """``(n_tok,)`` the tokens' values from the 16 digit bytes ending at each token's end
+    (``lens`` is clipped to 16 in place); the tokens ending in the first 16 bytes have no such
+    window and are left for the caller to redo."""
+    fixed, has_dot, all_dots, decimals = layout
+    n, n_tok = len(digits), len(ends)
     # the 16 bytes ending at each token's end, as two little-endian words (the few tokens
     # ending in the first 16 bytes have no such window: they are redone with float() too)
     first_full = int(np.searchsorted(ends, 16))
@@ -193,10 +251,4 @@ def fast_frames(body: str, n_frames: int | None, n_ch: int) -> np.ndarray | None
     sign = np.multiply(neg, -2.0, out=work.get("sign", n_tok, np.float64))
     sign += 1.0
     values *= sign
-    for r in range(first_full):
-        values[r] = float(raw[starts[r]:ends[r]])
-    for r in redo:  # too long for an exact 15-digit mantissa: let Python round it
-        values[r] = float(raw[starts[r]:ends[r]])
-    if len(redo) and not np.all(np.isfinite(values[redo])):
-        return None
-    return values.reshape(n_frames, n_ch)
+    return values

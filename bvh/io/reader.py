@@ -289,6 +289,12 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
     """Skeleton from the header lines (everything before the 'MOTION' line), token by token:
     the general parser, and the one reporting every error (see also :func:`_hierarchy_fast`).
     """
+    return _HierarchyParser(lines, motion_line, path).parse()
+
+
+def _header_tokens(lines: list[str], path: str | None) -> tuple[list[str], list[int]]:
+    """``(words, lines)``: the header's words (braces are words of their own) and the 1-based
+    line of each; refused past :data:`MAX_HEADER_WORDS`."""
     texts: list[str] = []
     tok_lines: list[int] = []
     for i, ln in enumerate(lines, start=1):
@@ -300,37 +306,108 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
         if len(texts) > MAX_HEADER_WORDS:
             raise BVHError(f"the hierarchy holds more than {MAX_HEADER_WORDS} words by this "
                            f"line: more than the {MAX_JOINTS} joints read", line=i, path=path)
-    n_tok = len(texts)
-    # where the header stops: the MOTION line, or the last line of a file that has none
-    stop_line = motion_line if motion_line is not None else max(len(lines), 1)
-    stop_what = "the 'MOTION' line" if motion_line is not None else "the end of the file"
-    pos = 0
+    return texts, tok_lines
 
-    def err(msg: str, k: int | None = None) -> BVHError:
-        return BVHError(msg, line=tok_lines[k] if k is not None else stop_line, path=path)
 
-    def take(expected: str) -> int:
-        nonlocal pos
-        if pos >= n_tok:
-            raise err(f"expected {expected}, found {stop_what}")
-        pos += 1
-        return pos - 1
+class _HierarchyParser:
+    """The token parser of :func:`_parse_hierarchy`: the header's words, a read position, and
+    the skeleton's joints and end sites as they are read."""
 
-    def expect(word: str, context: str) -> int:
-        k = take(f"{word!r}{context}")
-        if texts[k].upper() != word.upper():
-            raise err(f"expected {word!r}{context}, found {texts[k]!r}", k)
+    def __init__(self, lines: list[str], motion_line: int | None, path: str | None) -> None:
+        self.path = path
+        self.texts, self.tok_lines = _header_tokens(lines, path)
+        self.n_tok = len(self.texts)
+        # where the header stops: the MOTION line, or the last line of a file that has none
+        self.stop_line = motion_line if motion_line is not None else max(len(lines), 1)
+        self.stop_what = ("the 'MOTION' line" if motion_line is not None
+                          else "the end of the file")
+        self.pos = 0
+        self.names: list[str] = []
+        self.name_lines: dict[str, int] = {}
+        self.parents: list[int] = []
+        self.offsets: list[list[float]] = []
+        self.channels: list[tuple[str, ...]] = []
+        self.es_parents: list[int] = []
+        self.es_offsets: list[list[float]] = []
+        self.open_lines: list[int] = []  # line of the '{' of each open joint
+        self.stack: list[int] = []  # open joints, innermost last
+
+    def parse(self) -> Skeleton:
+        """'HIERARCHY', the ROOT joint and everything inside it, nothing after it."""
+        texts, err = self.texts, self.err
+        if not self.n_tok:
+            raise err(f"expected 'HIERARCHY' and a 'ROOT' joint, found {self.stop_what}")
+        k = self.take("'HIERARCHY'")
+        if texts[k].upper() != "HIERARCHY":
+            raise err(f"expected 'HIERARCHY' at the start of the file, found {texts[k]!r}", k)
+        k = self.take("'ROOT' after 'HIERARCHY'")
+        if texts[k].upper() != "ROOT":
+            raise err(f"expected 'ROOT', found {texts[k]!r}", k)
+        self.joint(k, -1)
+        while self.stack:
+            self.item()
+        if self.pos < self.n_tok:
+            if texts[self.pos].upper() == "ROOT":
+                raise err("a second ROOT is not supported: expected one skeleton per file",
+                          self.pos)
+            raise err(f"unexpected {texts[self.pos]!r} after the ROOT joint's closing '}}', "
+                      f"expected 'MOTION'", self.pos)
+        return Skeleton(self.names, np.array(self.parents, dtype=int),
+                        np.array(self.offsets, dtype=float).reshape(-1, 3), self.channels,
+                        np.array(self.es_parents, dtype=int),
+                        np.array(self.es_offsets, dtype=float).reshape(-1, 3))
+
+    def item(self) -> None:
+        """The next item inside the innermost open joint: its closing '}', a JOINT or an End
+        Site."""
+        texts, err = self.texts, self.err
+        j = self.stack[-1]
+        if self.pos >= self.n_tok:
+            raise err(f"expected 'JOINT', 'End Site' or '}}' closing joint {self.names[j]!r} "
+                      f"(opened on line {self.open_lines[-1]}), found {self.stop_what}")
+        k = self.pos
+        self.pos += 1
+        word = texts[k].upper()
+        if word == "}":
+            self.stack.pop()
+            self.open_lines.pop()
+        elif word == "JOINT":
+            self.joint(k, j)
+        elif word == "END":
+            self.end_site(j)
+        else:
+            raise err(f"expected 'JOINT', 'End Site' or '}}' in joint {self.names[j]!r}, found "
+                      f"{texts[k]!r}", k)
+
+    def err(self, msg: str, k: int | None = None) -> BVHError:
+        """The error ``msg`` at the line of word ``k`` (or where the header stops)."""
+        return BVHError(msg, line=self.tok_lines[k] if k is not None else self.stop_line,
+                        path=self.path)
+
+    def take(self, expected: str) -> int:
+        """The index of the next word (``expected`` names it when there is none)."""
+        if self.pos >= self.n_tok:
+            raise self.err(f"expected {expected}, found {self.stop_what}")
+        self.pos += 1
+        return self.pos - 1
+
+    def expect(self, word: str, context: str) -> int:
+        """The index of the next word, which must be ``word`` (any case)."""
+        k = self.take(f"{word!r}{context}")
+        if self.texts[k].upper() != word.upper():
+            raise self.err(f"expected {word!r}{context}, found {self.texts[k]!r}", k)
         return k
 
-    def offset(what: str) -> list[float]:
-        nonlocal pos
-        kw = expect("OFFSET", f" in {what}")
+    def offset(self, what: str) -> list[float]:
+        """'OFFSET' and its 3 finite numbers within :data:`MAX_OFFSET` (of ``what``)."""
+        texts, tok_lines, err = self.texts, self.tok_lines, self.err
+        kw = self.expect("OFFSET", f" in {what}")
         out = []
         for _ in range(3):
-            if pos >= n_tok:
-                raise err(f"OFFSET of {what} needs 3 numbers, found {len(out)} before {stop_what}",
-                          kw)
-            k = pos
+            if self.pos >= self.n_tok:
+                raise err(f"OFFSET of {what} needs 3 numbers, found {len(out)} before "
+                          f"{self.stop_what}", kw)
+            k = self.pos
             tok = texts[k]
             if tok_lines[k] != tok_lines[kw]:  # numbers continue on another line: unusual
                 if not _is_number(tok):
@@ -344,28 +421,35 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
                 raise err(f"OFFSET of {what}: {tok} cannot be a length on a body (expected "
                           f"within +-{MAX_OFFSET:g} file units, 100 m in millimetres)", k)
             out.append(v)
-            pos += 1
+            self.pos += 1
         return out
 
-    names: list[str] = []
-    name_lines: dict[str, int] = {}
-    parents: list[int] = []
-    offsets: list[list[float]] = []
-    channels: list[tuple[str, ...]] = []
-    es_parents: list[int] = []
-    es_offsets: list[list[float]] = []
-    open_lines: list[int] = []  # line of the '{' of each open joint
-    stack: list[int] = []  # open joints, innermost last
+    def joint(self, kw: int, parent: int) -> None:
+        """A ROOT or JOINT (keyword at word ``kw``): its name, '{', OFFSET and CHANNELS; it
+        stays open for its children."""
+        name = self.joint_name(kw)
+        brace = self.expect("{", f" after joint name {name!r}")
+        off = self.offset(f"joint {name!r}")
+        chans = self.channel_list(name)
+        self.names.append(name)
+        self.parents.append(parent)
+        self.offsets.append(off)
+        self.channels.append(chans)
+        self.stack.append(len(self.names) - 1)
+        self.open_lines.append(self.tok_lines[brace])
 
-    def joint(kw: int, parent: int) -> None:
-        nonlocal pos
-        if len(names) >= MAX_JOINTS:
+    def joint_name(self, kw: int) -> str:
+        """The joint's name: the words after its keyword on the same line, up to a '{'
+        (printable, not a duplicate, at most :data:`MAX_JOINTS` joints)."""
+        texts, tok_lines, err = self.texts, self.tok_lines, self.err
+        if len(self.names) >= MAX_JOINTS:
             raise err(f"more than {MAX_JOINTS} joints: far more than a body has (a rig with "
                       f"fingers and a face has a few hundred)", kw)
         parts = []
-        while pos < n_tok and tok_lines[pos] == tok_lines[kw] and texts[pos] != "{":
-            parts.append(texts[pos])
-            pos += 1
+        while self.pos < self.n_tok and tok_lines[self.pos] == tok_lines[kw] \
+                and texts[self.pos] != "{":
+            parts.append(texts[self.pos])
+            self.pos += 1
         if not parts:
             raise err(f"expected a joint name after {texts[kw]}", kw)
         name = " ".join(parts)
@@ -373,16 +457,20 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
         if bad:
             raise err(f"joint name {name[:60]!r} holds a control character (U+"
                       f"{ord(bad.group()):04X}): names are printable text; remove it", kw)
-        if name in name_lines:
-            raise err(f"duplicate joint name {name!r} (first defined on line {name_lines[name]})",
-                      kw)
-        name_lines[name] = tok_lines[kw]
-        brace = expect("{", f" after joint name {name!r}")
-        off = offset(f"joint {name!r}")
-        ck = take(f"'CHANNELS' for joint {name!r}")
+        if name in self.name_lines:
+            raise err(f"duplicate joint name {name!r} (first defined on line "
+                      f"{self.name_lines[name]})", kw)
+        self.name_lines[name] = tok_lines[kw]
+        return name
+
+    def channel_list(self, name: str) -> tuple[str, ...]:
+        """'CHANNELS', a count of 0-6 and that many distinct channel names (of joint
+        ``name``)."""
+        texts, tok_lines, err = self.texts, self.tok_lines, self.err
+        ck = self.take(f"'CHANNELS' for joint {name!r}")
         if texts[ck].upper() != "CHANNELS":
             raise err(f"expected 'CHANNELS' for joint {name!r}, found {texts[ck]!r}", ck)
-        nk = take("a channel count")
+        nk = self.take("a channel count")
         if not (texts[nk].isascii() and texts[nk].isdigit()):
             raise err(f"expected a channel count (0-6) after CHANNELS, found {texts[nk]!r}", nk)
         n = int(texts[nk])
@@ -390,70 +478,32 @@ def _parse_hierarchy(lines: list[str], motion_line: int | None, path: str | None
             raise err(f"expected a channel count between 0 and 6, found {n}", nk)
         chans: list[str] = []
         for _ in range(n):
-            if pos >= n_tok:
+            if self.pos >= self.n_tok:
                 raise err(f"CHANNELS of joint {name!r} declares {n} channels, found {len(chans)} "
-                          f"before {stop_what}", ck)
-            c = _CHANNEL_BY_LOWER.get(texts[pos].lower())
+                          f"before {self.stop_what}", ck)
+            c = _CHANNEL_BY_LOWER.get(texts[self.pos].lower())
             if c is None:
-                if tok_lines[pos] != tok_lines[ck]:
+                if tok_lines[self.pos] != tok_lines[ck]:
                     raise err(f"CHANNELS of joint {name!r} declares {n} channels but lists "
                               f"{len(chans)}", ck)
                 raise err(f"expected a channel name ({', '.join(VALID_CHANNELS)}), found "
-                          f"{texts[pos]!r}", pos)
+                          f"{texts[self.pos]!r}", self.pos)
             if c in chans:
-                raise err(f"channel {c} repeated for joint {name!r}", pos)
+                raise err(f"channel {c} repeated for joint {name!r}", self.pos)
             chans.append(c)
-            pos += 1
-        names.append(name)
-        parents.append(parent)
-        offsets.append(off)
-        channels.append(tuple(chans))
-        stack.append(len(names) - 1)
-        open_lines.append(tok_lines[brace])
+            self.pos += 1
+        return tuple(chans)
 
-    if not n_tok:
-        raise err(f"expected 'HIERARCHY' and a 'ROOT' joint, found {stop_what}")
-    k = take("'HIERARCHY'")
-    if texts[k].upper() != "HIERARCHY":
-        raise err(f"expected 'HIERARCHY' at the start of the file, found {texts[k]!r}", k)
-    k = take("'ROOT' after 'HIERARCHY'")
-    if texts[k].upper() != "ROOT":
-        raise err(f"expected 'ROOT', found {texts[k]!r}", k)
-    joint(k, -1)
-    while stack:
-        j = stack[-1]
-        if pos >= n_tok:
-            raise err(f"expected 'JOINT', 'End Site' or '}}' closing joint {names[j]!r} (opened "
-                      f"on line {open_lines[-1]}), found {stop_what}")
-        k = pos
-        pos += 1
-        word = texts[k].upper()
-        if word == "}":
-            stack.pop()
-            open_lines.pop()
-        elif word == "JOINT":
-            joint(k, j)
-        elif word == "END":
-            s = take("'Site' after 'End'")
-            if texts[s].upper() != "SITE":
-                raise err(f"expected 'Site' after 'End', found {texts[s]!r}", s)
-            what = f"the End Site of joint {names[j]!r}"
-            expect("{", f" after 'End Site' of joint {names[j]!r}")
-            es_offsets.append(offset(what))
-            es_parents.append(j)
-            expect("}", f" closing {what}")
-        else:
-            raise err(f"expected 'JOINT', 'End Site' or '}}' in joint {names[j]!r}, found "
-                      f"{texts[k]!r}", k)
-    if pos < n_tok:
-        if texts[pos].upper() == "ROOT":
-            raise err("a second ROOT is not supported: expected one skeleton per file", pos)
-        raise err(f"unexpected {texts[pos]!r} after the ROOT joint's closing '}}', expected "
-                  f"'MOTION'", pos)
-    return Skeleton(names, np.array(parents, dtype=int),
-                    np.array(offsets, dtype=float).reshape(-1, 3), channels,
-                    np.array(es_parents, dtype=int),
-                    np.array(es_offsets, dtype=float).reshape(-1, 3))
+    def end_site(self, j: int) -> None:
+        """'Site' (after 'End'), '{', OFFSET and '}' of an End Site of joint ``j``."""
+        s = self.take("'Site' after 'End'")
+        if self.texts[s].upper() != "SITE":
+            raise self.err(f"expected 'Site' after 'End', found {self.texts[s]!r}", s)
+        what = f"the End Site of joint {self.names[j]!r}"
+        self.expect("{", f" after 'End Site' of joint {self.names[j]!r}")
+        self.es_offsets.append(self.offset(what))
+        self.es_parents.append(j)
+        self.expect("}", f" closing {what}")
 
 
 _CHANNEL_LISTS: dict[str, tuple[str, ...] | None] = {}

@@ -49,6 +49,7 @@ from mjchar.bvh.mjcf.geometry import _floor_offset, _geom_top, _geometry
 from mjchar.bvh.mjcf.info import ConversionError, JointInfo, ModelInfo, source_record
 from mjchar.bvh.mjcf.layout import (
     _basis_matrix,
+    _Body,
     _layout,
     _select,
     default_drop,  # noqa: F401  (public: mjchar.bvh.mjcf imports it from here)
@@ -60,6 +61,7 @@ from mjchar.bvh.mjcf.writer import (
     AXIS_INDEX,  # noqa: F401  (kept importable from mjchar.bvh.mjcf.builder)
     _write_xml,
 )
+from mjchar.bvh.rigs.naming import Recognition
 from mjchar.bvh.rigs.units import AXIS_VECTORS, HEIGHT_RANGE_M, unit_name, unit_scale
 from mjchar.bvh.rotations import from_rotation
 
@@ -181,8 +183,33 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
             f"the skeleton has {source_skeleton.n_joints} joint(s); a humanoid needs a root "
             "with legs")
     prep = prepare(source_motion, source_skeleton, opts["unit"], opts["up_axis"], role_map)
-    motion, skeleton, scale, up, rec = prep.motion, prep.skeleton, prep.scale, prep.up, prep.rec
+    skeleton, scale, rec = prep.skeleton, prep.scale, prep.rec
     warns: list[str] = list(prep.warnings)
+    B, basis = _basis(rec, prep.up, warns)
+    sel = _select(skeleton, rec, joint_model, drop, fuse, scale, warns)
+    bodies = _layout(skeleton, rec, sel, B, scale)
+    _role_warnings(skeleton, rec, bodies, warns)
+    top = _geometry(skeleton, rec, sel, bodies, B, scale)
+    offset = _floor_offset(bodies)
+    # standing height: the top of the skeleton (or of the body, e.g. a head capsule above a
+    # head joint with no end site) above the floor
+    height = max(top, _geom_top(bodies)) + offset[2]
+    _masses(bodies, opts["total_mass"])
+    _joints(skeleton, bodies, joint_model, prep.motion, B)
+    gains_table = _load_gains(gains)
+    actuators = _actuators(bodies, joint_model, opts["total_mass"], gains_table, skeleton)
+    info = _joint_map(prep, source_skeleton, joint_model, bodies, sel, basis, offset, height,
+                      opts["total_mass"])
+    xml = _write_xml(model_name or default_name, bodies, actuators, info, offset,
+                     opts["timestep"], skeleton)
+    summary = _summary(prep, bodies, actuators, info, height, warns)
+    return ConvertedModel(xml=xml, info=info, warnings=warns, skeleton=skeleton,
+                          motion=source_motion, summary=summary, prepared=prep)
+
+
+def _basis(rec: Recognition, up: str, warns: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Step 1: ``(B, basis)``, the rotation matrix from file axes to MuJoCo's and its
+    quaternion (``w >= 0``); a note in ``warns`` when no left/right pair tells the left."""
     if rec.left_axis is None:
         warns.append("no left/right joint pairs recognised: assuming the character's left is "
                      "the file's +X axis")
@@ -190,8 +217,12 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     basis = from_rotation(Rotation.from_matrix(B))
     if basis[0] < 0:
         basis = -basis
-    sel = _select(skeleton, rec, joint_model, drop, fuse, scale, warns)
-    bodies = _layout(skeleton, rec, sel, B, scale)
+    return B, basis
+
+
+def _role_warnings(skeleton: Skeleton, rec: Recognition, bodies: dict[int, _Body],
+                   warns: list[str]) -> None:
+    """Notes on the kept joints of unknown role and on the roles found from the shape."""
     if rec.unrecognised:
         kept_unknown = [n for n in rec.unrecognised if skeleton.index(n) in bodies]
         if kept_unknown:
@@ -200,16 +231,14 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     if rec.by_structure:
         warns.append("roles found from the hierarchy's shape, not names: "
                      + ", ".join(f"{n}={rec.joint_roles[n]}" for n in rec.by_structure))
-    top = _geometry(skeleton, rec, sel, bodies, B, scale)
-    offset = _floor_offset(bodies)
-    # standing height: the top of the skeleton (or of the body, e.g. a head capsule above a
-    # head joint with no end site) above the floor
-    height = max(top, _geom_top(bodies)) + offset[2]
-    _masses(bodies, opts["total_mass"])
-    _joints(skeleton, bodies, joint_model, motion, B)
-    gains_table = _load_gains(gains)
-    actuators = _actuators(bodies, joint_model, opts["total_mass"], gains_table, skeleton)
 
+
+def _joint_map(prep: Prepared, source_skeleton: Skeleton, joint_model: str,
+               bodies: dict[int, _Body], sel: dict, basis: np.ndarray, offset: np.ndarray,
+               height: float, total_mass: float) -> ModelInfo:
+    """The :class:`ModelInfo` written into the model: each kept joint's body and joints, the
+    roles of kept joints, what was dropped or fused, sites, foot geoms and the source rig."""
+    skeleton, rec = prep.skeleton, prep.rec
     names = skeleton.names
     joints_meta = {}
     for j, b in bodies.items():
@@ -227,8 +256,8 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     sites = {sn: b.name for b in bodies.values() for sn in b.sites}
     info = ModelInfo(
         joint_model=joint_model,
-        unit_scale=_round(scale),
-        up_axis=up,
+        unit_scale=_round(prep.scale),
+        up_axis=prep.up,
         basis=np.array([_round(x) for x in basis]),
         offset=np.array([_round(x) for x in offset]),
         joints=joints_meta,
@@ -237,18 +266,24 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
         fused_into={names[j]: names[sel["into"][j]] for j in sorted(sel["removed"])},
         extra={
             "height": _round(height),
-            "total_mass": _round(opts["total_mass"]),
+            "total_mass": _round(total_mass),
             "sites": sites,
             "foot_geoms": foot_geoms,
             "fused": [names[j] for j in sorted(sel["fused"])],
-            "source": source_record(skeleton, motion),
+            "source": source_record(skeleton, prep.motion),
         },
     )
     if prep.record:  # with the file's own hierarchy, so an export can go back to it
         info.extra["rig"] = dict(prep.record,
                                  original=source_record(source_skeleton)["hierarchy"])
-    xml = _write_xml(model_name or default_name, bodies, actuators, info, offset,
-                     opts["timestep"], skeleton)
+    return info
+
+
+def _summary(prep: Prepared, bodies: dict[int, _Body], actuators: list[dict], info: ModelInfo,
+             height: float, warns: list[str]) -> dict:
+    """:attr:`ConvertedModel.summary`; the warning of a body outside the usual heights is
+    added to ``warns`` too."""
+    scale = prep.scale
     n_dofs = 6 + sum(1 if jt["type"] == "hinge" else 3 for b in bodies.values()
                      for jt in b.joints if jt["type"] != "free")
     unit_text = describe_unit(prep)
@@ -259,7 +294,7 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
                           f"unit is wrong ({unit_text}), give it with --unit (m, dm, cm, mm, in, "
                           "ft, cmu or metres per unit)")
         warns.append(height_warning)
-    summary = {
+    return {
         "unit": unit_text,
         "unit_name": prep.unit.name if prep.unit is not None else unit_name(scale),
         "unit_scale": float(scale),
@@ -273,8 +308,6 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
         "dropped": info.dropped,
         "fused": info.extra["fused"],
     }
-    return ConvertedModel(xml=xml, info=info, warnings=warns, skeleton=skeleton,
-                          motion=source_motion, summary=summary, prepared=prep)
 
 
 # ------------------------------------------------------------------------------------------------

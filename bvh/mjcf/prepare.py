@@ -113,6 +113,55 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
     given_up = AXIS_VECTORS[up_axis] if up_axis else None
 
     # 1. a static chain above the pelvis
+    work, clip = _fold_static_root(work, clip, has_motion, given_up, roles, record, warns)
+
+    # 2. bones from translation channels
+    variation: dict[str, float] = {}
+    if any(work.skeleton.has_position_channels()[1:]):
+        work, variation = bones_from_channels(work)
+        record["bones"] = True
+        if has_motion:
+            clip = Clip.of(work)
+
+    # 3. the up axis and the roles
+    sk = work.skeleton
+    up, rec = _up_and_roles(sk, up_axis, given_up, roles, clip)
+    _check_essential_roles(rec, skeleton.names, roles)
+
+    # 4. the canonical rest
+    can = canonical_rest(sk, rec, up, clip)
+    if can.rest is not None:
+        work = rerest(work, can.rest)
+        sk = work.skeleton
+        record["rest"] = {n: [float(x) for x in q] for n, q in zip(sk.names, can.rest,
+                                                                      strict=True)
+                          if not np.array_equal(q, [1.0, 0.0, 0.0, 0.0])}
+        rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
+        warns += _rest_notes(can)
+
+    # 5. the unit from anatomy
+    stature = _stature(sk, rec, up)
+    scale, guess = _unit_scale(stature, unit, warns)
+    _check_span(sk, scale)
+    if has_motion:
+        glitches = find_glitches(work, scale)
+        if glitches:
+            warns.append(f"glitch frames: {glitches.describe()}; trackers repair short runs "
+                         "by interpolation and refuse long ones (the clip is conditioned before "
+                         "tracking)")
+    noisy = {n: v * scale * 1000.0 for n, v in variation.items() if v * scale > BONE_TOLERANCE_M}
+    if noisy:
+        warns.append("translation channels vary (the mean is the bone): "
+                     + ", ".join(f"{n} by {v:.1f} mm" for n, v in noisy.items()))
+    return Prepared(work if has_motion else None, sk, scale, up, rec, record, warns, guess, can,
+                    stature)
+
+
+def _fold_static_root(work: Motion, clip: Clip | None, has_motion: bool,
+                      given_up: np.ndarray | None, roles: dict, record: dict,
+                      warns: list[str]) -> tuple[Motion, Clip | None]:
+    """Step 1: the joints above the pelvis folded into it when they are a static chain (their
+    first pose and the fold kept in ``record``, a note in ``warns``); ``(work, clip)``."""
     rec = recognise(work.skeleton, given_up, roles, clip)
     pelvis = rec.roles.get("pelvis")
     k = work.skeleton.index(pelvis) if isinstance(pelvis, str) else 0
@@ -130,17 +179,13 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
         warns.append(f"joints above the pelvis folded into the root {work.skeleton.names[0]!r}: "
                      + ", ".join(fr["fold"])
                      + (" (with their constant rotation)" if fr["fold_rotation"] else ""))
+    return work, clip
 
-    # 2. bones from translation channels
-    variation: dict[str, float] = {}
-    if any(work.skeleton.has_position_channels()[1:]):
-        work, variation = bones_from_channels(work)
-        record["bones"] = True
-        if has_motion:
-            clip = Clip.of(work)
 
-    # 3. the up axis and the roles
-    sk = work.skeleton
+def _up_and_roles(sk: Skeleton, up_axis: str | None, given_up: np.ndarray | None, roles: dict,
+                  clip: Clip | None) -> tuple[str, Recognition]:
+    """Step 3: the up axis (given, along the legs, or the rest pose's) and the roles found with
+    it; without a role map, a skeleton that is not a standing biped is refused."""
     rec = recognise(sk, given_up, roles, clip)
     up = up_axis or _up_from_legs(sk, rec, clip) or guess_up_axis(sk)
     rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
@@ -153,6 +198,12 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
                 raise
             raise ConversionError(f"{e} (with --up {up_axis}: if that is not the file's up "
                                   "axis, give another or leave it out)") from None
+    return up, rec
+
+
+def _check_essential_roles(rec: Recognition, names: list[str], roles: dict) -> None:
+    """One :class:`ConversionError` listing the essential roles (pelvis, hips, knees, ankles)
+    not found, with how to map them (no legs at all: "not a humanoid")."""
     missing = [r for r in ESSENTIAL_ROLES if r not in rec.roles]
     if missing:
         legs = [r for r in missing if r != "pelvis"]
@@ -161,25 +212,17 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
             problem = "no legs: no knee names and no two limb chains reaching the floor"
         elif problem is None and len(legs) == 3:
             problem = "one leg only"
-        err = missing_roles_error(missing, skeleton.names, rec.roles, problem)
+        err = missing_roles_error(missing, names, rec.roles, problem)
         if len(legs) == 6 and rec.problem is None and not roles:
             err = ConversionError("not a humanoid: no legs (no knee names and no two limb "
                                   "chains of thigh and shank); if it is one, " + str(err))
         raise err
 
-    # 4. the canonical rest
-    can = canonical_rest(sk, rec, up, clip)
-    if can.rest is not None:
-        work = rerest(work, can.rest)
-        sk = work.skeleton
-        record["rest"] = {n: [float(x) for x in q] for n, q in zip(sk.names, can.rest,
-                                                                      strict=True)
-                          if not np.array_equal(q, [1.0, 0.0, 0.0, 0.0])}
-        rec = recognise(sk, AXIS_VECTORS[up], roles, clip)
-        warns += _rest_notes(can)
 
-    # 5. the unit from anatomy
-    stature = _stature(sk, rec, up)
+def _unit_scale(stature: float, unit: float | None,
+                warns: list[str]) -> tuple[float, UnitGuess | None]:
+    """Step 5: metres per file unit, given or guessed from the ``stature`` (file units), and the
+    guess (``None`` when given); a note in ``warns`` when no known unit fits."""
     guess = None
     if unit is not None:
         scale = float(unit)
@@ -190,23 +233,16 @@ def prepare(motion: Motion | None, skeleton: Skeleton, unit: float | None = None
             warns.append(f"no known unit (m, dm, cm, mm, in, ft, cmu) makes this body 1.0-2.3 m "
                          f"tall: the anatomical scale {scale:.6g} m per unit is used (a "
                          f"{guess.height_m:.2f} m stature); pass --unit if you know the file's")
+    return scale, guess
+
+
+def _check_span(sk: Skeleton, scale: float) -> None:
+    """Refuse a rest pose larger than :data:`MAX_SPAN_M` at ``scale`` (not a body)."""
     points = np.vstack([sk.rest_positions(), sk.rest_end_sites().reshape(-1, 3)])
     span = float((points.max(axis=0) - points.min(axis=0)).max()) * scale
     if span > MAX_SPAN_M:
         raise ConversionError(f"the skeleton spans {span:.3g} m at {scale:g} m per unit: not a "
                               f"body (at most {MAX_SPAN_M:g} m; check the OFFSETs or --unit)")
-    if has_motion:
-        glitches = find_glitches(work, scale)
-        if glitches:
-            warns.append(f"glitch frames: {glitches.describe()}; trackers repair short runs "
-                         "by interpolation and refuse long ones (the clip is conditioned before "
-                         "tracking)")
-    noisy = {n: v * scale * 1000.0 for n, v in variation.items() if v * scale > BONE_TOLERANCE_M}
-    if noisy:
-        warns.append("translation channels vary (the mean is the bone): "
-                     + ", ".join(f"{n} by {v:.1f} mm" for n, v in noisy.items()))
-    return Prepared(work if has_motion else None, sk, scale, up, rec, record, warns, guess, can,
-                    stature)
 
 
 def describe_unit(prep: Prepared) -> str:

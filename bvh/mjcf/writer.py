@@ -44,7 +44,26 @@ def _yaw_quat(yaw: float) -> np.ndarray:
 
 def _write_xml(name: str, bodies: dict[int, _Body], actuators: list[dict], info: ModelInfo,
                offset: np.ndarray, timestep: float, sk: Skeleton) -> str:
+    """The MJCF text: the model's settings, the floor and the body tree, the root weld, the
+    actuators and the joint map (see the module docstring)."""
     root_el = ET.Element("mujoco", {"model": name})
+    world = _write_settings(root_el, timestep)
+    root_j = next(iter(bodies))
+    _emit_body(world, bodies, root_j, np.zeros(3), offset)
+    eq = ET.SubElement(root_el, "equality")
+    ET.SubElement(eq, "weld", {"name": "root_weld", "body1": bodies[root_j].name,
+                               "active": "false"})
+    _write_actuators(ET.SubElement(root_el, "actuator"), actuators)
+    custom = ET.SubElement(root_el, "custom")
+    ET.SubElement(custom, "text", {"name": "mjchar",
+                                   "data": json.dumps(info.to_dict(), separators=(", ", ": "))})
+    ET.indent(root_el, space="  ")
+    return ET.tostring(root_el, encoding="unicode") + "\n"
+
+
+def _write_settings(root_el: ET.Element, timestep: float) -> ET.Element:
+    """Compiler, option, visual, default and asset sections, and the world with its light and
+    floor; returns the ``<worldbody>`` element."""
     ET.SubElement(root_el, "compiler", {"angle": "radian", "autolimits": "true"})
     ET.SubElement(root_el, "option", {"timestep": _f(timestep), "integrator": "implicitfast"})
     vis = ET.SubElement(root_el, "visual")
@@ -67,58 +86,72 @@ def _write_xml(name: str, bodies: dict[int, _Body], actuators: list[dict], info:
     ET.SubElement(world, "geom", {"name": "floor", "type": "plane", "size": "0 0 0.05",
                                   "contype": "1", "conaffinity": "1", "friction": _v(T.FRICTION),
                                   "solref": _v(T.SOLREF), "material": "grid"})
+    return world
 
-    def emit(parent_el, j: int, parent_pos: np.ndarray) -> None:
-        b = bodies[j]
-        world_pos = b.pos + offset
-        rel = world_pos - parent_pos
-        el = ET.SubElement(parent_el, "body", {"name": b.name, "pos": _v(rel)})
-        for jt in b.joints:
-            if jt["type"] == "free":
-                ET.SubElement(el, "freejoint", {"name": "root"})
-                continue
-            attrs = {"name": jt["name"], "type": jt["type"]}
-            if jt["type"] == "hinge":
-                axis = [0, 0, 0]
-                axis[AXIS_INDEX[jt["axis"]]] = 1
-                if jt.get("vector") is not None:  # a flexion hinge off the world axes
-                    axis = jt["vector"]
-                attrs["axis"] = _v(axis)
-            if jt.get("range") is not None:
-                attrs["range"] = _v(np.radians(jt["range"]))
-            attrs["armature"] = _f(jt.get("armature", 0.0))
-            attrs["damping"] = _f(jt.get("damping", 0.0))
-            ET.SubElement(el, "joint", attrs)
-        if b.parent < 0:
-            ET.SubElement(el, "camera", {"name": "track", "mode": "trackcom", "pos": "0 -3.5 0.2",
-                                         "xyaxes": "1 0 0 0 0 1"})
-        if not b.geoms:
-            m = b.mass
-            i = m * 0.02 ** 2
-            ET.SubElement(el, "inertial", {"pos": "0 0 0", "mass": _f(m),
-                                           "diaginertia": _v([i] * 3)})
-        for g in b.geoms:
-            if g.kind == "capsule":
-                ET.SubElement(el, "geom", {"name": g.name, "type": "capsule",
-                                           "fromto": _v(np.concatenate([g.a - b.pos, g.b - b.pos])),
-                                           "size": _f(g.radius), "mass": _f(g.mass)})
-            else:
-                attrs = {"name": g.name, "type": "box", "pos": _v(g.center - b.pos),
-                         "size": _v(g.half), "mass": _f(g.mass)}
-                if abs(g.yaw) > 1e-9:
-                    attrs["quat"] = _v(_yaw_quat(g.yaw))
-                ET.SubElement(el, "geom", attrs)
-        for sname in sorted(b.sites):
-            ET.SubElement(el, "site", {"name": sname, "pos": _v(b.sites[sname] - b.pos)})
-        for c in b.children:
-            emit(el, c, world_pos)
 
-    root_j = next(iter(bodies))
-    emit(world, root_j, np.zeros(3))
-    eq = ET.SubElement(root_el, "equality")
-    ET.SubElement(eq, "weld", {"name": "root_weld", "body1": bodies[root_j].name,
-                               "active": "false"})
-    act = ET.SubElement(root_el, "actuator")
+def _emit_body(parent_el: ET.Element, bodies: dict[int, _Body], j: int, parent_pos: np.ndarray,
+               offset: np.ndarray) -> None:
+    """The ``<body>`` of joint ``j`` under ``parent_el`` (placed relative to ``parent_pos``,
+    world), with its joints, geoms and sites, then its children's, depth first."""
+    b = bodies[j]
+    world_pos = b.pos + offset
+    rel = world_pos - parent_pos
+    el = ET.SubElement(parent_el, "body", {"name": b.name, "pos": _v(rel)})
+    _emit_joints(el, b)
+    if b.parent < 0:
+        ET.SubElement(el, "camera", {"name": "track", "mode": "trackcom", "pos": "0 -3.5 0.2",
+                                     "xyaxes": "1 0 0 0 0 1"})
+    _emit_geoms(el, b)
+    for sname in sorted(b.sites):
+        ET.SubElement(el, "site", {"name": sname, "pos": _v(b.sites[sname] - b.pos)})
+    for c in b.children:
+        _emit_body(el, bodies, c, world_pos, offset)
+
+
+def _emit_joints(el: ET.Element, b: _Body) -> None:
+    """The body's joints: the root's freejoint, hinges (axis, range) and balls, with their
+    armature and damping."""
+    for jt in b.joints:
+        if jt["type"] == "free":
+            ET.SubElement(el, "freejoint", {"name": "root"})
+            continue
+        attrs = {"name": jt["name"], "type": jt["type"]}
+        if jt["type"] == "hinge":
+            axis = [0, 0, 0]
+            axis[AXIS_INDEX[jt["axis"]]] = 1
+            if jt.get("vector") is not None:  # a flexion hinge off the world axes
+                axis = jt["vector"]
+            attrs["axis"] = _v(axis)
+        if jt.get("range") is not None:
+            attrs["range"] = _v(np.radians(jt["range"]))
+        attrs["armature"] = _f(jt.get("armature", 0.0))
+        attrs["damping"] = _f(jt.get("damping", 0.0))
+        ET.SubElement(el, "joint", attrs)
+
+
+def _emit_geoms(el: ET.Element, b: _Body) -> None:
+    """The body's capsules and boxes with their masses (a small inertial for a body without
+    geoms)."""
+    if not b.geoms:
+        m = b.mass
+        i = m * 0.02 ** 2
+        ET.SubElement(el, "inertial", {"pos": "0 0 0", "mass": _f(m),
+                                       "diaginertia": _v([i] * 3)})
+    for g in b.geoms:
+        if g.kind == "capsule":
+            ET.SubElement(el, "geom", {"name": g.name, "type": "capsule",
+                                       "fromto": _v(np.concatenate([g.a - b.pos, g.b - b.pos])),
+                                       "size": _f(g.radius), "mass": _f(g.mass)})
+        else:
+            attrs = {"name": g.name, "type": "box", "pos": _v(g.center - b.pos),
+                     "size": _v(g.half), "mass": _f(g.mass)}
+            if abs(g.yaw) > 1e-9:
+                attrs["quat"] = _v(_yaw_quat(g.yaw))
+            ET.SubElement(el, "geom", attrs)
+
+
+def _write_actuators(act: ET.Element, actuators: list[dict]) -> None:
+    """A ``<position>`` per hinge actuator, a ``<motor>`` per ball axis, under ``act``."""
     for a in actuators:
         if a["type"] == "position":
             ET.SubElement(act, "position", {"name": a["name"], "joint": a["joint"],
@@ -128,8 +161,3 @@ def _write_xml(name: str, bodies: dict[int, _Body], actuators: list[dict], info:
             ET.SubElement(act, "motor", {"name": a["name"], "joint": a["joint"],
                                          "gear": _v(a["gear"]),
                                          "forcerange": _v([-a["torque"], a["torque"]])})
-    custom = ET.SubElement(root_el, "custom")
-    ET.SubElement(custom, "text", {"name": "mjchar",
-                                   "data": json.dumps(info.to_dict(), separators=(", ", ": "))})
-    ET.indent(root_el, space="  ")
-    return ET.tostring(root_el, encoding="unicode") + "\n"

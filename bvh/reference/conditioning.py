@@ -170,12 +170,41 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     dt = float(m.frame_time)
     fk = forward_kinematics(m)
     P = fk.positions * scale                                              # (F, J, 3) m
-    horiz = np.eye(3) - np.outer(up, up)
     heights = np.stack([(P[:, js] @ up).min(axis=1) for js in feet], axis=1)    # (F, 2)
-    # each foot's pivots (ankle, toe): (F, 3) horizontal positions, (F,) heights and speeds
+    piv, piv_h, piv_v = _pivots(P, feet, up, dt)
+    # 2. contact labels and the clip's floor
+    contacts, floor = _contacts(heights, piv_h, piv_v, dt)
+    # 3. feet on the floor: the height offset, then each contact frame's float or penetration
+    offset = -floor
+    dz, float_m = _float_correction(contacts, heights, floor)
+    # 4. foot skating: the root follows the pivots that stand
+    standing = _standing_pivots(piv_h, contacts)
+    d, before_mps, slid = _skate_shift(piv, piv_v, standing)
+    shift = (d + (offset + dz)[:, None] * up) / scale                    # (F, 3) file units
+    m.local_positions[:, 0] += shift
+    after = [np.linalg.norm(np.gradient(x + d, dt, axis=0), axis=1)[standing[s][k]]
+             for s in range(2) for k, x in enumerate(piv[s])]
+    after_mps = float(np.median(np.concatenate(after))) if slid else 0.0
+    return Conditioned(m, glitches, repaired, contacts, float(offset), float_m,
+                       (before_mps, after_mps))
+
+
+def _pivots(P: np.ndarray, feet: list[list[int]], up: np.ndarray,
+            dt: float) -> tuple[list, list, list]:
+    """Each foot's pivots (ankle, toe) from the joint positions ``P`` ``(F, J, 3)`` (m):
+    ``(F, 3)`` horizontal positions, ``(F,)`` heights and ``(F,)`` horizontal speeds, per side
+    and pivot."""
+    horiz = np.eye(3) - np.outer(up, up)
     piv = [[P[:, j] @ horiz for j in js] for js in feet]
     piv_h = [[P[:, j] @ up for j in js] for js in feet]
     piv_v = [[np.linalg.norm(np.gradient(x, dt, axis=0), axis=1) for x in side] for side in piv]
+    return piv, piv_h, piv_v
+
+
+def _contacts(heights: np.ndarray, piv_h: list, piv_v: list,
+              dt: float) -> tuple[np.ndarray, float]:
+    """Step 2: ``(contacts (F, 2) bool, floor height m)`` from the feet's lowest heights
+    ``(F, 2)`` and their pivots' heights and speeds (:func:`_pivots`)."""
     # a foot is as slow as its slowest pivot (the heel while it lands, the toe while it pushes)
     speed = np.stack([np.min(side, axis=0) for side in piv_v], axis=1)           # (F, 2)
     slow = speed < CONTACT_SPEED_MPS
@@ -193,27 +222,36 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
     c = contacts.astype(int)
     pad = np.concatenate([c[:1], c, c[-1:]])
     contacts = (pad[:-2] + pad[1:-1] + pad[2:]) >= 2
+    return contacts, floor
 
-    # 3. feet on the floor: the height offset, then each contact frame's float or penetration
-    offset = -floor
-    dz = np.full(m.n_frames, np.nan)
+
+def _float_correction(contacts: np.ndarray, heights: np.ndarray,
+                      floor: float) -> tuple[np.ndarray, float]:
+    """Step 3: ``(dz (F,), float_m)``, the per-frame vertical correction putting the lowest
+    contact foot on the floor (interpolated between contacts, smoothed; zero under
+    :data:`FLOAT_MIN_M` on average) and its mean magnitude over the contact frames."""
+    n_frames = len(heights)
+    dz = np.full(n_frames, np.nan)
     have = contacts.any(axis=1)
     if have.any():
         lowest = np.where(contacts, heights, np.inf).min(axis=1)
         dz[have] = floor - lowest[have]
-        t = np.arange(m.n_frames)
+        t = np.arange(n_frames)
         dz = np.interp(t, t[have], dz[have])
         dz = _smooth(dz, SMOOTH_FRAMES)
     else:
-        dz = np.zeros(m.n_frames)
+        dz = np.zeros(n_frames)
     float_m = float(np.abs(dz[have]).mean()) if have.any() else 0.0
     if float_m < FLOAT_MIN_M:
-        dz, float_m = np.zeros(m.n_frames), 0.0
+        dz, float_m = np.zeros(n_frames), 0.0
+    return dz, float_m
 
-    # 4. foot skating: the root follows the pivots that stand. A pivot (ankle or toe) of a
-    # foot in contact stands while it is at its own standing height (within PIVOT_BAND_M of
-    # its median over the contact frames): the heel while the foot lands, both when it is
-    # flat, the toe while it pushes off; a rolling foot is no skating.
+
+def _standing_pivots(piv_h: list, contacts: np.ndarray) -> list[list[np.ndarray]]:
+    """Per side and pivot, ``(F,)`` bool: the pivot of a foot in contact stands while it is at
+    its own standing height (within :data:`PIVOT_BAND_M` of its median over the contact
+    frames): the heel while the foot lands, both when it is flat, the toe while it pushes
+    off; a rolling foot is no skating."""
     standing = []
     for s in range(2):
         rows = []
@@ -221,12 +259,22 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
             base = float(np.median(h[contacts[:, s]])) if contacts[:, s].any() else float(h.min())
             rows.append(contacts[:, s] & (h - base < PIVOT_BAND_M))
         standing.append(rows)
+    return standing
+
+
+def _skate_shift(piv: list, piv_v: list,
+                 standing: list[list[np.ndarray]]) -> tuple[np.ndarray, float, bool]:
+    """Step 4: ``(d (F, 3), before_mps, slid)``: the horizontal root shift (m) keeping every
+    standing pivot where it began to stand (the mean of their corrections; held between
+    contacts), zero when the standing pivots slide slower than :data:`SKATE_MIN_MPS`
+    (median, ``before_mps``); ``slid``: some pivot stands at all."""
     slide = [v for s in range(2) for k, v in enumerate(piv_v[s]) if standing[s][k].any()
              for v in v[standing[s][k]]]
     before_mps = float(np.median(slide)) if slide else 0.0
-    d = np.zeros((m.n_frames, 3))
+    n_frames = len(piv[0][0])
+    d = np.zeros((n_frames, 3))
     anchors: dict[tuple[int, int], np.ndarray] = {}
-    for t in range(m.n_frames):
+    for t in range(n_frames):
         prev = d[t - 1] if t else np.zeros(3)
         targets = []
         for s in range(2):
@@ -240,11 +288,4 @@ def condition(motion: Motion, info, name: str = "the clip") -> Conditioned:
         d[t] = np.mean(targets, axis=0) if targets else prev
     if before_mps < SKATE_MIN_MPS:
         d = np.zeros_like(d)
-
-    shift = (d + (offset + dz)[:, None] * up) / scale                    # (F, 3) file units
-    m.local_positions[:, 0] += shift
-    after = [np.linalg.norm(np.gradient(x + d, dt, axis=0), axis=1)[standing[s][k]]
-             for s in range(2) for k, x in enumerate(piv[s])]
-    after_mps = float(np.median(np.concatenate(after))) if slide else 0.0
-    return Conditioned(m, glitches, repaired, contacts, float(offset), float_m,
-                       (before_mps, after_mps))
+    return d, before_mps, bool(slide)

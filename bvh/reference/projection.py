@@ -133,6 +133,34 @@ def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
     """
     m, d = model, data
     iterations = np.zeros(len(qpos), dtype=int)
+    dofs, swivel, targets = _limb_targets(m, slots)
+    if not dofs:
+        return qpos, iterations
+    pos_t, rot_t = _model_geometry_positions(model, slots, fk), fk.orientations
+    jacp = np.zeros((3, m.nv))
+    jacr = np.zeros((3, m.nv))
+    out = qpos.copy()
+    prev_delta = np.zeros(m.nv)
+    reg = np.where(np.isin(dofs, swivel), _IK_REG, 0.0)
+    lm = np.diag(reg + _IK_DAMPING ** 2)
+    for f in range(len(qpos)):
+        if progress is not None and f % 25 == 0:
+            progress(f, len(qpos))
+        q_ref = qpos[f]
+        q = alg.integrate(q_ref, prev_delta) if f else q_ref.copy()
+        q, iterations[f] = _correct_frame(m, d, alg, q, q_ref, targets, pos_t[f], rot_t[f],
+                                          dofs, reg, lm, jacp, jacr)
+        out[f] = q
+        prev_delta = alg.diff(q_ref, q)
+    return out, iterations
+
+
+def _limb_targets(m: mujoco.MjModel, slots: list[_Slot]
+                  ) -> tuple[list[int], list[int], list[tuple[str, int, int]]]:
+    """The limbs around reduced (1-2 hinge) bodies: ``(dofs, swivel, targets)``, the limb dofs
+    (sorted), the parents' dofs (where a limb's free swivel lives) and the error terms
+    ``(kind, body, bvh joint)`` (``"mid"``: the hinge body's position; ``"pos"``/``"rot"``:
+    the limb end's position and orientation)."""
     by_body = {s.body: s for s in slots}
     children: dict[int, list[int]] = {}
     for b in range(1, m.nbody):
@@ -162,55 +190,56 @@ def _project_ik(model: mujoco.MjModel, data: mujoco.MjData, slots: list[_Slot],
             targets.append(("mid", s.body, s.bvh))
         targets.append(("pos", eff.body, eff.bvh))
         targets.append(("rot", eff.body, eff.bvh))
-    dofs = sorted(set(dofs))
-    if not dofs:
-        return qpos, iterations
-    pos_t, rot_t = _model_geometry_positions(model, slots, fk), fk.orientations
-    jacp = np.zeros((3, m.nv))
-    jacr = np.zeros((3, m.nv))
+    return sorted(set(dofs)), swivel, targets
+
+
+def _correct_frame(m: mujoco.MjModel, d: mujoco.MjData, alg: _QposAlgebra, q: np.ndarray,
+                   q_ref: np.ndarray, targets: list[tuple[str, int, int]], pos_f: np.ndarray,
+                   rot_f: np.ndarray, dofs: list[int], reg: np.ndarray, lm: np.ndarray,
+                   jacp: np.ndarray, jacr: np.ndarray) -> tuple[np.ndarray, int]:
+    """One frame's damped Gauss-Newton iterations from ``q`` toward the clip's positions
+    ``pos_f`` ``(J, 3)`` and orientations ``rot_f`` ``(J, 4)``, regularised toward ``q_ref``
+    on the swivel dofs; ``(q, iterations)``. ``jacp``, ``jacr``: ``(3, nv)`` work arrays."""
+    for it in range(_IK_MAX_ITER + 1):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        e, jac = _limb_errors(m, d, targets, pos_f, rot_f, jacp, jacr)
+        if it == _IK_MAX_ITER:
+            break
+        jd = jac[:, dofs]
+        back = alg.diff(q, q_ref)[dofs]
+        dq = np.linalg.solve(jd.T @ jd + lm, jd.T @ e + reg * back)
+        step = np.abs(dq).max()
+        if step > _IK_MAX_STEP:
+            dq *= _IK_MAX_STEP / step
+        v = np.zeros(m.nv)
+        v[dofs] = dq
+        q = alg.integrate(q, v)
+        if step < _IK_STEP_TOL:
+            break
+    return q, it
+
+
+def _limb_errors(m: mujoco.MjModel, d: mujoco.MjData, targets: list[tuple[str, int, int]],
+                 pos_f: np.ndarray, rot_f: np.ndarray, jacp: np.ndarray,
+                 jacr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted error rows ``(3 T,)`` of the ``targets`` in the current kinematics of
+    ``d`` and their Jacobian ``(3 T, nv)``."""
     n_rows = 3 * len(targets)
-    out = qpos.copy()
-    prev_delta = np.zeros(m.nv)
-    reg = np.where(np.isin(dofs, swivel), _IK_REG, 0.0)
-    lm = np.diag(reg + _IK_DAMPING ** 2)
-    for f in range(len(qpos)):
-        if progress is not None and f % 25 == 0:
-            progress(f, len(qpos))
-        q_ref = qpos[f]
-        q = alg.integrate(q_ref, prev_delta) if f else q_ref.copy()
-        for it in range(_IK_MAX_ITER + 1):
-            d.qpos[:] = q
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            e = np.empty(n_rows)
-            jac = np.empty((n_rows, m.nv))
-            for k, (kind, body, j) in enumerate(targets):
-                if kind == "mid":
-                    mujoco.mj_jacBody(m, d, jacp, None, body)
-                    e[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * (pos_t[f, j] - d.xpos[body])
-                    jac[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * jacp
-                elif kind == "pos":
-                    mujoco.mj_jacBody(m, d, jacp, jacr, body)
-                    e[3 * k: 3 * k + 3] = pos_t[f, j] - d.xpos[body]
-                    jac[3 * k: 3 * k + 3] = jacp
-                else:  # same body as the "pos" row before it: jacr is current
-                    err = quat_to_rotvec(quat_mul(rot_t[f, j], quat_conj(d.xquat[body])))
-                    e[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * err
-                    jac[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * jacr
-            if it == _IK_MAX_ITER:
-                break
-            jd = jac[:, dofs]
-            back = alg.diff(q, q_ref)[dofs]
-            dq = np.linalg.solve(jd.T @ jd + lm, jd.T @ e + reg * back)
-            step = np.abs(dq).max()
-            if step > _IK_MAX_STEP:
-                dq *= _IK_MAX_STEP / step
-            v = np.zeros(m.nv)
-            v[dofs] = dq
-            q = alg.integrate(q, v)
-            if step < _IK_STEP_TOL:
-                break
-        iterations[f] = it
-        out[f] = q
-        prev_delta = alg.diff(q_ref, q)
-    return out, iterations
+    e = np.empty(n_rows)
+    jac = np.empty((n_rows, m.nv))
+    for k, (kind, body, j) in enumerate(targets):
+        if kind == "mid":
+            mujoco.mj_jacBody(m, d, jacp, None, body)
+            e[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * (pos_f[j] - d.xpos[body])
+            jac[3 * k: 3 * k + 3] = _IK_MID_WEIGHT * jacp
+        elif kind == "pos":
+            mujoco.mj_jacBody(m, d, jacp, jacr, body)
+            e[3 * k: 3 * k + 3] = pos_f[j] - d.xpos[body]
+            jac[3 * k: 3 * k + 3] = jacp
+        else:  # same body as the "pos" row before it: jacr is current
+            err = quat_to_rotvec(quat_mul(rot_f[j], quat_conj(d.xquat[body])))
+            e[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * err
+            jac[3 * k: 3 * k + 3] = _IK_ROT_WEIGHT * jacr
+    return e, jac

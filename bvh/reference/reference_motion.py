@@ -163,19 +163,7 @@ class ReferenceMotion:
         self.info = info if info is not None else _model_info(model)
         self._data = mujoco.MjData(model)
         self._alg = _QposAlgebra(model)
-        rig = self.info.extra.get("rig")
-        if rig:  # the converter normalised the rig (folded root, bones, rest): same steps
-            motion = apply_record(motion, rig, self.info.source()[0])
-        basis = np.asarray(self.info.basis, dtype=float).reshape(4)
-        self.motion = transform_motion(motion, float(self.info.unit_scale), basis)
-        self.frame_time = float(motion.frame_time)
-        self.n_frames = int(motion.n_frames)
-        sk = self.motion.skeleton
-        self._slots = _build_slots(model, self.info, sk)
-        self._root = next(s for s in self._slots if s.kind == "free")
-        self.joint_names = [s.name for s in self._slots]
-        self.joint_body_ids = np.array([s.body for s in self._slots], dtype=int)
-        self._joint_bvh = np.array([s.bvh for s in self._slots], dtype=int)
+        self._set_motion(motion)
 
         fk = forward_kinematics(self.motion)
         qpos = self._map_frames(fk)
@@ -185,13 +173,37 @@ class ReferenceMotion:
         if project and self.projected_joints:
             qpos, self.ik_iterations = _project_ik(self.model, self._data, self._slots,
                                                    self._alg, qpos, fk, progress)
+        self._place_on_floor(qpos, fk, floor)
+        self._set_cycle(qpos, cyclic)
+        self.frame_qvel = self._frame_velocities(qpos)
 
-        # floor placement: lowest foot point over the clip (or of every frame) at z = 0
+    # -- construction helpers ----------------------------------------------------------------------
+    def _set_motion(self, motion: Motion) -> None:
+        """The clip through the converter's rig steps, in metres and MuJoCo axes, and the joint
+        map onto the model's bodies."""
+        rig = self.info.extra.get("rig")
+        if rig:  # the converter normalised the rig (folded root, bones, rest): same steps
+            motion = apply_record(motion, rig, self.info.source()[0])
+        basis = np.asarray(self.info.basis, dtype=float).reshape(4)
+        self.motion = transform_motion(motion, float(self.info.unit_scale), basis)
+        self.frame_time = float(motion.frame_time)
+        self.n_frames = int(motion.n_frames)
+        sk = self.motion.skeleton
+        self._slots = _build_slots(self.model, self.info, sk)
+        self._root = next(s for s in self._slots if s.kind == "free")
+        self.joint_names = [s.name for s in self._slots]
+        self.joint_body_ids = np.array([s.body for s in self._slots], dtype=int)
+        self._joint_bvh = np.array([s.bvh for s in self._slots], dtype=int)
+
+    def _place_on_floor(self, qpos: np.ndarray, fk, floor: str) -> None:
+        """Floor placement (in place on ``qpos``): the lowest foot point over the clip (or of
+        every frame) at z = 0, and with ``"contact"`` each frame's supporting foot on the
+        floor; the joint, end-site and foot points lifted alike."""
         if floor not in FLOOR_MODES:
             raise ReferenceMotionError(
                 f"floor must be one of {', '.join(FLOOR_MODES)}, got {floor!r}")
         self.floor = floor
-        self._feet = _FootPoints(model, self.info)
+        self._feet = _FootPoints(self.model, self.info)
         pts = self._sample_points(qpos)
         all_pts = np.concatenate([p for p in pts.values()], axis=1)
         lowest = (np.min(all_pts[..., 2], axis=1) if all_pts.size
@@ -214,7 +226,10 @@ class ReferenceMotion:
         self._end_sites = end_site_positions(self.motion, fk) + shift  # (F, E, 3)
         self.frame_qpos = qpos
 
-        # loops
+    def _set_cycle(self, qpos: np.ndarray, cyclic: bool | None) -> None:
+        """Whether the clip loops (given, or :meth:`_looks_cyclic`), the seam's floor shift
+        made continuous (in place on ``qpos``), and the heading turned and the root
+        displacement per cycle."""
         rq = qpos[:, self._root.qadr[0] + 3: self._root.qadr[0] + 7]
         heading = heading_angle(rq, up="z")
         rxy = qpos[:, self._root.qadr[0]: self._root.qadr[0] + 2]
@@ -235,9 +250,7 @@ class ReferenceMotion:
         r = np.exp(1j * self.cycle_heading)
         p0, pf = complex(*rxy[0]), complex(*rxy[-1])
         self._cycle_b = pf - r * p0  # M(p) = r p + b (complex horizontal coordinates)
-        self.frame_qvel = self._frame_velocities(qpos)
 
-    # -- construction helpers ----------------------------------------------------------------------
     def _map_frames(self, fk) -> np.ndarray:
         """``(F, nq)`` qpos from the global BVH transforms (exact except for reduced bodies)."""
         n_f = self.n_frames

@@ -118,26 +118,59 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
     Returns:
         A :class:`Recognition`. Never raises: missing roles are simply absent from ``roles``.
     """
-    sk = skeleton
-    n = sk.n_joints
-    names = sk.names
-    rest = sk.rest_positions()
-    children = [sk.children(j) for j in range(n)]
-    role: dict[int, str] = {}
-    by_structure: list[int] = []
+    rr = _Recogniser(skeleton)
+    user = {r: v for r, v in (roles or {}).items()}
+    knees, elbows = rr.anchors(user)
+    # legs: the named knees, else the geometry
+    legs_pair = (structure.find_limbs(skeleton, rr.limb_joints(elbows))[0] if len(knees) < 2
+                 else None)
+    up = rr.up_vector(up, knees, legs_pair, clip)
+    problem, left_geo, legs_by_shape = None, None, False
+    if len(knees) < 2 and legs_pair is not None:
+        shaped, left_geo, problem = structure.side_legs(
+            skeleton, legs_pair, up, clip, lambda a: rr.main_child(a))
+        if shaped:
+            knees, legs_by_shape = shaped, True
+    for s, k in knees.items():
+        rr.leg_chain(s, k, legs_by_shape)
+    # arms: the named elbows, else the geometry (never a joint a name gave a leg)
+    arms_by_shape = rr.arms_by_shape(knees, elbows, left_geo, up, clip)
+    for j, s in elbows.items():
+        rr.arm_chain(j, s, j in arms_by_shape)
+    # trunk, feet, leftovers
+    rr.trunk(legs_by_shape, bool(arms_by_shape), up, clip)
+    rr.feet()
+    rr.leftovers()
+    return rr.recognition(user, up, problem)
 
-    def descendants(j: int) -> list[int]:
-        out, stack = [], list(children[j])
+
+class _Recogniser:
+    """The state of :func:`recognise`: the skeleton's hierarchy and rest pose, the roles found
+    so far (joint -> role, in the order found) and the joints the shape gave."""
+
+    def __init__(self, sk: Skeleton) -> None:
+        self.sk = sk
+        self.n = sk.n_joints
+        self.names = sk.names
+        self.rest = sk.rest_positions()
+        self.children = [sk.children(j) for j in range(self.n)]
+        self.role: dict[int, str] = {}
+        self.by_structure: list[int] = []
+
+    def descendants(self, j: int) -> list[int]:
+        """The joints below ``j``, sorted."""
+        out, stack = [], list(self.children[j])
         while stack:
             c = stack.pop()
             out.append(c)
-            stack.extend(children[c])
+            stack.extend(self.children[c])
         return sorted(out)
 
-    def main_child(j: int, prefer=None) -> int | None:
+    def main_child(self, j: int, prefer=None) -> int | None:
         """The child continuing a limb chain: prefer a named one, skip end/finger markers,
         walk over twist helpers."""
-        cands = [c for c in children[j] if not is_end(names[c]) and not is_finger(names[c])]
+        names = self.names
+        cands = [c for c in self.children[j] if not is_end(names[c]) and not is_finger(names[c])]
         if not cands:
             return None
         if prefer is not None:
@@ -145,210 +178,243 @@ def recognise(skeleton: Skeleton, up: np.ndarray | None = None,
             if named:
                 cands = named
         # the child whose subtree reaches farthest continues the chain
-        c = max(cands, key=lambda c: _reach(sk, rest, descendants, c))
-        if is_twist(names[c]) and children[c]:
-            role.setdefault(c, "twist")
-            return main_child(c, prefer) or c
+        c = max(cands, key=lambda c: _reach(self.sk, self.rest, self.descendants, c))
+        if is_twist(names[c]) and self.children[c]:
+            self.role.setdefault(c, "twist")
+            return self.main_child(c, prefer) or c
         return c
 
-    def upper(j: int) -> int:
+    def upper(self, j: int) -> int:
         """The joint above ``j``, walking over twist helpers."""
-        p = int(sk.parents[j])
-        while p > 0 and is_twist(names[p]):
-            role.setdefault(p, "twist")
-            p = int(sk.parents[p])
+        p = int(self.sk.parents[j])
+        while p > 0 and is_twist(self.names[p]):
+            self.role.setdefault(p, "twist")
+            p = int(self.sk.parents[p])
         return p
 
-    user = {r: v for r, v in (roles or {}).items()}
-    # -- anchors by name (or given) ----------------------------------------------------------------
-    knees: dict[str, int] = {}
-    elbows: dict[int, str] = {}
-    for s in ("left", "right"):
-        if isinstance(user.get(f"{s}_knee"), str) and user[f"{s}_knee"] in names:
-            knees[s] = names.index(user[f"{s}_knee"])
-        if isinstance(user.get(f"{s}_elbow"), str) and user[f"{s}_elbow"] in names:
-            elbows[names.index(user[f"{s}_elbow"])] = s
-    for j in range(1, n):
-        s = side_of(names[j])
-        if s is None:
-            continue
-        if is_knee(names[j]) and s not in knees:
-            knees[s] = j
-        elif is_elbow(names[j]) and j not in elbows and s not in elbows.values() \
-                and j not in knees.values():
-            elbows[j] = s
-
-    def limb_joints(anchors) -> set[int]:
+    def limb_joints(self, anchors) -> set[int]:
+        """The ``anchors`` (knees or elbows), their parents and everything below them."""
         out = set()
         for a in anchors:
-            out |= {a, int(sk.parents[a])}
-            out |= set(descendants(a))
+            out |= {a, int(self.sk.parents[a])}
+            out |= set(self.descendants(a))
         return out
 
-    # -- legs: the named knees, else the geometry --------------------------------------------------
-    problem = None
-    left_geo = None
-    legs_by_shape = False
-    legs_pair = structure.find_limbs(sk, limb_joints(elbows))[0] if len(knees) < 2 else None
-    if up is None:  # along the legs (over the clip), else the rest pose's tallest extent
-        from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis
-        if len(knees) == 2:
-            legs3 = [(upper(k), k, main_child(k) or k) for k in knees.values()]
-        else:
-            legs3 = structure.pair_legs(legs_pair) if legs_pair is not None else []
-        ax = structure.up_axis(sk, legs3, clip) if legs3 else None
-        up = AXIS_VECTORS[ax or guess_up_axis(sk)] if n > 1 else np.array([0.0, 1.0, 0.0])
-    up = np.asarray(up, dtype=float)
-    height = _height(sk, up)
-    if len(knees) < 2:
-        if legs_pair is not None:
-            shaped, left_geo, problem = structure.side_legs(
-                sk, legs_pair, up, clip, lambda a: main_child(a))
-            if shaped:
-                knees, legs_by_shape = shaped, True
-    for s, k in knees.items():
+    def anchors(self, user: dict) -> tuple[dict[str, int], dict[int, str]]:
+        """``(knees side -> joint, elbows joint -> side)`` given in the role map or named."""
+        names = self.names
+        knees: dict[str, int] = {}
+        elbows: dict[int, str] = {}
+        for s in ("left", "right"):
+            if isinstance(user.get(f"{s}_knee"), str) and user[f"{s}_knee"] in names:
+                knees[s] = names.index(user[f"{s}_knee"])
+            if isinstance(user.get(f"{s}_elbow"), str) and user[f"{s}_elbow"] in names:
+                elbows[names.index(user[f"{s}_elbow"])] = s
+        for j in range(1, self.n):
+            s = side_of(names[j])
+            if s is None:
+                continue
+            if is_knee(names[j]) and s not in knees:
+                knees[s] = j
+            elif is_elbow(names[j]) and j not in elbows and s not in elbows.values() \
+                    and j not in knees.values():
+                elbows[j] = s
+        return knees, elbows
+
+    def up_vector(self, up: np.ndarray | None, knees: dict[str, int], legs_pair,
+                  clip: Clip | None) -> np.ndarray:
+        """``up`` as given, else along the legs (over the clip), else the rest pose's tallest
+        extent."""
+        sk = self.sk
+        if up is None:
+            from mjchar.bvh.rigs.units import AXIS_VECTORS, guess_up_axis
+            if len(knees) == 2:
+                legs3 = [(self.upper(k), k, self.main_child(k) or k) for k in knees.values()]
+            else:
+                legs3 = structure.pair_legs(legs_pair) if legs_pair is not None else []
+            ax = structure.up_axis(sk, legs3, clip) if legs3 else None
+            up = AXIS_VECTORS[ax or guess_up_axis(sk)] if self.n > 1 else np.array([0.0, 1.0, 0.0])
+        return np.asarray(up, dtype=float)
+
+    def leg_chain(self, s: str, k: int, by_shape: bool) -> None:
+        """The roles of the leg around knee ``k`` on side ``s``: hip, knee, ankle, toe."""
+        role = self.role
         chain = {"knee": k}
-        hip = upper(k)
+        hip = self.upper(k)
         if hip > 0:
             chain["hip"] = hip
-        ankle = main_child(k, prefer=lambda nm: any(w in _core(nm) for w in ("ankle", "foot")))
+        ankle = self.main_child(k, prefer=lambda nm: any(w in _core(nm)
+                                                         for w in ("ankle", "foot")))
         if ankle is not None:
             chain["ankle"] = ankle
-            toe = main_child(ankle, prefer=lambda nm: any(w in _core(nm) for w in ("toe", "ball")))
+            toe = self.main_child(ankle, prefer=lambda nm: any(w in _core(nm)
+                                                               for w in ("toe", "ball")))
             if toe is not None:
                 chain["toe"] = toe
         for r, j in chain.items():
             if j not in role or role[j] == "twist":
                 role[j] = f"{s}_{r}"
-                if legs_by_shape:
-                    by_structure.append(j)
+                if by_shape:
+                    self.by_structure.append(j)
 
-    # -- arms: the named elbows, else the geometry (never a joint a name gave a leg) ------------
-    arms_by_shape: set[int] = set()
-    if len(elbows) < 2 and len(knees) == 2:
-        leg_joints = set(role) | limb_joints(knees.values())
-        cands = [p for p in structure.mirror_pairs(sk)
-                 if not (set(p.paths[0]) | set(p.paths[1])) & leg_joints]
-        arms_pair = cands[0] if cands else None
-        if arms_pair is not None:
-            left = left_geo if left_geo is not None else _leg_lefts(sk, role, up, clip)
-            if left is not None:
-                for j, s in structure.side_arms(sk, arms_pair, left, clip).items():
-                    if j not in elbows and s not in elbows.values():
-                        elbows[j] = s
-                        arms_by_shape.add(j)
-    for j, s in elbows.items():
+    def arms_by_shape(self, knees: dict[str, int], elbows: dict[int, str],
+                      left_geo: np.ndarray | None, up: np.ndarray, clip: Clip | None) -> set[int]:
+        """Elbows the geometry finds when fewer than two are named (added to ``elbows``): the
+        first mirror pair of chains that holds no leg joint, sided by the character's left."""
+        arms: set[int] = set()
+        if len(elbows) < 2 and len(knees) == 2:
+            sk = self.sk
+            leg_joints = set(self.role) | self.limb_joints(knees.values())
+            cands = [p for p in structure.mirror_pairs(sk)
+                     if not (set(p.paths[0]) | set(p.paths[1])) & leg_joints]
+            arms_pair = cands[0] if cands else None
+            if arms_pair is not None:
+                left = left_geo if left_geo is not None else _leg_lefts(sk, self.role, up, clip)
+                if left is not None:
+                    for j, s in structure.side_arms(sk, arms_pair, left, clip).items():
+                        if j not in elbows and s not in elbows.values():
+                            elbows[j] = s
+                            arms.add(j)
+        return arms
+
+    def arm_chain(self, j: int, s: str, by_shape: bool) -> None:
+        """The roles of the arm around elbow ``j`` on side ``s``: shoulder, clavicle (on the
+        same side), elbow, wrist, and the hand below it."""
+        role, sk = self.role, self.sk
         if j in role:
-            continue
+            return
         role[j] = f"{s}_elbow"
-        if j in arms_by_shape:
-            by_structure.append(j)
-        sh = upper(j)
+        if by_shape:
+            self.by_structure.append(j)
+        sh = self.upper(j)
         if sh > 0 and sh not in role:
             role[sh] = f"{s}_shoulder"
-            if j in arms_by_shape:
-                by_structure.append(sh)
+            if by_shape:
+                self.by_structure.append(sh)
             cl = int(sk.parents[sh])
-            same_side = side_of(names[cl]) == s or (j in arms_by_shape and len(children[cl]) == 1)
+            same_side = side_of(self.names[cl]) == s or (by_shape and len(self.children[cl]) == 1)
             if cl > 0 and cl not in role and same_side:
                 role[cl] = f"{s}_clavicle"
-                if j in arms_by_shape:
-                    by_structure.append(cl)
-        wr = main_child(j, prefer=lambda nm: any(w in _core(nm) for w in ("wrist", "hand")))
+                if by_shape:
+                    self.by_structure.append(cl)
+        wr = self.main_child(j, prefer=lambda nm: any(w in _core(nm) for w in ("wrist", "hand")))
         if wr is not None and wr not in role:
             role[wr] = f"{s}_wrist"
-            if j in arms_by_shape:
-                by_structure.append(wr)
-            for d in descendants(wr):
+            if by_shape:
+                self.by_structure.append(wr)
+            for d in self.descendants(wr):
                 role.setdefault(d, "hand")
 
-    # -- trunk -------------------------------------------------------------------------------------
-    hips = [h for h in (_find(role, "left_hip"), _find(role, "right_hip")) if h is not None]
-    pelvis = _common_ancestor(sk, hips[0], hips[1]) if len(hips) == 2 else 0
-    head = None
-    for j in range(1, n):
-        if j not in role and is_head(names[j]):
-            head = j
-            break
-    neck_path: list[int] = []
-    if head is None and (legs_by_shape or arms_by_shape) and len(hips) == 2:
-        head, neck_path = _head_by_structure(sk, role, pelvis, children, descendants, clip)
+    def trunk(self, legs_by_shape: bool, arms_by_shape: bool, up: np.ndarray,
+              clip: Clip | None) -> None:
+        """Pelvis, head (named, else from the shape), the face below it, and the neck and
+        spine joints between the pelvis and the head or the arms."""
+        role, sk, names = self.role, self.sk, self.names
+        hips = [h for h in (_find(role, "left_hip"), _find(role, "right_hip")) if h is not None]
+        pelvis = _common_ancestor(sk, hips[0], hips[1]) if len(hips) == 2 else 0
+        head, neck_path = self.head(pelvis, len(hips) == 2 and (legs_by_shape or arms_by_shape),
+                                    up, clip)
         if head is not None:
-            by_structure.append(head)
-    if head is None:  # shape fallback: the highest non-limb joint with no named role
-        cands = [j for j in range(1, n) if j not in role and not is_end(names[j])
-                 and side_of(names[j]) is None]
-        if cands:
-            top = max(cands, key=lambda j: float(rest[j] @ up))
-            if rest[top] @ up > rest[pelvis] @ up + 0.25 * height:
-                head = top
-                by_structure.append(top)
-    if head is not None:
-        role[head] = "head"
-        if pelvis not in sk.chain(head):  # a hip/pelvis split (Daz: hip -> pelvis, abdomen)
-            pelvis = _common_ancestor(sk, pelvis, head)
-        for d in descendants(head):
-            role.setdefault(d, "end" if is_end(names[d]) and not children[d] else "face")
-    for j in neck_path:
-        role.setdefault(j, "neck")
-        by_structure.append(j)
-    role.setdefault(pelvis, "pelvis")
-    trunk_ends = [j for j in (head, _find(role, "left_clavicle"), _find(role, "right_clavicle"),
-                              _find(role, "left_shoulder"), _find(role, "right_shoulder"))
-                  if j is not None]
-    if legs_by_shape:
-        by_structure.append(pelvis)
-    for e in trunk_ends:
-        path = sk.chain(e)  # one walk up per end (a joint is below the pelvis iff it comes
-        below = path.index(pelvis) + 1 if pelvis in path else len(path)  # after it on the path)
-        for a in path[below:-1]:
-            if a in role:
+            role[head] = "head"
+            if pelvis not in sk.chain(head):  # a hip/pelvis split (Daz: hip -> pelvis, abdomen)
+                pelvis = _common_ancestor(sk, pelvis, head)
+            for d in self.descendants(head):
+                role.setdefault(d, "end" if is_end(names[d]) and not self.children[d] else "face")
+        for j in neck_path:
+            role.setdefault(j, "neck")
+            self.by_structure.append(j)
+        role.setdefault(pelvis, "pelvis")
+        trunk_ends = [j for j in (head, _find(role, "left_clavicle"),
+                                  _find(role, "right_clavicle"), _find(role, "left_shoulder"),
+                                  _find(role, "right_shoulder"))
+                      if j is not None]
+        if legs_by_shape:
+            self.by_structure.append(pelvis)
+        for e in trunk_ends:
+            path = sk.chain(e)  # one walk up per end (a joint is below the pelvis iff it comes
+            below = path.index(pelvis) + 1 if pelvis in path else len(path)  # after it on the path)
+            for a in path[below:-1]:
+                if a in role:
+                    continue
+                role[a] = "neck" if "neck" in _core(names[a]) else "spine"
+                if e in self.by_structure:  # found around a joint the shape gave
+                    self.by_structure.append(a)
+
+    def head(self, pelvis: int, by_shape: bool, up: np.ndarray,
+             clip: Clip | None) -> tuple[int | None, list[int]]:
+        """``(head, neck path)``: the head-named joint, else (``by_shape``: limbs the shape
+        gave) the geometry's, else the highest joint of no role well above the pelvis."""
+        role, names, rest = self.role, self.names, self.rest
+        head = None
+        for j in range(1, self.n):
+            if j not in role and is_head(names[j]):
+                head = j
+                break
+        neck_path: list[int] = []
+        if head is None and by_shape:
+            head, neck_path = _head_by_structure(self.sk, role, pelvis, self.children,
+                                                 self.descendants, clip)
+            if head is not None:
+                self.by_structure.append(head)
+        if head is None:  # shape fallback: the highest non-limb joint with no named role
+            cands = [j for j in range(1, self.n) if j not in role and not is_end(names[j])
+                     and side_of(names[j]) is None]
+            if cands:
+                top = max(cands, key=lambda j: float(rest[j] @ up))
+                if rest[top] @ up > rest[pelvis] @ up + 0.25 * _height(self.sk, up):
+                    head = top
+                    self.by_structure.append(top)
+        return head, neck_path
+
+    def feet(self) -> None:
+        """Below each ankle: toe phalanges and other toes (``"toes"``), end markers."""
+        role, names = self.role, self.names
+        for s in ("left", "right"):
+            a, t = _find(role, f"{s}_ankle"), _find(role, f"{s}_toe")
+            if a is None:
                 continue
-            role[a] = "neck" if "neck" in _core(names[a]) else "spine"
-            if e in by_structure:  # found around a joint the shape gave
-                by_structure.append(a)
+            for d in self.descendants(a):
+                if d != t and d not in role:
+                    role[d] = "end" if is_end(names[d]) and not self.children[d] else "toes"
 
-    # -- feet: toe phalanges and other toes --------------------------------------------------------
-    for s in ("left", "right"):
-        a, t = _find(role, f"{s}_ankle"), _find(role, f"{s}_toe")
-        if a is None:
-            continue
-        for d in descendants(a):
-            if d != t and d not in role:
-                role[d] = "end" if is_end(names[d]) and not children[d] else "toes"
+    def leftovers(self) -> None:
+        """The joints still without a role: fingers, end markers, twist helpers, unknown."""
+        role, names = self.role, self.names
+        for j in range(self.n):
+            if j in role:
+                continue
+            if is_finger(names[j]):
+                role[j] = "hand"
+            elif is_end(names[j]) and not self.children[j]:
+                role[j] = "end"
+            elif is_twist(names[j]):
+                role[j] = "twist"
+            else:
+                role[j] = "unknown"
 
-    # -- leftovers: fingers, end markers, twist helpers, unknown ----------------------------------
-    for j in range(n):
-        if j in role:
-            continue
-        if is_finger(names[j]):
-            role[j] = "hand"
-        elif is_end(names[j]) and not children[j]:
-            role[j] = "end"
-        elif is_twist(names[j]):
-            role[j] = "twist"
-        else:
-            role[j] = "unknown"
-
-    given = _apply_user_roles(role, user, names)
-    joint_roles = {names[j]: role[j] for j in range(n)}
-    out_roles: dict[str, object] = {}
-    for j in range(n):
-        r = role[j]
-        if r in ("spine", "neck"):
-            out_roles.setdefault(r, []).append(names[j])
-        elif r not in ("hand", "end", "unknown", "face", "toes", "twist"):
-            out_roles[r] = names[j]
-    shape = {j for j in by_structure if role[j] not in ("unknown", "hand", "end", "twist")}
-    return Recognition(
-        joint_roles=joint_roles,
-        roles=out_roles,
-        by_structure=[names[j] for j in sorted(shape) if j not in given],
-        unrecognised=[names[j] for j in range(n) if role[j] == "unknown"],
-        left_axis=_left_axis(rest, role, up),
-        problem=problem,
-        given=[names[j] for j in sorted(given)],
-    )
+    def recognition(self, user: dict, up: np.ndarray, problem: str | None) -> Recognition:
+        """The :class:`Recognition`, the user's roles applied over what was found."""
+        role, names, n = self.role, self.names, self.n
+        given = _apply_user_roles(role, user, names)
+        joint_roles = {names[j]: role[j] for j in range(n)}
+        out_roles: dict[str, object] = {}
+        for j in range(n):
+            r = role[j]
+            if r in ("spine", "neck"):
+                out_roles.setdefault(r, []).append(names[j])
+            elif r not in ("hand", "end", "unknown", "face", "toes", "twist"):
+                out_roles[r] = names[j]
+        shape = {j for j in self.by_structure
+                 if role[j] not in ("unknown", "hand", "end", "twist")}
+        return Recognition(
+            joint_roles=joint_roles,
+            roles=out_roles,
+            by_structure=[names[j] for j in sorted(shape) if j not in given],
+            unrecognised=[names[j] for j in range(n) if role[j] == "unknown"],
+            left_axis=_left_axis(self.rest, role, up),
+            problem=problem,
+            given=[names[j] for j in sorted(given)],
+        )
 
 
 def _core(name: str) -> str:

@@ -77,6 +77,19 @@ class IKState(NamedTuple):
     error: float
 
 
+def _check_options(max_angle: float, tolerance: float, max_translation: float | None,
+                   min_improvement: float) -> None:
+    """:class:`IKError` for an iteration limit, tolerance or stopping rule out of range."""
+    for opt, val in (("max_angle", max_angle), ("tolerance", tolerance)):
+        if not (np.isfinite(val) and val > 0):
+            raise IKError(f"{opt} must be a positive number, got {val}")
+    if max_translation is not None and not (np.isfinite(max_translation)
+                                            and max_translation > 0):
+        raise IKError(f"max_translation must be positive or None, got {max_translation}")
+    if not (np.isfinite(min_improvement) and min_improvement >= 0):
+        raise IKError(f"min_improvement must be >= 0, got {min_improvement}")
+
+
 class IKProblem:
     """Which effectors go where, which joints may move, and how much per iteration.
 
@@ -123,27 +136,28 @@ class IKProblem:
         min_improvement: float = 1e-9,
     ) -> None:
         self.skeleton = skeleton
-        n = skeleton.n_joints
         if isinstance(effectors, Mapping):
             effectors = [Effector(k, v) for k, v in effectors.items()]
         effectors = list(effectors)
         if not effectors:
             raise IKError("at least one effector is needed")
-        for opt, val in (("max_angle", max_angle), ("tolerance", tolerance)):
-            if not (np.isfinite(val) and val > 0):
-                raise IKError(f"{opt} must be a positive number, got {val}")
-        if max_translation is not None and not (np.isfinite(max_translation)
-                                                and max_translation > 0):
-            raise IKError(f"max_translation must be positive or None, got {max_translation}")
-        if not (np.isfinite(min_improvement) and min_improvement >= 0):
-            raise IKError(f"min_improvement must be >= 0, got {min_improvement}")
+        _check_options(max_angle, tolerance, max_translation, min_improvement)
         self.max_angle = float(max_angle)
         self.max_translation = None if max_translation is None else float(max_translation)
         self.tolerance = float(tolerance)
         self.min_improvement = float(min_improvement)
         self._levels = _depth_levels(skeleton.parents)
+        self._set_effectors(effectors)
+        self._set_movable(joints, root_may_move, root_translation, joint_weights, locked)
+        # length that makes a unit of root-translation parameter comparable to a radian
+        rest = np.concatenate([skeleton.rest_positions(), skeleton.rest_end_sites()])
+        self.length_scale = max(float(np.max(np.linalg.norm(rest - rest[0], axis=1))), 1e-9)
 
-        # effectors: attachment joint + constant local offset (zero for a joint effector)
+    # -- set-up helpers ------------------------------------------------------------------------
+    def _set_effectors(self, effectors: list[Effector]) -> None:
+        """Effectors: names, attachment joints and constant local offsets (zero for a joint
+        effector), targets and weights."""
+        skeleton = self.skeleton
         self.effector_names = [e.name for e in effectors]
         if len(set(self.effector_names)) != len(effectors):
             raise IKError(f"an effector is listed twice: {self.effector_names}")
@@ -169,11 +183,17 @@ class IKProblem:
             raise IKError(f"effector weights must be finite, >= 0 and not all 0, got {w}")
         self.effector_weights = w
 
+    def _set_movable(self, joints: Iterable[str] | None, root_may_move: bool,
+                     root_translation: bool | None, joint_weights: Mapping[str, float] | None,
+                     locked: Iterable[str]) -> None:
+        """Which joints move (and how willingly), whether the root translates, and which
+        movable joint moves which effector."""
+        n = self.skeleton.n_joints
         # which joint moves which effector: ancestors of the attachment joint, and the joint
         # itself when the effector is offset from it
-        anc = np.zeros((len(effectors), n), dtype=bool)
+        anc = np.zeros((len(self.attach), n), dtype=bool)
         for k, a in enumerate(self.attach):
-            anc[k, skeleton.chain(int(a))] = True
+            anc[k, self.skeleton.chain(int(a))] = True
             if not np.any(self.local_offsets[k]):
                 anc[k, a] = False
         weights = np.ones(n)
@@ -200,11 +220,7 @@ class IKProblem:
         self.moves = anc[:, self.dof_joints]  # (K, n_j)
         if not (self.moves.any() or self.translate_root):
             raise IKError("no movable joint can move any effector (check joints/locked/weights)")
-        # length that makes a unit of root-translation parameter comparable to a radian
-        rest = np.concatenate([skeleton.rest_positions(), skeleton.rest_end_sites()])
-        self.length_scale = max(float(np.max(np.linalg.norm(rest - rest[0], axis=1))), 1e-9)
 
-    # -- set-up helpers ------------------------------------------------------------------------
     def _joint(self, name: str) -> int:
         try:
             return self.skeleton.index(name)
