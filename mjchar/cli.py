@@ -91,24 +91,25 @@ class _Parser(argparse.ArgumentParser):
 def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The ``mjchar`` parser for the command line ``argv`` (default: every subcommand's own
     parser). Given ``argv``, only the subcommand it names gets its parser (which may import the
-    controllers for its choices); the others are a name and a line of help (each module's
-    ``HELP``), so ``mjchar --help`` and a misspelt subcommand import no controller."""
+    controllers for its choices); the others are a name and their line of help
+    (:data:`~mjchar.commands.COMMANDS`), so ``mjchar --help`` and a misspelt subcommand import
+    no command module and no controller."""
     parser = _Parser(prog="mjchar", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"mjchar {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_Parser)
     named = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
-    for name in COMMANDS:
+    for name, line in COMMANDS.items():
+        if named is not None and name != named:
+            sub.add_parser(name, help=line)
+            continue
         try:
             module = importlib.import_module(f"mjchar.commands.{name}")
         except ModuleNotFoundError as e:
             if e.name == f"mjchar.commands.{name}":
                 continue  # subcommand not built yet
             raise
-        if named is None or name == named:
-            module.register(sub)
-        else:
-            sub.add_parser(name, help=module.HELP)
+        module.register(sub)
     parser.commands = sub.choices  # each subcommand's parser, for its own error messages
     return parser
 

@@ -285,7 +285,7 @@ def test_the_character_has_no_flat_forwarders_left():
 MAX_FUNCTION_LINES = 80
 
 
-@pytest.mark.parametrize("folder", ["controllers"])
+@pytest.mark.parametrize("folder", ["bvh", "controllers"])
 def test_no_function_over_80_lines(folder):
     """The kinematic and dynamic layers read as steps: no function (``def`` to its last line)
     over :data:`MAX_FUNCTION_LINES` lines."""

@@ -23,11 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
-def main(monkeypatch):
-    """``mjchar`` with the bench subcommand (registered here until the lead lists it in
-    mjchar.commands.COMMANDS)."""
-    if "bench" not in cli.COMMANDS:
-        monkeypatch.setattr(cli, "COMMANDS", [*cli.COMMANDS, "bench"])
+def main():
+    """``mjchar`` (its bench subcommand)."""
     return cli.main
 
 

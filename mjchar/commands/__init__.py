@@ -1,11 +1,23 @@
-"""``mjchar`` subcommands: one module each, exposing ``HELP`` and ``register(subparsers)``.
+"""``mjchar`` subcommands: one module each, exposing ``register(subparsers)``.
 
-``HELP`` is the subcommand's line in ``mjchar --help``; ``register`` adds its parser and sets
-``func`` (taking the parsed args, returning the exit status), and is called only when the
-command line names the subcommand (:func:`mjchar.cli.build_parser`). Keep heavy imports inside
-``register`` and ``func``: importing a command module must not import the controllers.
+:data:`COMMANDS` names them with their lines in ``mjchar --help``; a module's ``register`` adds
+its parser and sets ``func`` (taking the parsed args, returning the exit status), and is called
+only when the command line names the subcommand (:func:`mjchar.cli.build_parser`): the other
+modules are not imported. Keep heavy imports inside ``register`` and ``func``.
 """
 
-#: modules (relative to this package) whose subcommands ``mjchar`` offers, in help order
-COMMANDS = ["info", "convert", "run", "params", "calibrate", "gait", "samcon", "trajopt", "learn",
-            "bench"]
+#: the subcommands in help order, each with its line in ``mjchar --help`` (a module of this
+#: package each)
+COMMANDS = {
+    "info": "summarise a BVH file (joints, frames, units, axes, the joint roles and the body the "
+            "converter would build)",
+    "convert": "convert a BVH skeleton into a MuJoCo humanoid (MJCF)",
+    "run": "run a controller in a scenario (stand, push, track, ...) and report metrics",
+    "params": "list a controller's tunables (--param NAME=VALUE of mjchar run)",
+    "calibrate": "fit the walkers (ipm, simbicon) to a converted body, ahead of its runs",
+    "gait": "gait statistics of a walker or a clip against reference clips",
+    "samcon": "reconstruct a motion clip with SAMCON (open-loop PD targets, no root force)",
+    "trajopt": "CMA-ES trajectory optimisation (clip tracking or a vertical jump)",
+    "learn": "learn a tracking policy from the MPC (DAgger; needs the rl extra)",
+    "bench": "benchmark every controller in every scenario; table, JSON, plots",
+}

@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .argtypes import integer
-
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "benchmark every controller in every scenario; table, JSON, plots"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     controllers = tuple(matrix())
     p = sub.add_parser(
-        "bench", help=HELP,
+        "bench", help=COMMANDS["bench"],
         description="Run the controllers (rows) in the scenarios that make sense for them, print "
                     "a table (survival, push survival per direction, distance, speed, tracking "
                     "error, root force, step cost over mj_step) and write results.json, "

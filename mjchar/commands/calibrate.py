@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .argtypes import integer, non_negative
-
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "fit the walkers (ipm, simbicon) to a converted body, ahead of its runs"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,7 +15,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers.walking.calibration import BUDGET_S, CHECK_DURATION, WALKERS
 
     p = sub.add_parser(
-        "calibrate", help=HELP,
+        "calibrate", help=COMMANDS["calibrate"],
         description="Fit the walkers' body-dependent parameters to a converted body: the "
                     "defaults are checked on short walks at three speeds; a body that passes "
                     "keeps them, one that fails gets a CMA-ES search (at most --budget seconds "

@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .dropped import dropped_lines
-
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "convert a BVH skeleton into a MuJoCo humanoid (MJCF)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "convert", help=HELP,
+        "convert", help=COMMANDS["convert"],
         description="Convert a BVH skeleton into a MuJoCo humanoid (MJCF). Units and the up axis "
                     "are detected unless given; fingers and end markers are dropped and "
                     "zero-length helper joints fused by default (see docs/converter.md).")

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .argtypes import integer, non_negative, number, positive
-
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "gait statistics of a walker or a clip against reference clips"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     walkers = registry.names("walker")
     p = sub.add_parser(
-        "gait", help=HELP,
+        "gait", help=COMMANDS["gait"],
         description="Measure speed, cadence, step length and width, stance and double support, "
                     "trunk lean, pelvis rotation, knee and hip flexion, foot clearance, stance "
                     "slip and COM excursion of a simulated walk or a BVH clip (see "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .dropped import dropped_lines
 
 #: the order roles are listed in
@@ -12,14 +13,9 @@ ROLE_ORDER = ("pelvis", "spine", "neck", "head") + tuple(
     for s in ("left", "right"))
 
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = ("summarise a BVH file (joints, frames, units, axes, the joint roles and the body the "
-        "converter would build)")
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "info", help=HELP)
+        "info", help=COMMANDS["info"])
     p.add_argument("file", help="BVH file")
     p.add_argument("--unit", help="file unit, as for mjchar convert (default: guessed)")
     p.add_argument("--up", choices=["x", "y", "z", "-x", "-y", "-z"],

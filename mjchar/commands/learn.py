@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .argtypes import integer, positive
 
 
@@ -21,13 +22,9 @@ def _fraction(name: str):
     return parse
 
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "learn a tracking policy from the MPC (DAgger; needs the rl extra)"
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "learn", help=HELP,
+        "learn", help=COMMANDS["learn"],
         description="Distil the closed-loop sampling MPC into a network that tracks the clip "
                     "faster than real time: roll out the learner mixed with the MPC, with action "
                     "noise, perturbed starts and pushes; label the visited states with the MPC; "

@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "list a controller's tunables (--param NAME=VALUE of mjchar run)"
+from . import COMMANDS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,7 +15,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     with_params = [s.name for s in registry.specs() if s.tunables is not None]
     p = sub.add_parser(
-        "params", help=HELP,
+        "params", help=COMMANDS["params"],
         description="List every tunable of a controller that mjchar run takes as --param "
                     "NAME=VALUE: its type, unit, accepted range, default and meaning. "
                     f"Controllers with tunables: {', '.join(with_params)}. Ranges of "

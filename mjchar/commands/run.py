@@ -11,6 +11,7 @@ import argparse
 import math
 import textwrap
 
+from . import COMMANDS
 from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
 from .run_options import check_applicable, check_body, check_outputs, check_ranges
 from .suggest import hint
@@ -42,10 +43,6 @@ def _scenario_type(option):
             "count": integer(what, minimum=1), "seed": integer(what)}[option.kind]
 
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "run a controller in a scenario (stand, push, track, ...) and report metrics"
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
     from mjchar.controllers import registry
@@ -61,7 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                       for s in registry.specs())
     stable = "\n".join(f"  {s.name:<15} {s.measures}" for s in scenarios.specs())
     p = sub.add_parser(
-        "run", help=HELP,
+        "run", help=COMMANDS["run"],
         description=f"{intro}\n\ncontrollers (scenarios, the default first):\n{table}\n\n"
                     f"scenarios:\n{stable}",
         formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from . import COMMANDS
 from .argtypes import add_floor_argument, integer, non_negative, positive
 
 
@@ -66,13 +67,9 @@ def check_output(args: argparse.Namespace) -> None:
           flag="-o")
 
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "reconstruct a motion clip with SAMCON (open-loop PD targets, no root force)"
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "samcon", help=HELP,
+        "samcon", help=COMMANDS["samcon"],
         description="SAMCON (Liu et al. 2010/2015): sample PD-target offsets slice by slice, "
                     "simulate them in batches, keep the best states and save the lowest-cost "
                     "path as a trajectory file that `mjchar run replay FILE` plays back.")

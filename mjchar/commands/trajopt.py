@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from . import COMMANDS
 from .argtypes import add_floor_argument, integer, non_negative, positive
 from .samcon import (
     add_executor_arguments,
@@ -19,13 +20,9 @@ from .samcon import (
 TASKS = ("track", "jump")
 
 
-#: the one line ``mjchar --help`` gives the subcommand (read without building its parser)
-HELP = "CMA-ES trajectory optimisation (clip tracking or a vertical jump)"
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "trajopt", help=HELP,
+        "trajopt", help=COMMANDS["trajopt"],
         description="Optimise PD-target offsets at spline knots with CMA-ES over overlapping "
                     "windows (each generation simulated as one batch) and save the trajectory "
                     "for `mjchar run replay FILE`. Give a clip to track it, or --task jump.")
