@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED_BVH = ROOT.parent / "shared" / "data" / "bvh"
 SHARED_CLIPS = ["walk60.bvh", "idle.bvh", "walk_forward.bvh", "walk_and_turn_right.bvh"]
 SHARED_REAL = ROOT.parent / "shared" / "data" / "real"
+SHARED_MALFORMED = ROOT.parent / "shared" / "data" / "malformed"
 
 
 #: how a user gets the shared data (said by every skip and failure for its absence)
@@ -47,6 +48,15 @@ def shared_clip(name: str) -> Path:
     path = SHARED_BVH / name
     if not path.is_file():
         missing_data("the shared motion clip", path)
+    return path
+
+
+def malformed_export(name: str) -> Path:
+    """Path of a broken real export in ../shared/data/malformed; skips the calling test with a
+    clear message when it is absent (fails under CI)."""
+    path = SHARED_MALFORMED / name
+    if not path.is_file():
+        missing_data("the malformed real export", path)
     return path
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import malformed_export
 
 from mjchar import bvh
 from mjchar.bvh.bundled.assets import TRAJECTORIES, motion_path
@@ -84,7 +85,7 @@ def _bvh_files() -> dict[str, str]:
         "position_1e8.bvh": _value(w, 2, 0, "1e8"),
         "value_nan.bvh": _value(w, 4, 7, "nan"),
         "no_frames.bvh": _clip(w, 0),
-        "hours_long.bvh": _clip(w, 400, frame_time="10"),
+        "hours_long.bvh": _clip(w, 14500, frame_time="0.25"),
         "short.bvh": _clip(w, 40),
         "other_skeleton.bvh": OTHER_SKELETON.splitlines(),
     }
@@ -186,7 +187,7 @@ CASES = [
     ("walk-past-end", ["run", "pd", "--scenario", "walk", "--motion", "{in}/short.bvh",
                        "--duration", "5"], "past the end of the 0.65 s clip"),
     ("clip-hours-long", ["run", "hand_of_god", "--motion", "{in}/hours_long.bvh"],
-     "the clip lasts 3990 s, longer than a run may (3600 s): give --duration"),
+     "the clip lasts 3624.75 s, longer than a run may (3600 s): give --duration"),
     # -- BVH files with absurd numbers (the reader names the line)
     ("bvh-offset-1e308", ["convert", "{in}/offset_1e308.bvh", "-o", "out.xml"],
      "line 8: OFFSET of joint 'pelvis_lowerback': 1e308 cannot be a length"),
@@ -286,13 +287,32 @@ def test_the_reader_names_the_line(inputs, name, line, needle):
 
 
 def test_plausible_extremes_still_read(inputs, tmp_path):
-    """The bounds are generous: millimetre offsets, unwrapped angles, 10 s frames."""
+    """The bounds are generous: millimetre offsets, unwrapped angles, a clip at 4 frames per
+    second, a single pose with a 10 s frame time."""
     w = _lines()
     ok = _value(_edit(_edit(w, "OFFSET", "OFFSET 0 99999 0", nth=1), "Frame Time",
-                      "Frame Time: 10"), 0, 5, "-99999")
+                      "Frame Time: 0.25"), 0, 5, "-99999")
     (tmp_path / "ok.bvh").write_text("\n".join(ok) + "\n")
     m = bvh.load(tmp_path / "ok.bvh")
-    assert m.frame_time == 10.0 and m.skeleton.offsets[1, 1] == 99999.0
+    assert m.frame_time == 0.25 and m.skeleton.offsets[1, 1] == 99999.0
+    (tmp_path / "pose.bvh").write_text("\n".join(_clip(w, 1, frame_time="10")) + "\n")
+    assert bvh.load(tmp_path / "pose.bvh").frame_time == 10.0
+
+
+@pytest.mark.parametrize("name, needle", [
+    ("frame_time_1s.bvh", "line 144: Frame Time 1 s for 600 frames is a clip of 10 minutes at 1 "
+                          "frames per second"),
+    ("pn_template_0_frames.bvh", "Frames: 0, a skeleton template with no motion"),
+])
+def test_the_malformed_real_exports_are_refused_in_one_line(name, needle, tmp_path, capsys):
+    """../shared/data/malformed: real files broken as their tools wrote them (a clip whose
+    header's frame time is 30 times too long; a skeleton template with no frames). ``mjchar
+    convert`` refuses each in one line, exit 2, writing nothing."""
+    path = malformed_export(name)
+    assert main(["convert", str(path), "-o", str(tmp_path / "body.xml")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and needle in err, err
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_skeleton_without_frames_is_described(inputs, capsys):

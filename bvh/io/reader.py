@@ -11,7 +11,8 @@ zero-length bones and any units or up axis (kept as they are in the file; see
 Numbers follow the plain decimal grammar ``[+-]digits[.digits][(e|E)[+-]digits]`` (``.5`` and
 ``5.`` included); ``nan``, ``inf`` and values that overflow are rejected. Numbers that cannot
 describe a human are rejected too, naming the line (:data:`MAX_OFFSET`, :data:`MAX_FRAME_TIME`,
-:data:`MIN_FRAME_TIME`, :data:`MAX_ROTATION`, :data:`MAX_POSITION`): the bounds are generous
+:data:`MAX_CLIP_FRAME_TIME`, :data:`MIN_FRAME_TIME`, :data:`MAX_ROTATION`,
+:data:`MAX_POSITION`): the bounds are generous
 (a 2 m body in millimetres has offsets near 500, a root travelling 10 km in millimetres
 positions of 1e7) but stop the 1e30 that would build a 1e30 m body or a frame time that makes
 a clip last for ages.
@@ -60,6 +61,11 @@ MAX_FRAME_TIME = 10.0
 #: smallest frame time in seconds (10 000 fps, beyond any motion capture; a smaller one makes
 #: velocities overflow)
 MIN_FRAME_TIME = 1e-4
+#: largest frame time in seconds of a clip (two frames or more): 4 frames per second, a third of
+#: the slowest rate animation is exported at (12 fps, "on twos") and a sixth of film's; a clip
+#: whose header says less was written with a wrong frame time (a single pose's frame time does
+#: not matter, :data:`MAX_FRAME_TIME` bounds it)
+MAX_CLIP_FRAME_TIME = 0.25
 #: largest |rotation channel| in degrees (about 280 turns: unwrapped angles of long clips pass)
 MAX_ROTATION = 1e5
 #: largest |position channel| in file units (10 km in millimetres)
@@ -216,6 +222,13 @@ def _parse_unchecked(text: str, path: str | None) -> tuple[Skeleton, float, np.n
         raise BVHError(f"file ends early: expected 'Frame Time: seconds' after 'Frames:' (line "
                        f"{frames_line})", line=line_no, path=path)
     frame_time = _parse_frame_time_line(found[1][1], found[1][0], path)
+    if n_frames >= 2 and frame_time > MAX_CLIP_FRAME_TIME:
+        raise BVHError(f"Frame Time {frame_time:g} s for {n_frames} frames is a clip of "
+                       f"{_minutes(n_frames * frame_time)} at {1 / frame_time:g} frames per "
+                       f"second, below any capture or export rate (at least "
+                       f"{1 / MAX_CLIP_FRAME_TIME:g}): "
+                       "the header's frame time is wrong (30 frames per second is Frame Time: "
+                       "0.0333333)", line=found[1][0], path=path)
     values = _parse_frames(text, found[1][0] + 1, n_frames, frames_line, skeleton.n_channels,
                            path, start=pos, skeleton=skeleton)
     return skeleton, frame_time, values
@@ -259,6 +272,10 @@ def _check_channel_values(skeleton: Skeleton, limits: np.ndarray, values: np.nda
     raise BVHError(f"value {col + 1} of frame {row0 + row + 1} ({channel} of joint "
                    f"{skeleton.names[joint]!r}) is {values[row, col]:g} {what}: it cannot "
                    f"describe a pose", line=frame_lines[row], path=path)
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} minutes"
 
 
 def _parse_frames_line(line: str, line_no: int, path: str | None) -> int:

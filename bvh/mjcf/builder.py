@@ -140,10 +140,11 @@ def convert(source, *, total_mass: float = 70.0, joint_model: str = "hinge",
     """Convert a BVH skeleton into a simulated MuJoCo humanoid (see docs/model-contract.md).
 
     Args:
-        source: a :class:`~mjchar.bvh.io.motion.Motion`, a :class:`~mjchar.bvh.io.skeleton.Skeleton`
-        or a BVH path. total_mass: kg; body masses sum to it exactly (to the 6 significant digits
-        written). joint_model: ``"hinge"`` (hinge triplets, one hinge for knees and elbows,
-        anatomical
+        source: a :class:`~mjchar.bvh.io.motion.Motion`, a
+            :class:`~mjchar.bvh.io.skeleton.Skeleton` or a BVH path (a file with no frames, a
+            skeleton template, is refused).
+        total_mass: kg; body masses sum to it exactly (to the 6 significant digits written).
+        joint_model: ``"hinge"`` (hinge triplets, one hinge for knees and elbows, anatomical
             ranges), ``"full"`` (hinge triplets everywhere, no ranges: any clip replays exactly)
             or ``"ball"`` (ball joints with motors; knees and elbows stay hinges).
         unit: metres per file unit: ``"m"``, ``"cm"``, ``"mm"``, ``"in"``, ``"ft"``, ``"cmu"``
@@ -320,6 +321,11 @@ def _load_source(source) -> tuple[Motion | None, Skeleton, str]:
         return None, source, "humanoid"
     if isinstance(source, (str, os.PathLike)):
         motion = load(source)
+        if motion.n_frames == 0:
+            raise ConversionError(
+                f"{os.fspath(source)}: Frames: 0, a skeleton template with no motion: the body is "
+                "fitted to a clip's poses (up axis, unit, knee and elbow axes), so export the "
+                "clip with its frames (a Skeleton object converts from its rest pose alone)")
         stem = os.path.splitext(os.path.basename(os.fspath(source)))[0] or "humanoid"
         # a file name that is not valid text (bytes undecodable in the locale) still names it
         stem = stem.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
