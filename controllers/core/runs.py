@@ -116,13 +116,15 @@ class RunSpec:
         """Whether this run loads a clip (:func:`follows_clip`)."""
         return follows_clip(self.controller_spec, self.scenario_spec)
 
-    def build(self, *, frame_callback: Callable | None = None, progress=None) -> Run:
+    def build(self, *, frame_callback: Callable | None = None, progress=None,
+              info=None) -> Run:
         """The character, its clip and the controller, ready for the scenario's runner;
         ``progress`` (a :class:`~mjchar.controllers.core.progress.Progress`) shows the clip's
-        preparation and then the run's simulated time."""
+        preparation and then the run's simulated time; ``info``: the model's role map when it
+        is an ``MjModel`` that does not carry one (default: read from the model)."""
         self.check()
         check_model_file(self.model)
-        character = Character(self.model, timestep=self.timestep)
+        character = Character(self.model, info=info, timestep=self.timestep)
         reference = (load_reference(self, character, progress) if self.follows_clip()
                      else None)
         controller = self.make_controller(character, reference)

@@ -392,19 +392,19 @@ def walk_once(model: mujoco.MjModel, info, walker: str, overrides: dict, speed: 
     seeded start state, or with ``seed=None`` from the standing pose at rest as ``mjchar run``
     walks it (at the walker's own speed: the very run of ``mjchar run simbicon``):
     ``{speed, seed, fell, fall_time_s, steady_speed_mps, own_speed_mps}``."""
-    from ..core.character import Character
-    from ..core.registry import make_controller
-    from ..core.scenarios.registry import run_scenario
+    from ..core.runs import RunSpec, execute
 
     cpu = time.process_time()
-    ch = Character(model, info=info)
     opts = dict(overrides, calibration=NO_CALIBRATION)
     if speed is not None:
         opts["speed"] = speed
-    c = make_controller(walker, ch, **opts)
-    window = None if seed is None and speed is None else min(STEADY_WINDOW, duration / 2)
-    r = run_scenario("walk", ch, c, duration=duration, seed=seed, steady_window=window)
-    own = _own_speed(c) if speed is None else None  # SIMBICON's own gait speed
+    scenario = {"duration": duration}
+    if seed is not None or speed is not None:
+        scenario["steady_window"] = min(STEADY_WINDOW, duration / 2)
+    run = RunSpec(walker, "walk", model=model, seed=seed, options=opts,
+                  scenario_options=scenario).build(info=info)
+    r = execute(run)
+    own = _own_speed(run.controller) if speed is None else None  # SIMBICON's own gait speed
     return {"speed": speed, "seed": seed, "fell": bool(r.fell),
             "fall_time_s": float(r.fall_time_s) if r.fell else None,
             "steady_speed_mps": _float_or_none(r.extra.get("steady_speed_mps")),
