@@ -196,28 +196,35 @@ def test_a_candidate_that_falls_in_its_long_walks_is_ruled_out(monkeypatch):
     assert Calibration.from_json(cal.to_json()).rejected == cal.rejected
 
 
+def _simbicon_stand_in(falls_where, fall_time: float):
+    """A stand-in SIMBICON walk for ``_walk_job``: the defaults walk every speed 0.2 m/s too
+    slowly; a candidate walks within 0.1 m/s (closer as its first knob grows), and the first
+    candidate to walk where ``falls_where(speed, seed)`` falls there at ``fall_time``. Returns
+    the walk and the list that receives that candidate's overrides."""
+    knob = cal_mod.KNOBS["simbicon"][0]
+    marked: list[dict] = []
+
+    def walk(args):
+        _, _, _, overrides, speed, seconds, seed = args
+        row = {"speed": speed, "seed": seed, "fell": False, "fall_time_s": None,
+               "own_speed_mps": 1.0, "cpu_s": 0.0}
+        if not overrides:  # the defaults: too slow everywhere
+            return {**row, "steady_speed_mps": (speed or 1.0) - 0.2}
+        x = (overrides[knob.name] - knob.default) / knob.step
+        if falls_where(speed, seed) and not marked:
+            marked.append(overrides)
+        fell = falls_where(speed, seed) and overrides == marked[0]
+        return {**row, "fell": fell, "fall_time_s": fall_time if fell else None,
+                "steady_speed_mps": (speed or 1.0) - 0.09 + 0.02 * min(max(x, 0.0), 3.0)}
+
+    return walk, marked
+
+
 def test_a_candidate_that_falls_between_the_checks_speeds_is_ruled_out(monkeypatch):
     """The long walks cover the check's range 0.1 m/s apart: a candidate that walks 0.8, 1.0
     and 1.2 m/s but falls at 0.9 m/s (as SIMBICON fitted at 0.8 and 1.2 m/s only did on a CMU
     body) is ruled out, and the stored candidate walks every speed of the range."""
-    knob = cal_mod.KNOBS["simbicon"][0]
-    between = []
-
-    def walk(args):
-        _, _, _, overrides, speed, seconds, _ = args
-        x = 0.0 if not overrides else (overrides[knob.name] - knob.default) / knob.step
-        if not overrides:  # the defaults: too slow everywhere
-            steady = (speed or 1.0) - 0.2
-            return {"speed": speed, "fell": False, "fall_time_s": None,
-                    "steady_speed_mps": steady, "own_speed_mps": 1.0, "cpu_s": 0.0}
-        if speed == 0.9 and not between:
-            between.append(overrides)
-        fell = speed == 0.9 and overrides == between[0]
-        return {"speed": speed, "fell": fell, "fall_time_s": 12.0 if fell else None,
-                "steady_speed_mps": (speed or 1.0) - 0.09 + 0.02 * min(max(x, 0.0), 3.0),
-                "own_speed_mps": 1.0,
-                "cpu_s": 0.0}
-
+    walk, between = _simbicon_stand_in(lambda speed, seed: speed == 0.9, 12.0)
     monkeypatch.setattr(cal_mod, "_walk_job", walk)
     cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
     assert [r["speed"] for r in cal.check] == [None, 0.8, 1.0, 1.2]
@@ -267,22 +274,8 @@ def test_a_candidate_that_falls_from_rest_is_ruled_out(monkeypatch):
     that walks every speed from the seeded start but falls from the standing pose at rest (as
     SIMBICON calibrated from the seeded start only did on the Xia body, at 5.0 s) is ruled out,
     and the one stored walks from both starts."""
-    knob = cal_mod.KNOBS["simbicon"][0]
-    from_rest = []
-
-    def walk(args):
-        _, _, _, overrides, speed, seconds, seed = args
-        x = 0.0 if not overrides else (overrides[knob.name] - knob.default) / knob.step
-        if not overrides:  # the defaults: too slow everywhere
-            return {"speed": speed, "seed": seed, "fell": False, "fall_time_s": None,
-                    "steady_speed_mps": (speed or 1.0) - 0.2, "own_speed_mps": 1.0,
-                    "cpu_s": 0.0}
-        if seed is None and not from_rest:
-            from_rest.append(overrides)
-        fell = seed is None and speed is None and overrides == from_rest[0]
-        return {"speed": speed, "seed": seed, "fell": fell, "fall_time_s": 5.0 if fell else None,
-                "steady_speed_mps": (speed or 1.0) - 0.09 + 0.02 * min(max(x, 0.0), 3.0),
-                "own_speed_mps": 1.0, "cpu_s": 0.0}
+    walk, from_rest = _simbicon_stand_in(lambda speed, seed: speed is None and seed is None,
+                                         5.0)
 
     monkeypatch.setattr(cal_mod, "_walk_job", walk)
     cal = cal_mod.calibrate(HUMANOID_XML, "simbicon", jobs=1, budget_s=1.0)
