@@ -578,3 +578,14 @@ def test_sigterm_during_render_leaves_no_partial_video(tmp_path):
     assert rc == 143 and "Traceback" not in err, err[-2000:]
     assert video.read_bytes() == b"old"
     assert sorted(x.name for x in tmp_path.iterdir()) == ["v.mp4"]
+
+
+def test_binary_data_that_starts_with_a_brace_is_binary_not_json(tmp_path):
+    """Random bytes start with ``{`` or ``[`` one time in 128 (``info /dev/urandom`` said "a
+    JSON file" then): binary data is named as such whatever its first byte."""
+    path = tmp_path / "noise.bvh"
+    path.write_bytes(b"{" + bytes(range(256)) * 16)
+    from mjchar import bvh
+
+    with pytest.raises(bvh.BVHError, match="binary data"):
+        bvh.load(path)

@@ -80,7 +80,8 @@ def sniff(head: bytes, expected: str = "BVH") -> str | None:
         return (f"this is a C3D file (marker data), not {expected}: solve it to a skeleton and "
                 f"export BVH (Blender with a C3D importer, Vicon Nexus, Qualisys, MotionBuilder)")
     text = head.lstrip(codecs.BOM_UTF8).lstrip().lower()
-    if expected != "JSON" and text[:1] in (b"{", b"["):
+    if expected != "JSON" and text[:1] in (b"{", b"[") and not _binary(head):  # (random bytes
+        # start with a brace one time in 128)
         if b'"asset"' in text or b'"gltf' in text or b'"scenes"' in text:
             return f"this is a glTF file, not {expected}: {_EXPORT_BVH}"
         if expected == "BVH":
