@@ -28,8 +28,10 @@ from mjchar.controllers.sampling.mpc import (
 )
 from mjchar.controllers.sampling.rollout import RolloutRequest, get_state
 
-#: small, fast settings (about 1 s of wall time per 0.1 s simulated on 2 cores)
-FAST = {"samples": 8, "horizon": 0.2, "knots": 2, "replan": 0.04, "threads": 2}
+#: small, fast settings (about 1 s of wall time per 0.1 s simulated on 2 cores); one batch
+#: per plan, so the counts of rollouts and steps are fixed (the second batch has its own test)
+FAST = {"samples": 8, "horizon": 0.2, "knots": 2, "replan": 0.04, "threads": 2,
+        "second_batch": None}
 
 
 def _track(character, reference, duration, **options):
@@ -411,7 +413,37 @@ def test_cost_over_time_matches_the_cost_per_control(walk_ref):
         each = c.cost(res.qpos[:, i], res.qvel[:, i], res.com[:, i], res.com_vel[:, i],
                       res.sites[:, i], f, i)
         np.testing.assert_allclose(whole[:, i], each, rtol=1e-12)
+    per_control = [c.cost.terms(res.qpos[:, i], res.qvel[:, i], res.com[:, i],
+                                res.com_vel[:, i], res.sites[:, i], f, i)["joints"]
+                   for i in range(c.T)]
+    np.testing.assert_allclose(c.cost.joint_error(res.sites, f, np.arange(c.T)),
+                               np.mean(per_control, axis=0), rtol=1e-12)
     c.close()
+
+
+def test_a_second_batch_where_the_plan_stays_off_the_clip(walk_ref):
+    """``second_batch``: on the clip's own state the plan predicts a few centimetres and draws
+    one batch, the very plan of no second batch; from a state 0.3 m to the side of the clip,
+    the cheapest candidate stays further than 6 cm and ``samples`` more are drawn (twice the
+    rollouts and steps), a different plan from the same stream."""
+    ch = Character()
+    plans = {}
+    for bound in (None, 0.06):
+        c = make_mpc(ch, walk_ref, **{**FAST, "second_batch": bound})
+        c.reset(ch)
+        for side in (0.0, 0.3):
+            q = walk_ref.qpos(0.3).copy()
+            q[1] += side
+            ch.reset(q, walk_ref.qvel(0.3))
+            plans[bound, side] = c.plan(ch.state.get_physics(), 0.3,
+                                        rng=np.random.default_rng(1))
+        c.close()
+    steps = plans[None, 0.0].physics_steps
+    assert plans[0.06, 0.0].rollouts == 8 and plans[0.06, 0.0].physics_steps == steps
+    assert np.array_equal(plans[0.06, 0.0].targets, plans[None, 0.0].targets)
+    assert plans[0.06, 0.3].rollouts == 16 and plans[0.06, 0.3].physics_steps == 2 * steps
+    assert plans[None, 0.3].rollouts == 8
+    assert not np.array_equal(plans[0.06, 0.3].targets, plans[None, 0.3].targets)
 
 
 def test_early_termination_and_the_coarse_tail(walk_ref):

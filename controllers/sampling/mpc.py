@@ -27,7 +27,11 @@ The plan, with MJPC's symbols:
   simulated from the current state in one batch (:mod:`mjchar.controllers.sampling.rollout`, every
   core, deterministic) on the *planning model*: the character's physics (checked by
   :func:`~mjchar.controllers.sampling.trajectory.model_fingerprint`) at the time step
-  ``plan_timestep``, by default twice the character's (half the rollout physics).
+  ``plan_timestep``, by default twice the character's (half the rollout physics). When even
+  the cheapest candidate's rollout stays further from the clip than ``second_batch`` (its mean
+  joint position error over the horizon, the tracking metric's quantity; 5 cm by default),
+  ``N`` more candidates are drawn around the same nominal and the update takes both batches:
+  the search widens where the clip is hard to follow and costs nothing more where it is not.
 - **Cost** of a candidate: the SAMCON tracking cost
   (:class:`~mjchar.controllers.sampling.tracking.TrackingCost`: pose, root, end effectors, balance,
   COM, joint positions) averaged over the control ends of the horizon, plus
@@ -74,6 +78,7 @@ from ..core.param_fields import (
     field_docs,
     flag,
     integer,
+    length,
     mapping,
     number,
     time,
@@ -126,6 +131,11 @@ class MpcOptions:
 
     Attributes:
         samples: candidates per replanning step ``N`` (the nominal included), >= 2.
+        second_batch: the predicted error (m) above which a plan draws a second batch.
+            When the cheapest candidate's rollout stays further from the clip than this (mean
+            joint position error over the horizon, the tracking metric's quantity),
+            ``samples`` more candidates are drawn and the plan is updated over both batches:
+            the search widens where the clip is hard to follow (``None``: never).
         horizon: seconds planned ahead ``H`` (a whole number of controls).
         knots: spline knots over the horizon ``K`` (>= 2; knot spacing ``H / (K - 1)``).
         replan: seconds between replanning steps (a whole number of controls, <= horizon).
@@ -171,6 +181,7 @@ class MpcOptions:
     """
 
     samples: int = integer(48, ge=2, le=4096)
+    second_batch: float | None = length(0.05, gt=0, le=1, optional=True)
     horizon: float = time(0.7, gt=0, le=5)
     knots: int = integer(3, ge=2, le=100)
     replan: float = time(0.04, gt=0, le=5)
@@ -501,17 +512,15 @@ class MpcController:
         grid, n0 = self._grid_at(t)
         base = grid.base(n0, n0 + self.T)
         X, sigma, applied = self._warm(nominal, t, base)
-        N = o.samples
-        if o.antithetic:  # pairs +eps, -eps (and one more when N - 1 is odd)
-            half = rng.standard_normal(((N - 1) // 2,) + X.shape)
-            extra = rng.standard_normal(((N - 1) % 2,) + X.shape)
-            eps = np.concatenate([half, -half, extra])
-        else:
-            eps = rng.standard_normal((N - 1,) + X.shape)
         b = self._boost() if boost is None else float(boost)
-        Xs = np.concatenate([X[None], X[None] + b * sigma * eps])  # (N, K, nu)
-        off = self.spline.offsets(Xs)  # (N, T, nu), radians
-        c, steps = self._rollout_costs(state, base[None] + off, off, applied, grid, n0)
+        Xs = np.concatenate([X[None], X[None] + b * sigma * self._noise(rng, o.samples - 1,
+                                                                      X.shape)])  # (N, K, nu)
+        c, err, steps = self._batch(state, Xs, base, applied, grid, n0)
+        if o.second_batch is not None and err[np.argmin(c)] > o.second_batch:
+            more = X[None] + b * sigma * self._noise(rng, o.samples, X.shape)
+            c2, _, steps2 = self._batch(state, more, base, applied, grid, n0)
+            Xs, c, steps = np.concatenate([Xs, more]), np.concatenate([c, c2]), steps + steps2
+        N = len(Xs)
         X, sigma, best = self._update(Xs, c, X, sigma)
         offsets = self.spline.offsets(X)
         t0 = grid.origin + n0 * o.control_dt
@@ -529,6 +538,20 @@ class MpcController:
         return p
 
     # -- the planning step's parts -------------------------------------------------------------
+    def _noise(self, rng: np.random.Generator, n: int, shape: tuple) -> np.ndarray:
+        """``(n,) + shape`` standard normal perturbations (in pairs ``+eps, -eps`` and one more
+        when ``n`` is odd, with ``antithetic``)."""
+        if not self.options.antithetic:
+            return rng.standard_normal((n,) + shape)
+        half = rng.standard_normal((n // 2,) + shape)
+        return np.concatenate([half, -half, rng.standard_normal((n % 2,) + shape)])
+
+    def _batch(self, state, Xs: np.ndarray, base: np.ndarray, applied: np.ndarray, grid, n0):
+        """``((N,) costs, (N,) mean joint errors (m), planning-model steps)`` of the candidate
+        knots ``Xs (N, K, nu)`` rolled out from ``state``."""
+        off = self.spline.offsets(Xs)  # (N, T, nu), radians
+        return self._rollout_costs(state, base[None] + off, off, applied, grid, n0)
+
     def _grid(self, origin: float) -> ReferenceGrid:
         key = round(origin, 9)
         g = self._grids.get(key)
@@ -575,7 +598,8 @@ class MpcController:
         return X, np.full((o.knots, nu), o.noise), off[0]
 
     def _rollout_costs(self, state, controls, off, applied, grid, n0):
-        """``((N,) costs, planning-model steps)`` of the candidates ``controls (N, T, nu)``.
+        """``((N,) costs, (N,) mean joint errors (m), planning-model steps)`` of the candidates
+        ``controls (N, T, nu)``.
 
         Without a split (``near``), one batch over the horizon. With it, every candidate runs
         the near part; the ``keep`` fraction cheapest so far (fallen ones last) runs on over
@@ -588,7 +612,8 @@ class MpcController:
         if T1 <= 0 or T1 >= T:
             res = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls,
                                                          self.k_plan))
-            return self._costs(res, off, applied, grid.features, rows), N * T * self.k_plan
+            return (self._costs(res, off, applied, grid.features, rows),
+                    self.cost.joint_error(res.sites, grid.features, rows), N * T * self.k_plan)
         n_keep = min(N, max(2, int(math.ceil(o.keep * N))))
         first = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls[:, :T1],
                                                        self.k_plan))
@@ -598,13 +623,14 @@ class MpcController:
         keep = np.sort(np.argsort(c1, kind="stable")[:n_keep])
         keep = keep[np.isfinite(c1[keep])]
         if not len(keep):  # every candidate diverged: the least bad by what they did
-            return np.where(np.isfinite(c1), c1, 10 * FALL_COST), steps
-        c = np.full(N, np.inf)
+            return np.where(np.isfinite(c1), c1, 10 * FALL_COST), np.full(N, np.inf), steps
+        c, err = np.full(N, np.inf), np.full(N, np.inf)
         near = first.take(keep)
-        tail = self._executor.evaluate(RolloutRequest(
-            self._tail_model, near.final_states, controls[keep, T1:], self.k_tail))
-        c[keep] = self._costs(near.then(tail), off[keep], applied, grid.features, rows)
-        return c, steps + len(keep) * (T - T1) * self.k_tail
+        whole = near.then(self._executor.evaluate(RolloutRequest(
+            self._tail_model, near.final_states, controls[keep, T1:], self.k_tail)))
+        c[keep] = self._costs(whole, off[keep], applied, grid.features, rows)
+        err[keep] = self.cost.joint_error(whole.sites, grid.features, rows)
+        return c, err, steps + len(keep) * (T - T1) * self.k_tail
 
     def _boost(self) -> float:
         """Noise factor: the last plan's cost over its running mean (time constant

@@ -488,6 +488,18 @@ class TrackingCost:
              + w.balance * t["balance"] + w.com * t["com"] + w.joints * t["joints"])
         return np.where(np.isfinite(c), c, np.inf)
 
+    def joint_error(self, sites: np.ndarray, ref: ReferenceFeatures,
+                    rows: np.ndarray) -> np.ndarray:
+        """``(B,)`` mean world joint position error (m, the tracking metric's quantity) of whole
+        rollouts ``sites (B, T, S, 3)`` against rows ``rows (T,)`` of ``ref``, averaged over
+        time (NaN states: ``inf``); zeros when the sites name no joint."""
+        if not len(self._joints):
+            return np.zeros(len(sites))
+        rows = np.asarray(rows, dtype=int)
+        dj = sites[:, :, self._joints] - ref.sites[rows][:, self._joints]
+        e = np.linalg.norm(dj, axis=-1).mean(axis=(1, 2))
+        return np.where(np.isfinite(e), e, np.inf)
+
     def over_time(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray,
                   com_vel: np.ndarray, sites: np.ndarray, ref: ReferenceFeatures,
                   rows: np.ndarray) -> np.ndarray:
