@@ -83,6 +83,20 @@ def _track(model, clip, controller="hand_of_god", duration=None) -> MotionRecord
     return rec
 
 
+def _rig_round_trip(rig: tuple, path) -> tuple[bvh.Motion, bvh.Motion]:
+    """Track a second of a converted rig's clip (``rig``: the clip and its model) and check its
+    round trip through ``path`` (:func:`round_trip_error` within the tolerance, the clip's joint
+    names and channels kept); returns the exported clip and the rig's own."""
+    clip, xml = rig
+    rec = _track(str(xml), clip, duration=1.0)
+    err, loaded = round_trip_error(rec, path)
+    assert err < TOLERANCE_M, f"{err * 1000:.3f} mm"
+    source = bvh.load(clip)
+    assert loaded.skeleton.names == source.skeleton.names
+    assert loaded.skeleton.channels == source.skeleton.channels
+    return loaded, source
+
+
 @pytest.fixture(scope="module")
 def cmu_rig(tmp_path_factory):
     """A CMU-style rig converted (default options) from walk60 re-expressed in CMU style."""
@@ -114,14 +128,8 @@ def test_bundled_track_round_trip(tmp_path):
 
 
 def test_cmu_rig_round_trip_keeps_names_channels_units(cmu_rig, tmp_path):
-    clip, xml = cmu_rig
-    rec = _track(str(xml), clip, duration=1.0)
-    err, loaded = round_trip_error(rec, tmp_path / "cmu_sim.bvh")
-    assert err < TOLERANCE_M, f"{err * 1000:.3f} mm"
-    source = bvh.load(clip)
-    assert loaded.skeleton.names == source.skeleton.names
+    loaded, source = _rig_round_trip(cmu_rig, tmp_path / "cmu_sim.bvh")
     assert set(loaded.skeleton.names) == set(CMU_NAMES.values())
-    assert loaded.skeleton.channels == source.skeleton.channels
     assert loaded.skeleton.channels[1] == ("Zrotation", "Yrotation", "Xrotation")
     np.testing.assert_allclose(loaded.skeleton.offsets, source.skeleton.offsets, atol=1e-6)
     assert loaded.frame_time == pytest.approx(source.frame_time, rel=1e-4)
@@ -244,13 +252,7 @@ def test_a_normalised_rig_exports_on_its_own_skeleton(rerooted_rig, tmp_path):
     """The export undoes the converter's normalisation: the file's static root node, its rest
     pose (bones along local axes) and channels come back, and every joint below the folded node
     is where the simulation had it."""
-    clip, xml = rerooted_rig
-    rec = _track(str(xml), clip, duration=1.0)
-    err, loaded = round_trip_error(rec, tmp_path / "unreal_sim.bvh")
-    assert err < TOLERANCE_M, f"{err * 1000:.3f} mm"
-    source = bvh.load(clip)
-    assert loaded.skeleton.names == source.skeleton.names
-    assert loaded.skeleton.channels == source.skeleton.channels
+    loaded, source = _rig_round_trip(rerooted_rig, tmp_path / "unreal_sim.bvh")
     np.testing.assert_allclose(loaded.skeleton.offsets, source.skeleton.offsets, atol=1e-6)
     # the static node stays where the file holds it
     np.testing.assert_allclose(loaded.root_positions - source.root_positions[0], 0.0, atol=1e-6)

@@ -8,7 +8,7 @@ import pytest
 
 from mjchar import bvh
 from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
-from mjchar.bvh.bundled.zoo import CONVENTIONS, rename
+from mjchar.bvh.bundled.zoo import CONVENTIONS, _names, rename
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import ConversionError, ModelInfo, convert
 from mjchar.bvh.mjcf.roles import load_roles
@@ -20,9 +20,42 @@ def _renamed(mapping: dict[str, str]) -> Skeleton:
     return rename(humanoid_rest_motion(), mapping).skeleton
 
 
-@pytest.mark.parametrize("convention", sorted(CONVENTIONS))
+#: naming conventions of real exports beside the rig zoo's (:data:`CONVENTIONS`, Daz/Poser's
+#: among them): MakeHuman's CMU-MB (lower case, side letters glued on), Xsens MVN as its BVH
+#: export writes it, Perception Neuron, CMU's ASF names, Mixamo under a numbered namespace and
+#: under a Blender armature
+REAL_CONVENTIONS = {
+    "makehuman": _names(("hip", "abdomen", "chest", "head"),
+                        ("{s}hip", "{s}knee", "{s}foot", "{s}toe", "{s}collar",
+                         "{s}shoulder", "{s}elbow", "{s}hand"), "l", "r"),
+    "xsens-bvh": _names(("Hips", "Chest", "Chest4", "Head"),
+                        ("{s}Hip", "{s}Knee", "{s}Ankle", "{s}Toe", "{s}Collar",
+                         "{s}Shoulder", "{s}Elbow", "{s}Wrist"), "Left", "Right"),
+    "neuron": _names(("Hips", "Spine", "Spine3", "Head"),
+                     ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                      "{s}Arm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
+    "asf": _names(("root", "lowerback", "thorax", "head"),
+                  ("{s}femur", "{s}tibia", "{s}foot", "{s}toes", "{s}clavicle",
+                   "{s}humerus", "{s}radius", "{s}wrist"), "l", "r"),
+    "mixamo7": _names(tuple(f"mixamorig7:{n}" for n in ("Hips", "Spine", "Spine2", "Head")),
+                      tuple("mixamorig7:" + p for p in (
+                          "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
+                          "{s}Arm", "{s}ForeArm", "{s}Hand")), "Left", "Right"),
+    "armature": _names(tuple(f"Armature|{n}" for n in ("Hips", "Spine", "Chest", "Head")),
+                       tuple("Armature|" + p for p in (
+                           "UpperLeg_{s}", "LowerLeg_{s}", "Foot_{s}", "Toes_{s}",
+                           "Shoulder_{s}", "UpperArm_{s}", "LowerArm_{s}", "Hand_{s}")),
+                       "L", "R"),
+}
+
+
+#: every convention tested: the zoo's under their names, the real exports' as ``real-NAME``
+ALL_CONVENTIONS = CONVENTIONS | {f"real-{k}": v for k, v in REAL_CONVENTIONS.items()}
+
+
+@pytest.mark.parametrize("convention", sorted(ALL_CONVENTIONS))
 def test_conventions_are_recognised(convention):
-    mapping = CONVENTIONS[convention]
+    mapping = ALL_CONVENTIONS[convention]
     rec = recognise(_renamed(mapping))
     for g, role in (("lHip", "left_hip"), ("rKnee", "right_knee"), ("lAnkle", "left_ankle"),
                     ("rToeJoint", "right_toe"), ("lShoulder", "left_shoulder"),

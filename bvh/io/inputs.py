@@ -22,8 +22,9 @@ import codecs
 import os
 import stat
 from collections.abc import Callable
+from typing import Any
 
-__all__ = ["sniff", "read_text", "HEAD_BYTES"]
+__all__ = ["sniff", "read_text", "read_parsed", "HEAD_BYTES"]
 
 #: how many leading bytes :func:`sniff` looks at
 HEAD_BYTES = 4096
@@ -190,6 +191,31 @@ def read_text(path: str | os.PathLike, *, what: str, max_bytes: int,
         line = before.count(b"\n") + before.count(b"\r") - before.count(b"\r\n") + 1
         raise error(f"not UTF-8 text (byte {e.start}: binary, or another encoding): save it as "
                     f"UTF-8 {expected}", line) from None
+
+
+def read_parsed(path: str | os.PathLike, *, what: str, max_bytes: int, expected: str,
+                parse: Callable[[str], Any], invalid: type[Exception],
+                error: Callable[[str], Exception], example: str, invalid_hint: str = "") -> Any:
+    """``parse`` of the text of a settings file (roles, gains) read by :func:`read_text`; every
+    failure is one line naming the file.
+
+    Args:
+        path, what, max_bytes, expected: as :func:`read_text` takes them.
+        parse: turns the text into data (``json.loads``, ``tomllib.loads``).
+        invalid: the exception ``parse`` raises for text that is not ``expected``.
+        error: makes the exception raised from its message.
+        example: what the file should hold, for a file nested too deeply to parse.
+        invalid_hint: said after the parser's reason for text that is not ``expected``.
+    """
+    path = os.fspath(path)
+    text = read_text(path, what=what, max_bytes=max_bytes, expected=expected,
+                     error=lambda reason, line: error(f"{what} {path}: {reason}"))
+    try:
+        return parse(text)
+    except invalid as e:
+        raise error(f"{what} {path} is not valid {expected}: {e}{invalid_hint}") from None
+    except RecursionError:
+        raise error(f"{what} {path} nests too deeply: expected {example}") from None
 
 
 def _open(path: str):

@@ -21,8 +21,27 @@ _AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
 _FRAME_BLOCK = 4096
 
 
+class FrameTimes:
+    """The times of ``n_frames`` frames ``frame_time`` seconds apart, for a clip that has both
+    (:class:`Motion`, :class:`~mjchar.bvh.reference.reference_motion.ReferenceMotion`)."""
+
+    n_frames: int
+    frame_time: float
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame: ``(F - 1) * frame_time`` (the loop period of
+        a cyclic clip)."""
+        return (self.n_frames - 1) * self.frame_time
+
+    @property
+    def times(self) -> np.ndarray:
+        """``(F,)`` time of each frame in seconds."""
+        return np.arange(self.n_frames) * self.frame_time
+
+
 @dataclass
-class Motion:
+class Motion(FrameTimes):
     """Frames of local joint transforms.
 
     Attributes:
@@ -76,16 +95,6 @@ class Motion:
     @property
     def fps(self) -> float:
         return 1.0 / self.frame_time
-
-    @property
-    def duration(self) -> float:
-        """Seconds from the first to the last frame: ``(F - 1) * frame_time``."""
-        return (self.n_frames - 1) * self.frame_time
-
-    @property
-    def times(self) -> np.ndarray:
-        """``(F,)`` time of each frame in seconds."""
-        return np.arange(self.n_frames) * self.frame_time
 
     @property
     def root_positions(self) -> np.ndarray:

@@ -40,7 +40,7 @@ from scipy.spatial.transform import Rotation
 from mjchar.bvh.errors import MjcharError
 from mjchar.bvh.io import load
 from mjchar.bvh.io.files import write_text
-from mjchar.bvh.io.inputs import read_text
+from mjchar.bvh.io.inputs import read_parsed
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import tables as T
@@ -373,17 +373,9 @@ def _load_gains(gains) -> dict:
     if gains is None:
         return {}
     if isinstance(gains, (str, os.PathLike)):
-        path = os.fspath(gains)
-        text = read_text(path, what="gains file", max_bytes=MAX_GAINS_BYTES, expected="JSON",
-                         error=lambda reason, line: ConversionError(f"gains file {path}: "
-                                                                    f"{reason}"))
-        try:
-            gains = json.loads(text)
-        except json.JSONDecodeError as e:
-            raise ConversionError(f"gains file {path} is not valid JSON: {e}") from None
-        except RecursionError:
-            raise ConversionError(f"gains file {path} nests too deeply: expected "
-                                  f"{{\"joint or role\": {{\"kp\": 300}}}}") from None
+        gains = read_parsed(gains, what="gains file", max_bytes=MAX_GAINS_BYTES, expected="JSON",
+                            parse=json.loads, invalid=json.JSONDecodeError,
+                            error=ConversionError, example='{"joint or role": {"kp": 300}}')
     if not isinstance(gains, dict):
         raise ConversionError("gains must map joint names or roles to {kp, kd, torque, armature}")
     out = {}

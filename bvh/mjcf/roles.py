@@ -23,7 +23,7 @@ import os
 import tomllib
 
 from mjchar.bvh.errors import name_list
-from mjchar.bvh.io.inputs import read_text
+from mjchar.bvh.io.inputs import read_parsed
 from mjchar.bvh.mjcf.info import ConversionError
 
 SIDED = ("hip", "knee", "ankle", "toe", "clavicle", "shoulder", "elbow", "wrist")
@@ -48,17 +48,10 @@ def load_roles(source) -> dict[str, object]:
     where = "roles"
     if isinstance(source, (str, os.PathLike)):
         where = os.fspath(source)
-        text = read_text(where, what="roles file", max_bytes=MAX_ROLES_BYTES, expected="TOML",
-                         error=lambda reason, line: ConversionError(f"roles file {where}: "
-                                                                    f"{reason}"))
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as e:
-            raise ConversionError(f"roles file {where} is not valid TOML: {e}; expected lines "
-                                  f"like {EXAMPLE}") from None
-        except RecursionError:
-            raise ConversionError(f"roles file {where} nests too deeply: expected lines like "
-                                  f"{EXAMPLE}") from None
+        data = read_parsed(where, what="roles file", max_bytes=MAX_ROLES_BYTES, expected="TOML",
+                           parse=tomllib.loads, invalid=tomllib.TOMLDecodeError,
+                           error=ConversionError, example=f"lines like {EXAMPLE}",
+                           invalid_hint=f"; expected lines like {EXAMPLE}")
     else:
         data = dict(source)
     if isinstance(data.get("roles"), dict) and len(data) == 1:

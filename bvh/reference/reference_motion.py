@@ -64,7 +64,7 @@ import numpy as np
 
 from mjchar.bvh.errors import ReferenceMotionError
 from mjchar.bvh.io import load
-from mjchar.bvh.io.motion import Motion
+from mjchar.bvh.io.motion import FrameTimes, Motion
 from mjchar.bvh.kinematics.fk import end_site_positions, forward_kinematics
 from mjchar.bvh.kinematics.qpos_algebra import _QposAlgebra
 from mjchar.bvh.reference.foot_points import (
@@ -111,7 +111,7 @@ END_EFFECTOR_ROLES = ("head", "left_wrist", "right_wrist", "left_ankle", "right_
 # --------------------------------------------------------------------------------------------
 # the reference motion
 # --------------------------------------------------------------------------------------------
-class ReferenceMotion:
+class ReferenceMotion(FrameTimes):
     """A BVH motion expressed in a converted model's coordinates, sampled at any time.
 
     Args:
@@ -379,16 +379,6 @@ class ReferenceMotion:
         return i, a, k.astype(int), inside, shape
 
     # -- public sampling ---------------------------------------------------------------------------
-    @property
-    def duration(self) -> float:
-        """Seconds from the first to the last frame (the loop period of a cyclic clip)."""
-        return (self.n_frames - 1) * self.frame_time
-
-    @property
-    def times(self) -> np.ndarray:
-        """``(F,)`` frame times in seconds."""
-        return np.arange(self.n_frames) * self.frame_time
-
     def qpos(self, t) -> np.ndarray:
         """Generalised positions at time(s) ``t`` (seconds, any shape): ``(*t.shape, nq)``.
 

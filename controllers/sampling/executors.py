@@ -32,7 +32,7 @@ from typing import Any
 
 from mjchar.bvh.errors import MjcharError
 
-from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner
+from .rollout import RolloutModel, RolloutRequest, RolloutResult, RolloutRunner, pool_size
 
 __all__ = [
     "ExecutorError", "RayUnavailableError", "RayConnectionError", "Executor", "LocalExecutor",
@@ -97,13 +97,7 @@ class LocalExecutor(Executor):
     name = "local"
 
     def __init__(self, threads: int | None = None, chunk: int = 256):
-        if threads is None:
-            threads = os.cpu_count() or 1
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-            raise ExecutorError(f"threads must be a positive integer, got {threads!r}")
-        if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-            raise ExecutorError(f"chunk must be a positive integer, got {chunk!r}")
-        self.threads, self.chunk = threads, chunk
+        self.threads, self.chunk = pool_size(threads, chunk, ExecutorError)
         self._runners: dict[int, RolloutRunner] = {}
 
     @property

@@ -593,6 +593,19 @@ class RolloutResult:
 # the engine
 
 
+def pool_size(threads: int | None, chunk: int,
+              error: type[MjcharError] = RolloutError) -> tuple[int, int]:
+    """``(threads, chunk)`` of a rollout pool, checked (:class:`RolloutRunner` and the local
+    executor's): ``threads`` ``None`` is ``os.cpu_count()``; either one not a positive integer
+    raises ``error``."""
+    if threads is None:
+        threads = os.cpu_count() or 1
+    for label, value in (("threads", threads), ("chunk", chunk)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise error(f"{label} must be a positive integer, got {value!r}")
+    return threads, chunk
+
+
 class RolloutRunner:
     """Runs requests for one :class:`RolloutModel` on a persistent ``mujoco.rollout`` pool.
 
@@ -611,12 +624,7 @@ class RolloutRunner:
     """
 
     def __init__(self, model: RolloutModel, threads: int | None = None, chunk: int = 256):
-        if threads is None:
-            threads = os.cpu_count() or 1
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-            raise RolloutError(f"threads must be a positive integer, got {threads!r}")
-        if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-            raise RolloutError(f"chunk must be a positive integer, got {chunk!r}")
+        threads, chunk = pool_size(threads, chunk, RolloutError)
         self.model, self.threads, self.chunk = model, threads, chunk
         self._datas = [mujoco.MjData(model.model) for _ in range(threads)]
         self._pool = mujoco.rollout.Rollout(nthread=threads if threads > 1 else 0)

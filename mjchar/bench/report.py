@@ -188,51 +188,64 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _raw_line(raw: dict) -> str:
+    return (f"raw mj_step (dt {raw['timestep_s'] * 1e3:g} ms): "
+            f"{raw['c_loop_steps_per_s']:,.0f} steps/s wall, "
+            f"{raw['c_loop_steps_per_cpu_s']:,.0f} per CPU-second (C loop); "
+            f"{raw['python_loop_steps_per_s']:,.0f} wall, "
+            f"{raw['python_loop_steps_per_cpu_s']:,.0f} per CPU-second (Python loop)")
+
+
+def _rollout_line(ro: dict) -> str:
+    return ("batched rollouts (" + f"{ro['samples']} x {ro['steps_per_sample']} steps): "
+            + ", ".join(f"{c['case']} {c['steps_per_s']:,.0f} steps/s "
+                        f"({c['speedup_vs_python_loop']:.2f}x, {c['cores_busy']:.2f} "
+                        f"cores busy)" for c in ro["cases"]))
+
+
+def _cost_line(cost: dict) -> str:
+    parts = [f"{n} {c['ratio']:.2f}x" for n, c in cost["controllers"].items()
+             if c.get("available")]
+    return "step cost / mj_step: " + (", ".join(parts) or "none available")
+
+
+def _envs_line(env: dict) -> str:
+    ref = env["reference"]
+    return "env steps/s: " + ", ".join(
+        f"{e} {v['env_steps_per_s']:,.0f} ({v['physics_steps_per_s']:,.0f} physics/s, "
+        f"{env['ratios'][e]['physics_steps']:.2f}x {ref}'s physics rate)"
+        for e, v in env["envs"].items())
+
+
+def _bvh_line(bv: dict) -> str:
+    return "BVH parse vs bvhio.readAsBvh: " + ", ".join(
+        f"{f['file']} {f['bvh_load_ms']:.2f} vs {f['bvhio_ms']:.2f} ms ({f['speedup']:.1f}x)"
+        for f in bv["files"])
+
+
+def _envelope_line(en: dict) -> str:
+    return "PD stability envelope (largest held step): " + ", ".join(
+        f"{r['variant']} kp {r['kp']:g}: "
+        + (f"1/{r['largest_held_hz']} s" if r["largest_held_hz"] else "none")
+        for r in en["rows"])
+
+
+#: the performance section's parts in print order: (key, its line, what a part that is not
+#: available is called in its line saying so; ``None``: no line then)
+_PERFORMANCE_LINES = (("raw", _raw_line, None), ("rollout", _rollout_line, "batched rollouts"),
+                      ("cost", _cost_line, None), ("envs", _envs_line, "env throughput"),
+                      ("bvh", _bvh_line, "BVH parse speed"), ("envelope", _envelope_line, None))
+
+
 def format_performance(perf: dict) -> str:
     """A few readable lines of the performance section."""
     lines = []
-    raw = perf.get("raw") or {}
-    if raw.get("available"):
-        lines.append(f"raw mj_step (dt {raw['timestep_s'] * 1e3:g} ms): "
-                     f"{raw['c_loop_steps_per_s']:,.0f} steps/s wall, "
-                     f"{raw['c_loop_steps_per_cpu_s']:,.0f} per CPU-second (C loop); "
-                     f"{raw['python_loop_steps_per_s']:,.0f} wall, "
-                     f"{raw['python_loop_steps_per_cpu_s']:,.0f} per CPU-second (Python loop)")
-    ro = perf.get("rollout") or {}
-    if ro.get("available"):
-        lines.append("batched rollouts (" + f"{ro['samples']} x {ro['steps_per_sample']} steps): "
-                     + ", ".join(f"{c['case']} {c['steps_per_s']:,.0f} steps/s "
-                                 f"({c['speedup_vs_python_loop']:.2f}x, {c['cores_busy']:.2f} "
-                                 f"cores busy)" for c in ro["cases"]))
-    elif ro:
-        lines.append(f"batched rollouts: not available: {ro['reason']}")
-    cost = perf.get("cost") or {}
-    if cost.get("available"):
-        parts = [f"{n} {c['ratio']:.2f}x" for n, c in cost["controllers"].items()
-                 if c.get("available")]
-        lines.append("step cost / mj_step: " + (", ".join(parts) or "none available"))
-    env = perf.get("envs") or {}
-    if env.get("available"):
-        ref = env["reference"]
-        lines.append("env steps/s: " + ", ".join(
-            f"{e} {v['env_steps_per_s']:,.0f} ({v['physics_steps_per_s']:,.0f} physics/s, "
-            f"{env['ratios'][e]['physics_steps']:.2f}x {ref}'s physics rate)"
-            for e, v in env["envs"].items()))
-    elif env:
-        lines.append(f"env throughput: not available: {env['reason']}")
-    bv = perf.get("bvh") or {}
-    if bv.get("available"):
-        lines.append("BVH parse vs bvhio.readAsBvh: " + ", ".join(
-            f"{f['file']} {f['bvh_load_ms']:.2f} vs {f['bvhio_ms']:.2f} ms ({f['speedup']:.1f}x)"
-            for f in bv["files"]))
-    elif bv:
-        lines.append(f"BVH parse speed: not available: {bv['reason']}")
-    en = perf.get("envelope") or {}
-    if en.get("available"):
-        lines.append("PD stability envelope (largest held step): " + ", ".join(
-            f"{r['variant']} kp {r['kp']:g}: "
-            + (f"1/{r['largest_held_hz']} s" if r["largest_held_hz"] else "none")
-            for r in en["rows"]))
+    for key, line, name in _PERFORMANCE_LINES:
+        part = perf.get(key) or {}
+        if part.get("available"):
+            lines.append(line(part))
+        elif part and name:
+            lines.append(f"{name}: not available: {part['reason']}")
     return "\n".join(lines)
 
 

@@ -37,6 +37,26 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     add(p)
 
 
+def add_optimiser_arguments(p: argparse.ArgumentParser, statistics: str) -> None:
+    """The options an optimiser's command ends with (``samcon``, ``trajopt``): ``--quiet``,
+    ``--json`` (printing ``statistics`` and the replay's metrics), ``--floor`` and the
+    executor's."""
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true",
+                   help=f"print one JSON object ({statistics} and the replay's metrics)")
+    add_floor_argument(p)
+    add_executor_arguments(p)
+
+
+def set_given(options, args: argparse.Namespace, names) -> None:
+    """Set each ``(name, attr)`` of ``names``: ``options.attr`` to ``args.name`` where the
+    command line gave it (not ``None``); the others keep the options' own values."""
+    for name, attr in names:
+        v = getattr(args, name)
+        if v is not None:
+            setattr(options, attr, v)
+
+
 def load_reference(path: str, model, floor: str = "contact"):
     """``(character_model, ReferenceMotion)`` for a BVH clip on ``model`` (default: the bundled
     humanoid), placed on the floor per ``floor`` (see ``ReferenceMotion``); a clip the model
@@ -103,11 +123,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="cost weight override, repeatable (pose, root, end_effector, balance, "
                         "com, joints, velocity, com_horizon), e.g. --weight root=20 for sharp "
                         "turns")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (SAMCON statistics and the replay's metrics)")
-    add_floor_argument(p)
-    add_executor_arguments(p)
+    add_optimiser_arguments(p, "SAMCON statistics")
     p.set_defaults(func=run)
 
 
@@ -126,12 +142,9 @@ def run(args: argparse.Namespace) -> int:
                              saved=min(args.saved, args.samples), seed=args.seed,
                              duration=args.duration, start=args.start, adapt=args.adapt,
                              weights=CostWeights(**dict(args.weight))))
-    for name, attr in (("slice", "slice_dt"), ("distribution", "distribution"),
-                       ("width_scale", "width_scale"), ("window", "window"),
-                       ("iterations", "iterations")):
-        v = getattr(args, name)
-        if v is not None:
-            setattr(o, attr, v)
+    set_given(o, args, (("slice", "slice_dt"), ("distribution", "distribution"),
+                        ("width_scale", "width_scale"), ("window", "window"),
+                        ("iterations", "iterations")))
     ex = executor_from_args(args)
     try:
         with Samcon(ref, model=args.model, options=o, executor=ex,

@@ -10,11 +10,12 @@ from __future__ import annotations
 import argparse
 
 from . import COMMANDS
-from .argtypes import add_floor_argument, integer, non_negative, positive
+from .argtypes import integer, non_negative, positive
 from .samcon import (
-    add_executor_arguments,
+    add_optimiser_arguments,
     check_output,
     load_reference,
+    set_given,
 )
 
 TASKS = ("track", "jump")
@@ -52,11 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--clearance", type=positive("clearance"), default=0.10,
                    metavar="M", help="jump: required foot clearance in metres (default 0.10)")
     p.add_argument("--seed", type=integer("seed"), default=0, metavar="N")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (optimiser statistics and the replay's metrics)")
-    add_floor_argument(p)
-    add_executor_arguments(p)
+    add_optimiser_arguments(p, "optimiser statistics")
     p.set_defaults(func=run)
 
 
@@ -94,12 +91,9 @@ def run(args: argparse.Namespace) -> int:
         o = TrajoptOptions(**dict(JUMP_OPTIONS, seed=args.seed))
     else:
         o.duration = args.duration
-    for name, attr in (("generations", "generations"), ("popsize", "popsize"),
-                       ("window", "window"), ("commit", "commit"), ("knot_dt", "knot_dt"),
-                       ("sigma", "sigma0")):
-        v = getattr(args, name)
-        if v is not None:
-            setattr(o, attr, v)
+    set_given(o, args, (("generations", "generations"), ("popsize", "popsize"),
+                        ("window", "window"), ("commit", "commit"), ("knot_dt", "knot_dt"),
+                        ("sigma", "sigma0")))
     progress = not (args.quiet or args.json)
     ex = executor_from_args(args)
     try:

@@ -24,7 +24,6 @@ The two FK results are compared (bvhio computes in float32 via PyGLM).
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import tempfile
@@ -36,7 +35,7 @@ import numpy as np
 from mjchar import bvh
 
 from .errors import PerfError, PerfUnavailable, positive_int
-from .report import DOCS, SHARED_BVH, machine_line, write_block
+from .report import DOCS, SHARED_BVH, entry_parser, machine_line, write_block
 from .timing import rounds, timed
 
 __all__ = ["SHARED_CLIPS", "bvh_parse_speed", "long_cmu_style_motion", "bvhio_fk",
@@ -192,8 +191,7 @@ def table(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.bvh",
-                                 description=__doc__.split("\n")[0])
+    ap = entry_parser("bvh", __doc__)
     ap.add_argument("--frames", type=int, default=10_000, help="frames of the long CMU-style file")
     ap.add_argument("--quick", action="store_true", help="shorter timing budgets")
     ap.add_argument("--write", action="store_true", help="update docs/bvh.md")

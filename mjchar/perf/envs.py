@@ -24,7 +24,6 @@ median round is reported, so all rows share the machine's load. Columns:
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 from collections.abc import Sequence
@@ -33,7 +32,7 @@ import mujoco
 import numpy as np
 
 from .errors import PerfUnavailable, positive_int
-from .report import DOCS, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, write_block
 from .timing import PhysicsClock, Timing, timed
 
 __all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
@@ -473,8 +472,7 @@ def threaded_table(res: dict, command: str = "python -m mjchar.perf.envs") -> st
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.envs",
-                                 description=__doc__.splitlines()[0])
+    ap = entry_parser("envs", __doc__)
     ap.add_argument("--steps", type=int, default=3000, help="env steps per env per round")
     ap.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median kept)")
     ap.add_argument("--write", action="store_true", help="update docs/envs.md")

@@ -11,7 +11,6 @@ walk (the baseline: what importing mjchar and MuJoCo costs) and the file's size.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -20,6 +19,8 @@ import tempfile
 from pathlib import Path
 
 from mjchar.bvh.bundled.assets import motion_path
+
+from .report import entry_parser
 
 #: the child: runs one mjchar command, then reports its own CPU time and peak memory
 _CHILD = r"""
@@ -88,8 +89,7 @@ def measure(argv: list[str], folder: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.hostile",
-                                description=__doc__.splitlines()[0])
+    p = entry_parser("hostile", __doc__)
     p.add_argument("--joints", type=int, default=5000, help="joints of the chain (5000)")
     p.add_argument("--tail", type=int, default=2000, help="joints of the walk's tail (2000)")
     p.add_argument("--megabytes", type=float, default=50.0, help="size of the long clip (50)")

@@ -23,7 +23,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -36,7 +35,7 @@ from mjchar.controllers.core.scenarios import push, simulate, standing_pose
 from mjchar.controllers.walking.ipm import make_ipm
 
 from .physics import step_cost
-from .report import write_json
+from .report import entry_parser, write_json
 
 SECTIONS = ("walk", "stop", "turn", "push", "cost")
 DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
@@ -162,8 +161,7 @@ def bench_cost(steps: int = 2500, repeats: int = 5) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.ipm",
-                                 description=__doc__.splitlines()[0])
+    ap = entry_parser("ipm", __doc__)
     ap.add_argument("sections", nargs="*", metavar="SECTION",
                     help=f"any of {', '.join(SECTIONS)} (default: all)")
     ap.add_argument("--quick", action="store_true", help="20 s walks, fewer pushes")

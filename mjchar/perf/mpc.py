@@ -36,7 +36,6 @@ them), their real-time factors are not the controller's (use ``--speed`` alone f
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 
@@ -58,7 +57,7 @@ from mjchar.controllers.sampling.trajectory import (
 )
 
 from .physics import raw_step_rate
-from .report import shared_clip, write_json
+from .report import entry_parser, shared_clip, write_json
 from .timing import load_average, timed
 
 CLIPS = ("walk60", "walk_forward", "walk_and_turn_right", "idle")
@@ -362,8 +361,7 @@ def _variations(specs: list[str]) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.mpc",
-                                description=__doc__.split("\n")[0])
+    p = entry_parser("mpc", __doc__)
     for part in ("clips", "loop", "pushes", "perturbed", "curve", "determinism", "speed", "all"):
         p.add_argument(f"--{part}", action="store_true")
     p.add_argument("--loop-duration", type=float, default=60.0)

@@ -20,7 +20,6 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -29,7 +28,7 @@ from mjchar.controllers.core.character import Character
 
 from .errors import PerfError, positive_int
 from .physics import step_cost
-from .report import DOCS, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, write_block
 from .timing import timed
 
 __all__ = ["ENVELOPE_KPS", "ENVELOPE_VARIANTS", "ENVELOPE_GRID", "ENVELOPE_FINER",
@@ -195,8 +194,7 @@ def cost_table(costs: dict, steps: int, repeats: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.pd",
-                                description=__doc__.splitlines()[0])
+    p = entry_parser("pd", __doc__)
     p.add_argument("--only", choices=("envelope", "cost"))
     p.add_argument("--limits", action="store_true",
                    help="also measure the envelope with the model's torque limits")

@@ -9,6 +9,7 @@ that block, through a temporary file beside the page.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -21,7 +22,7 @@ from .errors import PerfError
 from .timing import load_average
 
 __all__ = ["ROOT", "DOCS", "SHARED_BVH", "machine_line", "write_block", "write_json",
-           "shared_clip"]
+           "shared_clip", "entry_parser"]
 
 #: the project root of a source checkout (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,6 +39,13 @@ def shared_clip(name: str) -> Path:
         raise PerfError(f"shared clip {path} not found: this measurement needs ../shared/data "
                         f"beside the checkout")
     return path
+
+
+def entry_parser(name: str, doc: str) -> argparse.ArgumentParser:
+    """The argument parser of the entry point ``python -m mjchar.perf.NAME``, described by the
+    first line of its module docstring ``doc``."""
+    return argparse.ArgumentParser(prog=f"python -m mjchar.perf.{name}",
+                                   description=doc.splitlines()[0])
 
 
 def machine_line(**versions: str) -> str:

@@ -15,7 +15,6 @@ physics steps per second (an executor's extra sensing step is not counted).
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -25,7 +24,7 @@ import numpy as np
 
 from .errors import positive_int
 from .physics import hold_ctrl
-from .report import DOCS, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, write_block
 from .timing import rounds
 
 __all__ = ["python_rollout_loop", "compare_cases", "rollout_throughput", "main"]
@@ -129,8 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     from mjchar.controllers.sampling.executors import LocalExecutor, make_executor
     from mjchar.controllers.sampling.rollout import RolloutRequest
 
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.rollouts",
-                                description=__doc__.splitlines()[0])
+    p = entry_parser("rollouts", __doc__)
     p.add_argument("--samples", type=int, default=256, help="samples per batch (B)")
     p.add_argument("--steps", type=int, default=50, help="physics steps per slice")
     p.add_argument("--repeat", type=int, default=5, help="timed rounds (best kept)")

@@ -20,7 +20,6 @@ average is printed with each part; read ratios rather than absolute timings).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -48,7 +47,7 @@ from mjchar.controllers.sampling.trajopt import (
     trajectory_cost,
 )
 
-from .report import DOCS, machine_line, write_block, write_json
+from .report import DOCS, entry_parser, machine_line, write_block, write_json
 from .report import shared_clip as clip
 from .timing import load_average, rounds, timed
 
@@ -256,8 +255,7 @@ def table(results: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.samcon",
-                                description=__doc__.splitlines()[0])
+    p = entry_parser("samcon", __doc__)
     p.add_argument("--all", action="store_true", help="every part")
     p.add_argument("--throughput", action="store_true")
     p.add_argument("--reconstruct", nargs="*", metavar="CLIP",

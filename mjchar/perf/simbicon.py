@@ -18,7 +18,6 @@ Parts:
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
@@ -29,7 +28,7 @@ from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival
 from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
 
 from .physics import step_cost
-from .report import write_json
+from .report import entry_parser, write_json
 from .timing import timed
 
 PARTS = ("walk", "feedback-off", "pushes", "search", "slopes", "timing")
@@ -140,8 +139,7 @@ def bench_timing(gait: str, steps: int = 3000, repeats: int = 5) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mjchar.perf.simbicon",
-                                 description=__doc__.splitlines()[0])
+    ap = entry_parser("simbicon", __doc__)
     ap.add_argument(
         "parts", nargs="*", default=[], help=f"parts to run: {', '.join(PARTS)} (default: all)"
     )

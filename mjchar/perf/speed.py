@@ -26,13 +26,12 @@ load average it was measured under.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Callable, Sequence
 
 from .errors import PerfUnavailable
 from .physics import run_cost
-from .report import DOCS, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, write_block
 
 __all__ = ["MPC_DURATION", "controller_run_costs", "controllers_table", "main"]
 
@@ -78,8 +77,7 @@ def controllers_table(costs: dict, repeats: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mjchar.perf.speed",
-                                description=__doc__.splitlines()[0])
+    p = entry_parser("speed", __doc__)
     p.add_argument("controllers", nargs="*", help="registered controllers (default: all)")
     p.add_argument("--only", choices=("controllers", "envs"))
     p.add_argument("--repeats", type=int, default=3, help="timed runs / rounds (median)")

@@ -6,23 +6,6 @@
 - :mod:`~mjchar.bvh.kinematics.ik.solvers`: the three update rules.
 """
 
-from mjchar.bvh.kinematics.ik.solve import (
-    METHODS,
-    Effector,
-    FramesResult,
-    IKError,
-    IKProblem,
-    IKResult,
-    IKState,
-    Pose,
-    solve,
-    solve_ccd,
-    solve_dls,
-    solve_frames,
-    solve_jacobian_transpose,
-)
-
-__all__ = [
-    "IKError", "Pose", "Effector", "IKProblem", "IKState", "IKResult", "FramesResult",
-    "solve", "solve_ccd", "solve_jacobian_transpose", "solve_dls", "solve_frames", "METHODS",
-]
+# the public names are those of ``solve``'s ``__all__`` (one list, kept there)
+from mjchar.bvh.kinematics.ik.solve import *  # noqa: F403
+from mjchar.bvh.kinematics.ik.solve import __all__  # noqa: F401

@@ -49,6 +49,15 @@ def _all_finite(x: np.ndarray) -> bool:
     return math.isfinite(_l1(x)) or bool(np.isfinite(x).all())
 
 
+def _check_action(x: np.ndarray, n: int, what: str, data: mujoco.MjData) -> None:
+    """An action's ``torque`` or ``target`` (``what``) must have shape ``(n,)``
+    (:class:`CharacterError`) and be finite (:class:`SimulationDiverged` at ``data.time``)."""
+    if x.shape != (n,):
+        raise CharacterError(f"action {what} must have shape ({n},), got {x.shape}")
+    if not _all_finite(x):
+        raise SimulationDiverged(f"the controller produced a non-finite {what}", data.time)
+
+
 class Actuation:
     """The actuators of one character (built by the Character; see the module docstring).
 
@@ -191,11 +200,7 @@ class Actuation:
             return
         tau = action.torque
         if tau is not None:
-            if tau.shape != (self._nv,):
-                raise CharacterError(f"action torque must have shape ({self._nv},), got "
-                                     f"{tau.shape}")
-            if not _all_finite(tau):
-                raise SimulationDiverged("the controller produced a non-finite torque", d.time)
+            _check_action(tau, self._nv, "torque", d)
             d.qfrc_applied[self._unact_sel] = tau[self._unact_sel]
             rw = tau[self._root_sel]
             if _l1(rw) != 0.0:  # (finite here: = rw.any())
@@ -210,11 +215,7 @@ class Actuation:
             d.ctrl[:] = 0 if tau is None else tau[self._act_sel]
             return
         if target is not None:
-            if target.shape != (self._nu,):
-                raise CharacterError(f"action target must have shape ({self._nu},), got "
-                                     f"{target.shape}")
-            if not _all_finite(target):
-                raise SimulationDiverged("the controller produced a non-finite target", d.time)
+            _check_action(target, self._nu, "target", d)
             self._native_target[:] = target
         d.ctrl[:] = self._native_target
         if tau is not None:
