@@ -39,6 +39,7 @@ from mjchar.controllers.core import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.action import Action
 from mjchar.controllers.core.registry import ControllerSpec, RegistryError
+from mjchar.controllers.core.runs import RunError, RunSpec
 from mjchar.controllers.core.scenarios import registry as scenario_registry
 from mjchar.controllers.core.scenarios.options import DURATION, SEED
 from mjchar.controllers.core.scenarios.registry import Option, ScenarioError, ScenarioSpec
@@ -343,6 +344,48 @@ def test_a_registration_reaches_the_cli_make_controller_and_the_bench(limp, caps
     controllers, cells, _ = B.run_matrix([("limp", "stand")], cfg, progress=False)
     assert controllers["limp"]["available"]
     assert cells[0]["status"] == "ok" and not cells[0]["runs"][0]["survived"]
+
+
+def test_a_declared_option_gets_its_flag_where_it_applies_and_its_range(monkeypatch, capsys):
+    """Options are declared once: a controller taking a new declared option gets its flag in
+    ``mjchar run`` (parsed by its kind, checked against its range) and its factory receives it;
+    every other controller refuses the flag; an undeclared option cannot be registered."""
+    from mjchar.controllers.core.registry import FACTORY_OPTIONS, FactoryOption
+
+    monkeypatch.setitem(FACTORY_OPTIONS, "droop", FactoryOption(
+        "droop", "--droop", "number", help="how far it sags", low=-2.0, high=2.0,
+        unit="metres"))
+    got = {}
+
+    def factory(character, target=None, **options):
+        got.update(options)
+        return Limp()
+
+    registry.register(ControllerSpec(
+        name="droopy", label="droops (test)", kind="balance", factory=factory,
+        abilities=("stand",), default_scenario="stand", options=("droop",)))
+    try:
+        assert main(["run", "droopy", "--droop", "0.5", "--duration", "0.1", "--json"]) == 0
+        assert got == {"droop": 0.5}
+        capsys.readouterr()
+        assert main(["run", "droopy", "--droop", "3"]) == 2
+        assert "--droop 3 is out of range: give metres within +-2" in capsys.readouterr().err
+        assert main(["run", "pd", "--droop", "0.5"]) == 2
+        err = capsys.readouterr().err
+        assert "--droop does not apply to pd in the stand scenario; it is used by droopy" in err
+        with pytest.raises(RunError, match="droop 3 is out of range"):
+            RunSpec("droopy", options={"droop": 3.0}).check()
+    finally:
+        registry.unregister("droopy")
+    with pytest.raises(RegistryError, match="not declared"):
+        ControllerSpec(name="x", label="x", kind="balance", factory=factory,
+                       abilities=("stand",), default_scenario="stand", options=("sag",))
+
+
+def test_the_python_api_checks_the_declared_ranges_too():
+    with pytest.raises(RunError, match=r"heading 10000 is out of range: give degrees within "
+                                       r"\+-360"):
+        RunSpec("ipm", "walk", options={"heading": 1e4}).check()
 
 
 def test_after_unregistering_the_name_is_gone(limp):

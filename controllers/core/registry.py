@@ -46,6 +46,110 @@ class RegistryError(MjcharError):
     """An unknown controller name, a duplicate registration or an inconsistent spec."""
 
 
+#: how a factory option's value is given on the command line: ``number`` (finite),
+#: ``metres`` (>= 0), ``text``, ``pd`` (the name of a registered PD tracker), ``params``
+#: (``NAME=VALUE``, repeatable), ``file`` (``mjchar run``'s positional FILE), ``squat`` (a depth
+#: in metres >= 0 that the run turns into a squat profile)
+OPTION_KINDS = ("number", "metres", "text", "pd", "params", "file", "squat")
+
+
+@dataclass(frozen=True)
+class FactoryOption:
+    """A keyword option of controller factories, declared once: a controller lists the names
+    it takes (:attr:`ControllerSpec.options`); ``mjchar run`` derives its flag, how the value
+    parses, where it applies and its range from this declaration, and the run builder checks
+    the same range for every entry point.
+
+    Attributes:
+        name: the factory keyword (``speed``).
+        flag: the command-line flag (``--speed``), ``FILE`` for the positional argument.
+        kind: one of :data:`OPTION_KINDS`.
+        help: the ``--help`` line (what it does, its default).
+        dest: the command line's attribute (default: the flag without dashes).
+        low, high: the values accepted (``None``: no bound beyond the kind's).
+        moving_only: used only in the scenarios that move (walk, slopes).
+        metavar: the value's name in ``--help``.
+        unit: the value's unit, for messages (``degrees``).
+    """
+
+    name: str
+    flag: str
+    kind: str
+    help: str = ""
+    dest: str = ""
+    low: float | None = None
+    high: float | None = None
+    moving_only: bool = False
+    metavar: str | None = None
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if self.kind not in OPTION_KINDS:
+            raise RegistryError(f"option {self.name!r}: kind must be one of "
+                                f"{', '.join(OPTION_KINDS)}, got {self.kind!r}")
+        if not (self.flag.startswith("--") or self.flag == "FILE"):
+            raise RegistryError(f"option {self.name!r}: the flag must start with -- (or be "
+                                "FILE)")
+        if not self.dest:
+            object.__setattr__(self, "dest", "trajectory" if self.flag == "FILE"
+                               else self.flag[2:].replace("-", "_"))
+
+    def problem(self, value) -> str | None:
+        """What is wrong with ``value`` (``None``: it is in range; only numbers are ranged)."""
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            return None
+        unit = f" {self.unit}" if self.unit else ""
+        if self.low is not None and self.high is not None and self.low == -self.high:
+            if abs(value) > self.high:
+                return f"give {self.unit or 'values'} within +-{self.high:g}"
+        elif self.high is not None and value > self.high:
+            return f"at most {self.high:g}{unit}"
+        elif self.low is not None and value < self.low:
+            return f"at least {self.low:g}{unit}"
+        return None
+
+
+_DECLARED = (
+    FactoryOption("speed", "--speed", "number", metavar="M/S", moving_only=True,
+                  help="walk and slopes, controllers taking a speed (ipm, simbicon): desired "
+                       "forward speed (default: the controller's own, ipm 1.0, simbicon its "
+                       "gait's; ipm: 0 stops and stands; each controller's range is checked)"),
+    FactoryOption("heading", "--heading", "number", metavar="DEG", low=-360.0, high=360.0,
+                  unit="degrees",
+                  help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)"),
+    FactoryOption("gait", "--gait", "text", metavar="NAME",
+                  help="simbicon: gait parameter set (default walk)"),
+    FactoryOption("params", "--param", "params", metavar="NAME=VALUE",
+                  help="a tunable of the controller (repeatable; {controllers}): mpc's "
+                       "MpcOptions (samples=96, horizon=0.5, update=cem), ipm's IPMParams "
+                       "(timing.step_time=0.5), simbicon's Gait (torso_pitch=0.2); VALUE is read "
+                       "as JSON, else as text; `mjchar params CONTROLLER` lists every NAME with "
+                       "its type, unit, range and default; a wrong type, NaN or a value out of "
+                       "range is an error naming it"),
+    FactoryOption("calibration", "--calibration", "text", metavar="FILE|none",
+                  help="ipm, simbicon (walk gait): the walker's calibration for the body: a "
+                       "file made by mjchar calibrate, or none for the defaults (default: the "
+                       "body's stored calibration, made first if missing; the bundled "
+                       "humanoid's is the defaults)"),
+    FactoryOption("height", "--squat", "squat", metavar="M",
+                  help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
+                       "hold 1 s and rise again"),
+    FactoryOption("tracker", "--tracker", "pd", help="PD variant hand_of_god wraps (default spd)"),
+    FactoryOption("trajectory", "FILE", "file"),
+    FactoryOption("policy", "FILE", "file"),
+)
+#: every factory option a controller may take, by name (:func:`declare_option` adds one)
+FACTORY_OPTIONS: dict[str, FactoryOption] = {o.name: o for o in _DECLARED}
+
+
+def declare_option(option: FactoryOption) -> FactoryOption:
+    """Declare a factory option (a name declared twice raises :class:`RegistryError`)."""
+    if option.name in FACTORY_OPTIONS:
+        raise RegistryError(f"an option named {option.name!r} is already declared")
+    FACTORY_OPTIONS[option.name] = option
+    return option
+
+
 @dataclass(frozen=True)
 class ControllerSpec:
     """How to build one controller and what it supports.
@@ -159,6 +263,10 @@ class ControllerSpec:
             raise bad(f"expected scenarios {self.expected} must be bench scenarios")
         if self.push not in PUSH_MODES:
             raise bad(f"push must be one of {', '.join(PUSH_MODES)}, got {self.push!r}")
+        undeclared = [o for o in self.options if o not in FACTORY_OPTIONS]
+        if undeclared:
+            raise bad(f"options {', '.join(undeclared)} are not declared (declare_option); "
+                      f"declared: {', '.join(FACTORY_OPTIONS)}")
         for lim in self.limits:
             if len(lim) != 3 or lim[0] not in self.options or not lim[1] <= lim[2]:
                 raise bad(f"limits must be (option, low, high) of its own options, got {lim}")

@@ -98,6 +98,11 @@ class RunSpec:
                     valid = ", ".join(cspec.options) or "none"
                     raise RunError(f"{cspec.name} takes no option {key!r}; its options: "
                                    f"{valid}")
+        for key, value in self.options.items():
+            declared = registry.FACTORY_OPTIONS.get(key)
+            problem = declared.problem(value) if declared is not None else None
+            if problem:
+                raise RunError(f"{key} {value:g} is out of range: {problem}")
         for what, problem in (
                 ("timestep", self.timestep is not None and timestep_problem(self.timestep)),
                 ("control_dt", self.control_dt is not None

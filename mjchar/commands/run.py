@@ -13,7 +13,14 @@ import textwrap
 
 from . import COMMANDS
 from .argtypes import add_floor_argument, assignment, integer, non_negative, number, positive
-from .run_options import check_applicable, check_body, check_outputs, check_ranges
+from .run_options import (
+    check_applicable,
+    check_body,
+    check_outputs,
+    check_ranges,
+    factory_options,
+    names_with,
+)
 from .suggest import hint
 
 
@@ -41,6 +48,20 @@ def _scenario_type(option):
     return {"seconds": positive(what), "newtons": non_negative(what),
             "metres": non_negative(what), "degrees": _direction, "number": number(what),
             "count": integer(what, minimum=1), "seed": integer(what)}[option.kind]
+
+
+def _add_factory_option(p: argparse.ArgumentParser, o, registry) -> None:
+    """The flag of a declared factory option (its parsing by kind)."""
+    help_ = o.help.format(controllers=names_with(o.name))
+    if o.kind == "params":
+        p.add_argument(o.flag, dest=o.dest, type=assignment(o.flag), action="append",
+                       metavar=o.metavar, help=help_)
+    elif o.kind == "pd":
+        p.add_argument(o.flag, dest=o.dest, choices=registry.names("pd"), help=help_)
+    else:
+        kind = {"number": number(o.name), "metres": non_negative(o.name),
+                "squat": non_negative("squat depth"), "text": None}[o.kind]
+        p.add_argument(o.flag, dest=o.dest, type=kind, metavar=o.metavar, help=help_)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -72,32 +93,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", choices=scenarios.names(), metavar="S",
                    help="one of: " + ", ".join(scenarios.names())
                         + " (default: the controller's own, see above)")
-    p.add_argument("--speed", type=number("speed"), metavar="M/S",
-                   help="walk and slopes, controllers taking a speed (ipm, simbicon): desired "
-                        "forward speed (default: the controller's own, ipm 1.0, simbicon its "
-                        "gait's; ipm: 0 stops and stands; each controller's range is checked)")
-    p.add_argument("--heading", type=number("heading"), metavar="DEG",
-                   help="ipm: desired heading in degrees (world yaw, 0 = +X, counter-clockwise)")
-    p.add_argument("--gait", metavar="NAME",
-                   help="simbicon: gait parameter set (default walk)")
-    p.add_argument("--param", type=assignment("--param"), action="append", metavar="NAME=VALUE",
-                   help="a tunable of the controller (repeatable; "
-                        f"{', '.join(s.name for s in registry.specs() if 'params' in s.options)}):"
-                        " mpc's MpcOptions (samples=96, horizon=0.5, update=cem), ipm's "
-                        "IPMParams (timing.step_time=0.5), simbicon's Gait (torso_pitch=0.2); "
-                        "VALUE is read as JSON, else as text; `mjchar params CONTROLLER` lists "
-                        "every NAME with its type, unit, range and default; a wrong type, NaN "
-                        "or a value out of range is an error naming it")
-    p.add_argument("--calibration", metavar="FILE|none",
-                   help="ipm, simbicon (walk gait): the walker's calibration for the body: a "
-                        "file made by mjchar calibrate, or none for the defaults (default: the "
-                        "body's stored calibration, made first if missing; the bundled "
-                        "humanoid's is the defaults)")
-    p.add_argument("--squat", type=non_negative("squat depth"), metavar="M",
-                   help="static_balance: lower the COM target by M metres (1 s in, over 1.5 s), "
-                        "hold 1 s and rise again")
-    p.add_argument("--tracker", choices=registry.names("pd"),
-                   help="PD variant hand_of_god wraps (default spd)")
+    for o in factory_options():
+        _add_factory_option(p, o, registry)
     p.add_argument("--motion", metavar="CLIP",
                    help="reference motion for track/walk and hand_of_god: a BVH file or a "
                         "bundled clip's name (walk, idle; default walk)")
@@ -136,30 +133,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-#: factory options that have their own flag (``--param`` refuses them)
-_FLAG_OF = {"speed": "--speed", "heading": "--heading", "gait": "--gait",
-            "tracker": "--tracker", "height": "--squat", "trajectory": "FILE",
-            "calibration": "--calibration", "policy": "FILE"}
-
-
 def _controller_options(spec, args: argparse.Namespace) -> dict:
-    """The factory options ``spec`` takes, from the command line (one rule per option name)."""
+    """The factory options ``spec`` takes, from the command line (the declared options' flags,
+    then ``--param``, which refuses an option that has a flag of its own)."""
     from mjchar.bvh.errors import MjcharError
+    from mjchar.controllers.core.registry import FACTORY_OPTIONS
 
     options = {}
-    for name, dest in (("tracker", "tracker"), ("gait", "gait"), ("speed", "speed"),
-                       ("heading", "heading"), ("trajectory", "trajectory"),
-                       ("calibration", "calibration"), ("policy", "trajectory")):
-        if name in spec.options and getattr(args, dest) is not None:
-            options[name] = getattr(args, dest)
-    if "height" in spec.options and args.squat:
-        from mjchar.controllers.balance.static_balance import squat_profile
+    for o in FACTORY_OPTIONS.values():
+        value = getattr(args, o.dest, None)
+        if o.name not in spec.options or o.kind == "params" or value is None:
+            continue
+        if o.kind == "squat":  # a depth (0: no squat) becomes the squat's height profile
+            if value:
+                from mjchar.controllers.balance.static_balance import squat_profile
 
-        options["height"] = squat_profile(args.squat)
+                options[o.name] = squat_profile(value)
+        else:
+            options[o.name] = value
     for name, value in args.param or ():
-        flag = _FLAG_OF.get(name)
-        if flag is not None:
-            raise MjcharError(f"--param {name}: give it as {flag}")
+        declared = FACTORY_OPTIONS.get(name)
+        if declared is not None and declared.kind != "params":
+            raise MjcharError(f"--param {name}: give it as {declared.flag}")
         if name in options and options[name] != value:
             raise MjcharError(f"--param {name} is given twice with different values")
         options[name] = value

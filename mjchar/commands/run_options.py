@@ -1,10 +1,11 @@
 """Which options of ``mjchar run`` apply where, and the ranges they accept.
 
-The options come from three places: the controller's factory options (``--speed``, ``--gait``,
-``--param``...; a controller registers which it takes), the run's own (``--motion``,
-``--timestep``, ``--render``...) and the scenarios' options, each declared once with its flag by
-the scenario registry (``--push``, ``--duration``, ``--seed``...; a new scenario's options get
-their flags with no edit here).
+The options come from three places, each declared once: the controllers' factory options
+(``--speed``, ``--gait``, ``--param``...), declared with their flags and ranges by the controller
+registry (:data:`~mjchar.controllers.core.registry.FACTORY_OPTIONS`; a controller registers which
+it takes), the run's own (``--motion``, ``--timestep``, ``--render``...) and the scenarios'
+options, declared by the scenario registry (``--push``, ``--duration``, ``--seed``...). A new
+controller or scenario option gets its flag with no edit here.
 
 Every option is parsed with the default ``None`` so that an option the user typed can be told
 from one left alone. :func:`check_applicable` then refuses, in one line (exit status 2), any
@@ -26,8 +27,6 @@ from mjchar.bvh.errors import MjcharError
 
 #: push forces (``--push``, ``--max-force``) above this many body weights are refused
 MAX_PUSH_BODY_WEIGHTS = 10.0
-#: headings are degrees in [-MAX_HEADING_DEG, MAX_HEADING_DEG]
-MAX_HEADING_DEG = 360.0
 #: frame rates of videos and BVH exports
 MAX_FPS = 1000.0
 #: a squat deeper than this fraction of the standing height is refused
@@ -76,12 +75,24 @@ def _not_protocol_or_replay(c, s) -> bool:
     return not s.protocol and c.kind != "replay"
 
 
-def _names_with(option: str) -> Callable[[], str]:
-    def where() -> str:
-        from mjchar.controllers import registry
+def names_with(option: str) -> str:
+    """The registered controllers whose factory takes ``option``, for messages and help."""
+    from mjchar.controllers import registry
 
-        names = [s.name for s in registry.specs() if option in s.options]
-        return ", ".join(names) if names else "no registered controller"
+    names = [s.name for s in registry.specs() if option in s.options]
+    return ", ".join(names) if names else "no registered controller"
+
+
+def _names_with(option: str) -> Callable[[], str]:
+    return lambda: names_with(option)
+
+
+def _moving_of(option: str) -> Callable[[], str]:
+    def where() -> str:
+        from mjchar.controllers.core.scenarios import registry
+
+        moving = ", ".join(s.name for s in registry.specs() if s.moving)
+        return f"the moving scenarios ({moving}) of {names_with(option)}"
     return where
 
 
@@ -101,17 +112,8 @@ def _text(text: str) -> Callable[[], str]:
 
 _CLIP = _text("runs with a reference clip: track, and walk for the trackers (not walkers, "
               "replays)")
-#: options that are not a scenario's
+#: the run's own options (neither a controller's nor a scenario's)
 RUN_OPTIONS: tuple[CliOption, ...] = (
-    CliOption("speed", "--speed", _controller_option("speed", moving_only=True),
-              lambda: f"the moving scenarios (walk, slopes) of {_names_with('speed')()}"),
-    CliOption("heading", "--heading", _controller_option("heading"), _names_with("heading")),
-    CliOption("gait", "--gait", _controller_option("gait"), _names_with("gait")),
-    CliOption("tracker", "--tracker", _controller_option("tracker"), _names_with("tracker")),
-    CliOption("calibration", "--calibration", _controller_option("calibration"),
-              _names_with("calibration")),
-    CliOption("squat", "--squat", _controller_option("height"), _names_with("height")),
-    CliOption("param", "--param", _controller_option("params"), _names_with("params")),
     CliOption("motion", "--motion", _follows_clip, _CLIP),
     CliOption("loop", "--loop", _follows_clip, _CLIP),
     CliOption("floor", "--floor", _follows_clip, _CLIP),
@@ -134,12 +136,23 @@ RUN_OPTIONS: tuple[CliOption, ...] = (
 REFINES = (("fps", "render", "--render"), ("export_fps", "export_bvh", "--export-bvh"))
 
 
+def factory_options():
+    """The declared factory options that have a flag (the positional FILE aside)."""
+    from mjchar.controllers.core.registry import FACTORY_OPTIONS
+
+    return tuple(o for o in FACTORY_OPTIONS.values() if o.kind != "file")
+
+
 def options() -> tuple[CliOption, ...]:
-    """Every option of ``mjchar run`` that applies somewhere only: the run's own, then one per
-    registered scenario option."""
+    """Every option of ``mjchar run`` that applies somewhere only: one per declared factory
+    option, the run's own, then one per registered scenario option."""
     from mjchar.controllers.core.scenarios import registry
 
-    return RUN_OPTIONS + tuple(
+    factory = tuple(
+        CliOption(o.dest, o.flag, _controller_option(o.name, o.moving_only),
+                  _moving_of(o.name) if o.moving_only else _names_with(o.name))
+        for o in factory_options())
+    return factory + RUN_OPTIONS + tuple(
         CliOption(o.name, o.flag, (lambda c, s, n=o.name: s.option(n) is not None),
                   _scenarios_with(o.name), scenario=True)
         for o in registry.options())
@@ -178,8 +191,11 @@ def check_ranges(args: argparse.Namespace, cspec, sspec) -> None:
         if o.high is not None and value is not None and value > o.high:
             unit = {"seconds": " s", "metres": " m", "newtons": " N"}.get(o.kind, "")
             raise _bad(o.flag, value, f"at most {o.high:g}{unit}")
-    if args.heading is not None and abs(args.heading) > MAX_HEADING_DEG:
-        raise _bad("--heading", args.heading, f"give degrees within +-{MAX_HEADING_DEG:g}")
+    for o in factory_options():
+        value = getattr(args, o.dest, None)
+        problem = o.problem(value) if value is not None else None
+        if problem:
+            raise _bad(o.flag, value, problem)
     if args.timestep is not None and args.timestep > MAX_TIMESTEP_S:
         raise _bad("--timestep", args.timestep, f"at most {MAX_TIMESTEP_S:g} s")
     if args.timestep is not None and args.timestep < MIN_TIMESTEP_S:
