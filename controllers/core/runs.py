@@ -144,8 +144,8 @@ class RunSpec:
         if "speed" in cspec.options:
             if not sspec.moving and "stand" in cspec.abilities:
                 options["speed"] = 0.0  # a walker that can stand stands still here
-            elif "speed" in options:
-                check_speed(cspec, options["speed"], character)
+            elif "speed" in options and not callable(options["speed"]):
+                check_speed(cspec, options["speed"], character)  # (a profile: Python only)
         if reference is None and target is None and cspec.kind in ("pd", "balance"):
             target = standing_pose(character)
         return registry.make_controller(cspec.name, character,

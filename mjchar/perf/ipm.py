@@ -30,8 +30,8 @@ import numpy as np
 
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.geometry import heading_yaw
-from mjchar.controllers.core.registry import make_controller
-from mjchar.controllers.core.scenarios import push, simulate, standing_pose
+from mjchar.controllers.core.runs import RunSpec, execute
+from mjchar.controllers.core.scenarios import standing_pose
 from mjchar.controllers.walking.ipm import make_ipm
 
 from .physics import step_cost
@@ -49,8 +49,10 @@ def outcome(r) -> str:
     return f"FELL at {r.fall_time_s:.1f} s" if r.fell else "ok"
 
 
-def run(ch: Character, ctrl, duration: float):
-    """Simulate from standing; returns (Result, times (T,), COM xy (T, 2), pelvis yaw (T,))."""
+def run(duration: float, **options):
+    """IPM walking from the standing pose at rest (the walk scenario) for ``duration`` s with
+    the factory ``options`` (``speed``, ``heading``: numbers or functions of time); returns
+    (Result, the controller, times (T,), COM xy (T, 2), pelvis yaw (T,))."""
     times, com, yaw = [], [], []
 
     def record(c: Character) -> None:
@@ -59,9 +61,10 @@ def run(ch: Character, ctrl, duration: float):
         R = c.state.root_rotation
         yaw.append(heading_yaw(R))
 
-    r = simulate(ch, ctrl, duration=duration, scenario="walk", qpos=standing_pose(ch),
-                 frame_callback=record)
-    return r, np.asarray(times), np.asarray(com), np.asarray(yaw)
+    built = RunSpec("ipm", "walk", options=options,
+                    scenario_options={"duration": duration}).build(frame_callback=record)
+    r = execute(built)
+    return r, built.controller, np.asarray(times), np.asarray(com), np.asarray(yaw)
 
 
 def mean_speed(times, com, t0: float) -> float:
@@ -71,11 +74,10 @@ def mean_speed(times, com, t0: float) -> float:
     return float(np.linalg.norm(com[-1] - com[i]) / (times[-1] - times[i]))
 
 
-def bench_walk(ch: Character, duration: float) -> list[dict]:
+def bench_walk(duration: float) -> list[dict]:
     out = []
     for speed in (0.5, 1.0):
-        ctrl = make_ipm(ch, speed=speed)
-        r, times, com, _ = run(ch, ctrl, duration)
+        r, ctrl, times, com, _ = run(duration, speed=speed)
         steps = np.diff(ctrl.step_switches[1:]) if len(ctrl.step_switches) > 2 else np.zeros(1)
         row = {"speed_cmd": speed, "duration_s": duration, "fell": r.fell,
                "fall_time_s": r.fall_time_s, "mean_speed": mean_speed(times, com, 0.0),
@@ -93,11 +95,10 @@ def bench_walk(ch: Character, duration: float) -> list[dict]:
     return out
 
 
-def bench_stop(ch: Character) -> list[dict]:
+def bench_stop() -> list[dict]:
     out = []
     for speed in (0.5, 1.0):
-        ctrl = make_ipm(ch, speed=lambda t, s=speed: s if t < 6.0 else 0.0)
-        r, times, com, _ = run(ch, ctrl, 14.0)
+        r, ctrl, times, com, _ = run(14.0, speed=lambda t, s=speed: s if t < 6.0 else 0.0)
         stood = [t for t in ctrl.stand_switches if t > 6.0]
         final = mean_speed(times, com, 13.0)
         row = {"speed_cmd": speed, "fell": r.fell, "mode_at_end": ctrl.mode,
@@ -110,11 +111,11 @@ def bench_stop(ch: Character) -> list[dict]:
     return out
 
 
-def bench_turn(ch: Character) -> list[dict]:
+def bench_turn() -> list[dict]:
     out = []
     for speed in (0.5, 1.0):
-        ctrl = make_ipm(ch, speed=speed, heading=lambda t: 0.0 if t < 3.0 else 90.0)
-        r, times, com, yaw = run(ch, ctrl, 15.0)
+        r, _, times, com, yaw = run(15.0, speed=speed,
+                                    heading=lambda t: 0.0 if t < 3.0 else 90.0)
         err = np.abs(np.degrees(yaw) - 90.0)
         within = np.flatnonzero((times > 3.0) & (err < 5.0))
         row = {"speed_cmd": speed, "fell": r.fell, "final_heading_deg": float(np.degrees(yaw[-1])),
@@ -126,7 +127,8 @@ def bench_turn(ch: Character) -> list[dict]:
     return out
 
 
-def bench_push(ch: Character, forces, times_) -> dict:
+def bench_push(forces, times_) -> dict:
+    """Pushes from standing (IPM at a zero command, as the push scenario runs a walker)."""
     out: dict = {"ipm": {}, "static_balance": {}}
     for name in ("ipm", "static_balance"):
         for force in forces:
@@ -135,10 +137,9 @@ def bench_push(ch: Character, forces, times_) -> dict:
                 for d in DIRECTIONS:
                     if name == "static_balance" and d % 90:
                         continue
-                    ctrl = (make_ipm(ch, speed=0.0) if name == "ipm"
-                            else make_controller("static_balance", ch))
-                    r = push(ch, ctrl, force=force, direction=d, push_time=pt,
-                             duration=pt + 3.0, allow_steps=True)
+                    r = RunSpec(name, "push", scenario_options={
+                        "force": force, "direction": d, "push_time": pt,
+                        "duration": pt + 3.0, "allow_steps": True}).execute()
                     ok.append({"direction_deg": d, "push_time_s": pt, "survived": not r.fell,
                                "stepped": r.stepped})
             out[name][str(force)] = ok
@@ -171,17 +172,16 @@ def main(argv=None) -> int:
     if bad:
         ap.error(f"unknown section(s) {', '.join(bad)}; choose from {', '.join(SECTIONS)}")
     sections = args.sections or list(SECTIONS)
-    ch = Character()
     results: dict = {}
     if "walk" in sections:
-        results["walk"] = bench_walk(ch, 20.0 if args.quick else 60.0)
+        results["walk"] = bench_walk(20.0 if args.quick else 60.0)
     if "stop" in sections:
-        results["stop"] = bench_stop(ch)
+        results["stop"] = bench_stop()
     if "turn" in sections:
-        results["turn"] = bench_turn(ch)
+        results["turn"] = bench_turn()
     if "push" in sections:
         forces = (150.0, 200.0) if args.quick else (150.0, 200.0, 250.0, 300.0)
-        results["push"] = bench_push(ch, forces, (1.0,) if args.quick else (1.0, 1.3))
+        results["push"] = bench_push(forces, (1.0,) if args.quick else (1.0, 1.3))
     if "cost" in sections:
         results["cost"] = bench_cost()
     if args.json:
