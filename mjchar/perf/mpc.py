@@ -61,7 +61,7 @@ from .report import entry_parser, shared_clip, write_json
 from .timing import load_average, timed
 
 CLIPS = ("walk60", "walk_forward", "walk_and_turn_right", "idle")
-DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
+DIRECTIONS = S.DIRECTIONS  # the scenarios' push directions (name -> degrees)
 RECOVERED = 0.08  # m: the joint error a pushed tracker must return below
 RECOVERY_WINDOW = 2.0  # s after the push's end
 SETTLE = 4.0  # s simulated after the push's end (the error must stay low once recovered)
