@@ -52,8 +52,7 @@ def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: fl
     """Yaw moment (N m) the stance foot can hold: ``friction x m g x r``, with ``r`` the mean
     distance of its floor contact points from their centroid (a flat foot ~0.1 m, a foot on its
     toes or heel much less), at most ``limit``."""
-    names = {st.ankle_name, st.toe_name}
-    pts = np.array([c.position[:2] for c in ch.contacts.ground() if c.body in names])
+    pts = ch.contacts.ground_points(st.sole_bodies)
     if len(pts) < 2:
         return 0.0
     r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())

@@ -90,6 +90,11 @@ class Leg:
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
+        # the bodies named as the ankle and toe joints: those whose floor contacts hold the foot
+        # (its yaw moment, ipm_torques.yaw_capacity)
+        ids = (mujoco.mj_name2id(ch.model, mujoco.mjtObj.mjOBJ_BODY, n)
+               for n in (self.ankle_name, self.toe_name) if n)
+        self.sole_bodies = tuple(b for b in ids if b >= 0)
         self.site = ch.site_id(f"{side}_foot")
         site_body, self.site_offset = ch.poses.site_offset(self.site)  # in the foot frame
         if site_body != self.foot:
