@@ -114,7 +114,7 @@ from ..core.geometry import heading_yaw, point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
-from .ipm_torques import damped, gravity_compensation, limit_stance_ankle, limit_stance_yaw
+from .ipm_torques import GravityCompensation, damped, limit_stance_ankle, limit_stance_yaw
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle
 from .swing import (
     SwingTrajectory,
@@ -205,9 +205,8 @@ class IPMController:
         thighs = {lg.thigh for lg in self._legs}
         self._pelvis_children = [(ch.dof_joint[dofs], dofs) for dofs
                                  in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
-        # per-dof data for gravity compensation and PD
+        # per-dof data for PD and gravity compensation (all but the stance leg, per swing leg)
         self._act = np.flatnonzero(ch.actuated)
-        self._dof_mass = np.array([ch.dynamics.subtree_mass(b) for b in ch.dof_body])
         legs = np.concatenate([lg.all for lg in self._legs])
         upper = np.setdiff1d(self._act, legs)
         toes = np.concatenate([lg.toe for lg in self._legs])
@@ -219,6 +218,8 @@ class IPMController:
             raise IPMError(f"IPM needs hinge joints in the upper body too (joint {joint} is a "
                            "ball joint): convert with --joint-model hinge (joint_model='hinge')")
         self._upper_q = ch.dof_qpos[self._upper]
+        self._gravity = [GravityCompensation(ch, np.concatenate([self._upper, lg.all]))
+                         for lg in self._legs]
         kp, kd = ch.actuation.default_gains()
         s = self.params.upper.gain_scale
         self._upper_kp = kp[self._upper] * s
@@ -584,8 +585,8 @@ class IPMController:
         self._track_feet_and_upper_body(ch, sw, st, R_sw_foot, tau, D)
         # 4. gravity compensation on everything but the stance leg
         if p.tracking.gravity_compensation:
-            gdofs = np.concatenate([self._upper, sw.all])
-            tau[gdofs] += gravity_compensation(ch, gdofs, self._dof_mass)
+            gravity = self._gravity[self._swing]
+            tau[gravity.dofs] += gravity(s)
         self._track_pelvis(ch, sw, st, A_sw, vd, tau, D)
         # 5. virtual COM force through the stance leg
         self._virtual_force(ch, t, st, c, f, l, vh, vd, tau)

@@ -16,18 +16,24 @@ from .ipm_params import GRAVITY
 from .leg import Leg, inverse3
 
 
-def gravity_compensation(ch: Character, dofs: np.ndarray, dof_mass: np.ndarray) -> np.ndarray:
-    """``(len(dofs),)`` torques holding up the links below ``dofs`` (an upward ``m g`` at each
-    dof's subtree centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with
-    axis ``a_j`` at ``p_j``, subtree mass ``M_j`` (``dof_mass``, indexed by dof) and subtree COM
-    ``C_j``."""
-    s = ch.state
-    b = ch.dof_body[dofs]
-    j = ch.dof_joint[dofs]
-    lever = s.subtree_coms[b] - s.joint_anchors[j]
-    ax = s.joint_axes[j]
-    # a . (lever x z) = a_x lever_y - a_y lever_x
-    return GRAVITY * dof_mass[dofs] * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
+class GravityCompensation:
+    """Torques holding up the links below ``dofs`` (an upward ``m g`` at each dof's subtree
+    centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with axis ``a_j`` at
+    ``p_j``, subtree mass ``M_j`` and subtree COM ``C_j``; the dofs' bodies, joints and weights
+    ``M_j g`` are looked up once. Call it with the Character's state for the ``(len(dofs),)``
+    torques."""
+
+    def __init__(self, ch: Character, dofs: np.ndarray):
+        self.dofs = dofs
+        self._bodies = ch.dof_body[dofs]
+        self._joints = ch.dof_joint[dofs]
+        self._weight = GRAVITY * np.array([ch.dynamics.subtree_mass(b) for b in self._bodies])
+
+    def __call__(self, s) -> np.ndarray:
+        lever = s.subtree_coms[self._bodies] - s.joint_anchors[self._joints]
+        ax = s.joint_axes[self._joints]
+        # a . (lever x z) = a_x lever_y - a_y lever_x
+        return self._weight * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
 
 
 def damped(ch: Character, tau: np.ndarray, D: np.ndarray, implicit: bool) -> np.ndarray:
