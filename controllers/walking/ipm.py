@@ -126,6 +126,7 @@ from .swing import (
 )
 
 _LEFT, _RIGHT = 0, 1
+_Y = np.array([0.0, 1.0, 0.0])
 
 
 class IPMController:
@@ -456,19 +457,19 @@ class IPMController:
                 ``standing.stop_speed``.
         """
         p = self.params
-        d = np.asarray(ipm_step_offset(np.asarray(v_heading, float), h))
+        vs, vc = (float(x) for x in v_heading)
         side = 1.0 if swing == _LEFT else -1.0
         w = self._human if self.mode == "step" else 0.0
         pl = p.placement
         cs = pl.coronal_scale + w * (p.human.coronal_scale - pl.coronal_scale)
-        out = np.array([pl.sagittal_scale * d[0] - pl.speed_offset * v_desired - self.speed_bias,
-                        cs * d[1] + side * pl.step_width])
+        out = [pl.sagittal_scale * ipm_step_offset(vs, h) - pl.speed_offset * v_desired
+               - self.speed_bias, cs * ipm_step_offset(vc, h) + side * pl.step_width]
         if stance_lateral is not None:
-            stopping = self._stopping and abs(float(v_heading[1])) < p.standing.stop_speed
+            stopping = self._stopping and abs(vc) < p.standing.stop_speed
             width = self.stand_width if stopping else pl.min_width
             out[1] = stance_lateral + side * max(side * (out[1] - stance_lateral), width)
         lim = pl.clamp * self.leg_length
-        return np.clip(out, -lim, lim)
+        return np.array([min(max(x, -lim), lim) for x in out])
 
     def act(self, character: Character, t: float) -> Action:
         """Torques ``(nv,)`` for this physics step (root rows zero)."""
@@ -615,7 +616,7 @@ class IPMController:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
             x = self.phase / p.feet.toe_up_phase
             toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(x))
-            R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
+            R_sw_foot = R_foot_des @ rotation_about(_Y, -toe_up)
         hip_pos = s.joint_anchors[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
         if sw.planar:
@@ -642,7 +643,7 @@ class IPMController:
             if t > t_prev:
                 w_des = rotation_error(R_thigh_des, R_prev) / (t - t_prev)
                 flex_rate = (flexion - flex_prev) / (t - t_prev)
-                n = float(np.linalg.norm(w_des))
+                n = math.sqrt(float(w_des @ w_des))
                 if n > tr.max_target_rate:
                     w_des *= tr.max_target_rate / n
                 flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
@@ -705,15 +706,15 @@ class IPMController:
         tr = p.tracking
         s = ch.state
         lean = p.upper.lean * vd
-        R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
-                                                                  lean)
+        R_p_des = rotation_z(self.heading_target) @ rotation_about(_Y, lean)
         R_p = s.body_rotations[self._pelvis]
         _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis])
-        kp_p = np.array([tr.pelvis_kp, tr.pelvis_kp, tr.pelvis_yaw_kp])
-        kd_p = np.array([tr.pelvis_kd, tr.pelvis_kd, tr.pelvis_yaw_kd])
-        T0 = -(kp_p * rotation_error(R_p_des, R_p)
-               + kd_p * np.array([0.0, 0.0, self._heading_rate]))
-        DT = -kd_p[:, None] * jr_p                            # world torque rows on qdot
+        # -(kp e + kd omega_des) per axis (kp, kd: horizontal, horizontal, yaw), on floats
+        e = rotation_error(R_p_des, R_p).tolist()
+        kp, kd, ykp, ykd = tr.pelvis_kp, tr.pelvis_kd, tr.pelvis_yaw_kp, tr.pelvis_yaw_kd
+        T0 = np.array([-(kp * e[0] + kd * 0.0), -(kp * e[1] + kd * 0.0),
+                       -(ykp * e[2] + ykd * self._heading_rate)])
+        DT = np.array([[-kd], [-kd], [-ykd]]) * jr_p          # world torque rows on qdot
         inv = inverse3(A_sw.T)
         T0 -= inv @ tau[sw.hip]
         DT -= inv @ D[sw.hip]
