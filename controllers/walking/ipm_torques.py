@@ -61,7 +61,11 @@ def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: fl
     pts = ch.contacts.ground_points(st.sole_bodies)
     if len(pts) < 2:
         return 0.0
-    r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
+    # the mean distance from the centroid: pts.mean(axis=0), norm(axis=1), .mean() in numpy's
+    # own reductions (their summation order), without their wrappers' per-call overhead
+    k = len(pts)
+    d = pts - np.add.reduce(pts, axis=0) / k
+    r = float(np.add.reduce(np.sqrt(np.add.reduce(d * d, axis=1))) / k)
     return min(limit, friction * mass * GRAVITY * r)
 
 
