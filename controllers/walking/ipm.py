@@ -740,7 +740,7 @@ class IPMController:
                           + p.force.coronal_vel * (vcd - vh[1]))
         fs = max(-p.force.max_sagittal, min(p.force.max_sagittal, fs))
         fc = max(-p.force.max_coronal, min(p.force.max_coronal, fc))
-        F = fs * f + fc * l
+        F = np.array([fs * fi + fc * li for fi, li in zip(f.tolist(), l.tolist(), strict=True)])
         self.last_force = F
         jacp, _ = ch.dynamics.point_jacobian(st.foot, c)
         tau[st.leg] -= jacp[:, st.leg].T @ F

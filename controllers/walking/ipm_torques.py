@@ -90,8 +90,8 @@ def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back
     A = s.joint_axes[st.ankle_jnt].T
     T = inverse3(A.T) @ tau[st.ankle]
     R_foot = s.body_rotations[st.foot]
-    Tl = R_foot.T @ T
+    roll_m, pitch_m, yaw_m = (R_foot.T @ T).tolist()
     # the moment on the foot about +y (toes down) shifts the pressure forward
-    Tl[1] = min(max(Tl[1], -back * weight), fwd * weight)
-    Tl[0] = min(max(Tl[0], -roll * weight), roll * weight)
-    tau[st.ankle] = A.T @ (R_foot @ Tl)
+    pitch_m = min(max(pitch_m, -back * weight), fwd * weight)
+    roll_m = min(max(roll_m, -roll * weight), roll * weight)
+    tau[st.ankle] = A.T @ (R_foot @ np.array([roll_m, pitch_m, yaw_m]))
