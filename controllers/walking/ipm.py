@@ -114,7 +114,7 @@ from ..core.geometry import heading_yaw, point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
-from .ipm_torques import damped, gravity_compensation, limit_stance_ankle, limit_stance_yaw
+from .ipm_torques import GravityCompensation, damped, limit_stance_ankle, limit_stance_yaw
 from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle
 from .swing import (
     SwingTrajectory,
@@ -126,6 +126,7 @@ from .swing import (
 )
 
 _LEFT, _RIGHT = 0, 1
+_Y = np.array([0.0, 1.0, 0.0])
 
 
 class IPMController:
@@ -205,9 +206,8 @@ class IPMController:
         thighs = {lg.thigh for lg in self._legs}
         self._pelvis_children = [(ch.dof_joint[dofs], dofs) for dofs
                                  in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
-        # per-dof data for gravity compensation and PD
+        # per-dof data for PD and gravity compensation (all but the stance leg, per swing leg)
         self._act = np.flatnonzero(ch.actuated)
-        self._dof_mass = np.array([ch.dynamics.subtree_mass(b) for b in ch.dof_body])
         legs = np.concatenate([lg.all for lg in self._legs])
         upper = np.setdiff1d(self._act, legs)
         toes = np.concatenate([lg.toe for lg in self._legs])
@@ -219,6 +219,8 @@ class IPMController:
             raise IPMError(f"IPM needs hinge joints in the upper body too (joint {joint} is a "
                            "ball joint): convert with --joint-model hinge (joint_model='hinge')")
         self._upper_q = ch.dof_qpos[self._upper]
+        self._gravity = [GravityCompensation(ch, np.concatenate([self._upper, lg.all]))
+                         for lg in self._legs]
         kp, kd = ch.actuation.default_gains()
         s = self.params.upper.gain_scale
         self._upper_kp = kp[self._upper] * s
@@ -455,19 +457,19 @@ class IPMController:
                 ``standing.stop_speed``.
         """
         p = self.params
-        d = np.asarray(ipm_step_offset(np.asarray(v_heading, float), h))
+        vs, vc = (float(x) for x in v_heading)
         side = 1.0 if swing == _LEFT else -1.0
         w = self._human if self.mode == "step" else 0.0
         pl = p.placement
         cs = pl.coronal_scale + w * (p.human.coronal_scale - pl.coronal_scale)
-        out = np.array([pl.sagittal_scale * d[0] - pl.speed_offset * v_desired - self.speed_bias,
-                        cs * d[1] + side * pl.step_width])
+        out = [pl.sagittal_scale * ipm_step_offset(vs, h) - pl.speed_offset * v_desired
+               - self.speed_bias, cs * ipm_step_offset(vc, h) + side * pl.step_width]
         if stance_lateral is not None:
-            stopping = self._stopping and abs(float(v_heading[1])) < p.standing.stop_speed
+            stopping = self._stopping and abs(vc) < p.standing.stop_speed
             width = self.stand_width if stopping else pl.min_width
             out[1] = stance_lateral + side * max(side * (out[1] - stance_lateral), width)
         lim = pl.clamp * self.leg_length
-        return np.clip(out, -lim, lim)
+        return np.array([min(max(x, -lim), lim) for x in out])
 
     def act(self, character: Character, t: float) -> Action:
         """Torques ``(nv,)`` for this physics step (root rows zero)."""
@@ -584,8 +586,8 @@ class IPMController:
         self._track_feet_and_upper_body(ch, sw, st, R_sw_foot, tau, D)
         # 4. gravity compensation on everything but the stance leg
         if p.tracking.gravity_compensation:
-            gdofs = np.concatenate([self._upper, sw.all])
-            tau[gdofs] += gravity_compensation(ch, gdofs, self._dof_mass)
+            gravity = self._gravity[self._swing]
+            tau[gravity.dofs] += gravity(s)
         self._track_pelvis(ch, sw, st, A_sw, vd, tau, D)
         # 5. virtual COM force through the stance leg
         self._virtual_force(ch, t, st, c, f, l, vh, vd, tau)
@@ -614,7 +616,7 @@ class IPMController:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
             x = self.phase / p.feet.toe_up_phase
             toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(x))
-            R_sw_foot = R_foot_des @ rotation_about(np.array([0.0, 1.0, 0.0]), -toe_up)
+            R_sw_foot = R_foot_des @ rotation_about(_Y, -toe_up)
         hip_pos = s.joint_anchors[sw.hip_jnt[0]]
         pole = R_foot_des[:, 0]
         if sw.planar:
@@ -641,7 +643,7 @@ class IPMController:
             if t > t_prev:
                 w_des = rotation_error(R_thigh_des, R_prev) / (t - t_prev)
                 flex_rate = (flexion - flex_prev) / (t - t_prev)
-                n = float(np.linalg.norm(w_des))
+                n = math.sqrt(float(w_des @ w_des))
                 if n > tr.max_target_rate:
                     w_des *= tr.max_target_rate / n
                 flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
@@ -704,15 +706,15 @@ class IPMController:
         tr = p.tracking
         s = ch.state
         lean = p.upper.lean * vd
-        R_p_des = rotation_z(self.heading_target) @ rotation_about(np.array([0.0, 1.0, 0.0]),
-                                                                  lean)
+        R_p_des = rotation_z(self.heading_target) @ rotation_about(_Y, lean)
         R_p = s.body_rotations[self._pelvis]
         _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis])
-        kp_p = np.array([tr.pelvis_kp, tr.pelvis_kp, tr.pelvis_yaw_kp])
-        kd_p = np.array([tr.pelvis_kd, tr.pelvis_kd, tr.pelvis_yaw_kd])
-        T0 = -(kp_p * rotation_error(R_p_des, R_p)
-               + kd_p * np.array([0.0, 0.0, self._heading_rate]))
-        DT = -kd_p[:, None] * jr_p                            # world torque rows on qdot
+        # -(kp e + kd omega_des) per axis (kp, kd: horizontal, horizontal, yaw), on floats
+        e = rotation_error(R_p_des, R_p).tolist()
+        kp, kd, ykp, ykd = tr.pelvis_kp, tr.pelvis_kd, tr.pelvis_yaw_kp, tr.pelvis_yaw_kd
+        T0 = np.array([-(kp * e[0] + kd * 0.0), -(kp * e[1] + kd * 0.0),
+                       -(ykp * e[2] + ykd * self._heading_rate)])
+        DT = np.array([[-kd], [-kd], [-ykd]]) * jr_p          # world torque rows on qdot
         inv = inverse3(A_sw.T)
         T0 -= inv @ tau[sw.hip]
         DT -= inv @ D[sw.hip]
@@ -738,7 +740,7 @@ class IPMController:
                           + p.force.coronal_vel * (vcd - vh[1]))
         fs = max(-p.force.max_sagittal, min(p.force.max_sagittal, fs))
         fc = max(-p.force.max_coronal, min(p.force.max_coronal, fc))
-        F = fs * f + fc * l
+        F = np.array([fs * fi + fc * li for fi, li in zip(f.tolist(), l.tolist(), strict=True)])
         self.last_force = F
         jacp, _ = ch.dynamics.point_jacobian(st.foot, c)
         tau[st.leg] -= jacp[:, st.leg].T @ F

@@ -570,9 +570,11 @@ def ipm_step_offset(v, h: float, g: float = GRAVITY):
     """Inverted-pendulum step offset ``d = v sqrt(h/g + v^2/(4 g^2))`` (m) for a COM speed ``v``
     (m/s, scalar or array) at height ``h`` (m) over the stance foot: stepping ``d`` ahead of the
     COM brings a pendulum of that energy to rest over the foot."""
-    v = np.asarray(v, dtype=float)
     if not (math.isfinite(h) and h > 0):
         raise IPMError(f"COM height must be positive metres, got {h}")
+    if isinstance(v, float):  # a Python float: the same IEEE operations, without numpy's calls
+        return v * math.sqrt(h / g + v * v / (4.0 * g * g))
+    v = np.asarray(v, dtype=float)
     d = v * np.sqrt(h / g + v * v / (4.0 * g * g))
     return float(d) if d.ndim == 0 else d
 

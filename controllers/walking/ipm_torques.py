@@ -16,18 +16,24 @@ from .ipm_params import GRAVITY
 from .leg import Leg, inverse3
 
 
-def gravity_compensation(ch: Character, dofs: np.ndarray, dof_mass: np.ndarray) -> np.ndarray:
-    """``(len(dofs),)`` torques holding up the links below ``dofs`` (an upward ``m g`` at each
-    dof's subtree centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with
-    axis ``a_j`` at ``p_j``, subtree mass ``M_j`` (``dof_mass``, indexed by dof) and subtree COM
-    ``C_j``."""
-    s = ch.state
-    b = ch.dof_body[dofs]
-    j = ch.dof_joint[dofs]
-    lever = s.subtree_coms[b] - s.joint_anchors[j]
-    ax = s.joint_axes[j]
-    # a . (lever x z) = a_x lever_y - a_y lever_x
-    return GRAVITY * dof_mass[dofs] * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
+class GravityCompensation:
+    """Torques holding up the links below ``dofs`` (an upward ``m g`` at each dof's subtree
+    centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with axis ``a_j`` at
+    ``p_j``, subtree mass ``M_j`` and subtree COM ``C_j``; the dofs' bodies, joints and weights
+    ``M_j g`` are looked up once. Call it with the Character's state for the ``(len(dofs),)``
+    torques."""
+
+    def __init__(self, ch: Character, dofs: np.ndarray):
+        self.dofs = dofs
+        self._bodies = ch.dof_body[dofs]
+        self._joints = ch.dof_joint[dofs]
+        self._weight = GRAVITY * np.array([ch.dynamics.subtree_mass(b) for b in self._bodies])
+
+    def __call__(self, s) -> np.ndarray:
+        lever = s.subtree_coms[self._bodies] - s.joint_anchors[self._joints]
+        ax = s.joint_axes[self._joints]
+        # a . (lever x z) = a_x lever_y - a_y lever_x
+        return self._weight * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
 
 
 def damped(ch: Character, tau: np.ndarray, D: np.ndarray, implicit: bool) -> np.ndarray:
@@ -52,11 +58,14 @@ def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: fl
     """Yaw moment (N m) the stance foot can hold: ``friction x m g x r``, with ``r`` the mean
     distance of its floor contact points from their centroid (a flat foot ~0.1 m, a foot on its
     toes or heel much less), at most ``limit``."""
-    names = {st.ankle_name, st.toe_name}
-    pts = np.array([c.position[:2] for c in ch.contacts.ground() if c.body in names])
+    pts = ch.contacts.ground_points(st.sole_bodies)
     if len(pts) < 2:
         return 0.0
-    r = float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).mean())
+    # the mean distance from the centroid: pts.mean(axis=0), norm(axis=1), .mean() in numpy's
+    # own reductions (their summation order), without their wrappers' per-call overhead
+    k = len(pts)
+    d = pts - np.add.reduce(pts, axis=0) / k
+    r = float(np.add.reduce(np.sqrt(np.add.reduce(d * d, axis=1))) / k)
     return min(limit, friction * mass * GRAVITY * r)
 
 
@@ -81,8 +90,8 @@ def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back
     A = s.joint_axes[st.ankle_jnt].T
     T = inverse3(A.T) @ tau[st.ankle]
     R_foot = s.body_rotations[st.foot]
-    Tl = R_foot.T @ T
+    roll_m, pitch_m, yaw_m = (R_foot.T @ T).tolist()
     # the moment on the foot about +y (toes down) shifts the pressure forward
-    Tl[1] = min(max(Tl[1], -back * weight), fwd * weight)
-    Tl[0] = min(max(Tl[0], -roll * weight), roll * weight)
-    tau[st.ankle] = A.T @ (R_foot @ Tl)
+    pitch_m = min(max(pitch_m, -back * weight), fwd * weight)
+    roll_m = min(max(roll_m, -roll * weight), roll * weight)
+    tau[st.ankle] = A.T @ (R_foot @ np.array([roll_m, pitch_m, yaw_m]))

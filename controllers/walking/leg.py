@@ -22,16 +22,19 @@ def wrap_angle(a: float) -> float:
 
 
 def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """World rotation vector (rad) of ``R_des R^T``."""
+    """World rotation vector (rad) of ``R_des R^T`` (its quaternion's arithmetic on Python
+    floats: numpy's element-wise IEEE operations without its per-call overhead)."""
     E = R_des @ R.T
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, E.ravel())
-    if q[0] < 0:
-        q = -q
-    s = math.sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    w, x, y, z = q.tolist()
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
     if s < 1e-12:
-        return 2.0 * q[1:]
-    return q[1:] * (2.0 * math.atan2(s, q[0]) / s)
+        return np.array([2.0 * x, 2.0 * y, 2.0 * z])
+    k = 2.0 * math.atan2(s, w) / s
+    return np.array([x * k, y * k, z * k])
 
 
 def inverse3(A: np.ndarray) -> np.ndarray:
@@ -41,9 +44,9 @@ def inverse3(A: np.ndarray) -> np.ndarray:
     det = a * co[0] + b * co[1] + c * co[2]
     if abs(det) < 1e-12:
         return np.linalg.pinv(A)
-    return np.array([[co[0], c * h - b * i, b * f - c * e],
-                     [co[1], a * i - c * g, c * d - a * f],
-                     [co[2], b * g - a * h, a * e - b * d]]) / det
+    return np.array([[co[0] / det, (c * h - b * i) / det, (b * f - c * e) / det],
+                     [co[1] / det, (a * i - c * g) / det, (c * d - a * f) / det],
+                     [co[2] / det, (b * g - a * h) / det, (a * e - b * d) / det]])
 
 
 def child_hinges(ch: Character, parent: int, skip: set[int]) -> list[np.ndarray]:
@@ -90,6 +93,11 @@ class Leg:
         self.thigh = ch.body_id(self.hip_name)
         self.shank = ch.body_id(self.knee_name)
         self.foot = ch.body_id(self.ankle_name)
+        # the bodies named as the ankle and toe joints: those whose floor contacts hold the foot
+        # (its yaw moment, ipm_torques.yaw_capacity)
+        ids = (mujoco.mj_name2id(ch.model, mujoco.mjtObj.mjOBJ_BODY, n)
+               for n in (self.ankle_name, self.toe_name) if n)
+        self.sole_bodies = tuple(b for b in ids if b >= 0)
         self.site = ch.site_id(f"{side}_foot")
         site_body, self.site_offset = ch.poses.site_offset(self.site)  # in the foot frame
         if site_body != self.foot:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.base import ControllerError
-from ..core.geometry import cross, smoothstep
+from ..core.geometry import cross, cross3, smoothstep
 
 
 class SwingError(ControllerError):
@@ -38,6 +38,12 @@ class SwingError(ControllerError):
 def _unit(v: np.ndarray) -> np.ndarray:
     n = math.sqrt(float(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
     return v / n if n > 1e-12 else v * 0.0
+
+
+def _unit3(v: list[float]) -> list[float]:
+    """:func:`_unit` of a 3-vector of Python floats (the same IEEE operations)."""
+    n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return [x / n for x in v] if n > 1e-12 else [x * 0.0 for x in v]
 
 
 def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -138,24 +144,28 @@ def two_link_ik(hip: np.ndarray, target: np.ndarray, l1: float, l2: float, pole:
     hi = max_extension * (l1 + l2)
     r_hat = r / D if D > 1e-9 else np.array([0.0, 0.0, -1.0])
     D = min(max(D, lo), hi)
-    axis = _unit(cross(np.asarray(pole, dtype=float), r_hat))
-    if not axis.any():  # pole parallel to the leg: any perpendicular will do
-        axis = _unit(cross(np.array([0.0, 0.0, 1.0]) if abs(r_hat[2]) < 0.9
-                           else np.array([1.0, 0.0, 0.0]), r_hat))
+    rh = r_hat.tolist()
+    axis = _unit3(cross3(np.asarray(pole, dtype=float).tolist(), rh))
+    if not any(axis):  # pole parallel to the leg: any perpendicular will do
+        axis = _unit3(cross3([0.0, 0.0, 1.0] if abs(rh[2]) < 0.9 else [1.0, 0.0, 0.0], rh))
     cos_knee = (l1 * l1 + l2 * l2 - D * D) / (2 * l1 * l2)
     flexion = math.pi - math.acos(min(max(cos_knee, -1.0), 1.0))
     cos_hip = (l1 * l1 + D * D - l2 * l2) / (2 * l1 * D)
     alpha = math.acos(min(max(cos_hip, -1.0), 1.0))
     thigh = rotation_about(axis, -alpha) @ r_hat
-    return thigh, axis, flexion
+    return thigh, np.array(axis), flexion
 
 
 def frame_from_axes(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
     """``(3, 3)`` orthonormal frame (columns) with first column along ``primary`` and second the
     part of ``secondary`` orthogonal to it."""
     a = _unit(np.asarray(primary, dtype=float))
-    b = _unit(np.asarray(secondary, dtype=float) - a * float(np.dot(a, secondary)))
-    return np.column_stack([a, b, cross(a, b)])
+    k = float(np.dot(a, secondary))
+    al = a.tolist()
+    b = _unit3([si - ai * k for si, ai in zip(np.asarray(secondary, dtype=float).tolist(), al,
+                                              strict=True)])
+    c = cross3(al, b)
+    return np.array([[al[0], b[0], c[0]], [al[1], b[1], c[1]], [al[2], b[2], c[2]]])
 
 
 __all__ = ["SwingTrajectory", "SwingError", "two_link_ik", "frame_from_axes", "rotation_about",

@@ -64,7 +64,7 @@ class Contacts:
         # per (geom, geom) pair of a contact: the character geom touching the floor (-1: not a
         # floor contact), and from it, as nested lists (a contact list is short: Python reads
         # it faster than numpy gathers it), whether that is a body other than a foot (a fall,
-        # non_foot()) and which foot it is (feet())
+        # non_foot()), which foot it is (feet()) and which body (ground_points())
         ng = int(model.ngeom)
         other = np.full((ng, ng), -1)
         other[self.floor_geom, :] = np.arange(ng)
@@ -73,6 +73,7 @@ class Contacts:
         body = self._geom_body[np.maximum(other, 0)]
         self._pair_non_foot = ((other >= 0) & ~self._is_foot[body]).tolist()
         self._pair_side = np.where(other >= 0, self._geom_side[np.maximum(other, 0)], -1).tolist()
+        self._pair_body = np.where(other >= 0, body, -1).tolist()  # (ground_points)
 
     # -- contacts -----------------------------------------------------------------------------
     def _floor_geoms(self) -> tuple[np.ndarray, np.ndarray]:
@@ -103,6 +104,17 @@ class Contacts:
         """Every contact between the floor and the character (list of :class:`GroundContact`)."""
         return [GroundContact(self._body_name(b), p, float(d))
                 for b, p, d in zip(*self._floor_contacts(), strict=True)]
+
+    def ground_points(self, bodies: tuple[int, ...]) -> np.ndarray:
+        """``(k, 2)`` horizontal positions (x, y, m) of the floor contacts of the bodies
+        ``bodies`` (ids), in contact order: :meth:`ground`'s positions for those bodies, without
+        naming every contact."""
+        if self._data.ncon == 0:
+            return np.zeros((0, 2))
+        body = self._pair_body
+        c = self._data.contact
+        rows = [i for i, (a, b) in enumerate(c.geom.tolist()) if body[a][b] in bodies]
+        return np.ascontiguousarray(c.pos[rows, :2])
 
     def feet(self) -> tuple[bool, bool]:
         """``(left, right)``: whether each foot (ankle or toe body) touches the floor."""
