@@ -236,6 +236,15 @@ def test_deterministic_with_either_planning_step(walk_ref, plan_timestep):
     assert np.array_equal(a, b)
 
 
+def test_deterministic_with_second_batches(walk_ref):
+    """Plans that draw a second batch (a bound every plan exceeds) are deterministic too."""
+    o = {"seed": 3, "second_batch": 1e-4}
+    _, a, c = _track(Character(), walk_ref, 0.2, **o)
+    _, b, _ = _track(Character(), walk_ref, 0.2, **o, threads=1)
+    assert np.array_equal(a, b)
+    assert c.stats["rollouts"] == 2 * 8 * c.stats["replans"]
+
+
 def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
     """Predictive sampling applies the cheapest candidate, and the solver warm start is cleared
     at every replanning as in the rollouts: the simulation lands exactly on its prediction."""
