@@ -1,14 +1,16 @@
 """Fine-tune a distilled policy (``mjchar learn``) with PPO (stable-baselines3) on
 ``mjchar/Imitation-v0``, and print the return before, during and after.
 
-The policy file's network becomes the PPO actor's mean: its hidden layers are
-stable-baselines3's ``mlp_extractor.policy_net`` (ELU) and its output layer the ``action_net``;
-the input normalisation is folded into the first layer (``W' = W / std``, ``b' = b - W' mean``),
-so PPO sees the env's raw observation. The critic starts untrained: for ``--critic-warmup``
-steps only the critic learns (the actor frozen), so the first policy updates do not follow a
-random value function. The action noise starts at ``--init-std`` (the DART noise the policy
-was distilled with). The env is the one the policy was
-distilled in: its clip (looped as in training), ``future_steps`` from the file, 10 s episodes.
+``mjchar learn`` fine-tunes with PPO itself (``--rl-share``, :mod:`mjchar.learn.finetune`);
+this example is the same start in a plain stable-baselines3 loop, for longer runs and for
+experiments: the policy file's network becomes the PPO actor's mean
+(:func:`mjchar.learn.finetune.load_actor`, the input normalisation folded into the first
+layer), the critic starts untrained and learns alone for ``--critic-warmup`` steps (the actor
+frozen), and the action noise starts at ``--init-std`` (the DART noise the policy was distilled
+with). The env is the one the policy was distilled in: its clip (looped as in training),
+``future_steps`` from the file, 10 s episodes, the env's own reward. ``--export`` writes the
+fine-tuned actor as a policy file that ``mjchar run policy`` runs
+(:func:`mjchar.learn.finetune.actor_mlp`).
 
 Needs the rl extra, CPU torch first::
 
@@ -18,7 +20,7 @@ Usage::
 
     python examples/finetune_ppo.py walk60.npz --steps 100000 --eval-every 20000
     python examples/finetune_ppo.py walk60 --steps 1000000 --eval-every 50000 \
-        --save walk60_ppo.zip --curve walk60_ppo.png
+        --save walk60_ppo.zip --export walk60_ppo.npz --curve walk60_ppo.png
 
 ``--curve`` writes the returns against PPO steps as a PNG (needs matplotlib, the bench extra).
 """
@@ -26,7 +28,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 
@@ -38,26 +39,6 @@ def make_env(policy):
     setup = LearnSetup(clip=policy.clip_motion(), loop=clip["loop"],
                        future_steps=tuple(policy.meta["observation"]["future_steps"]))
     return make_env(setup, episode_seconds=10.0)
-
-
-def load_into_ppo(model, policy, init_std: float) -> None:
-    """Copy the policy's layers into the PPO actor (module docstring)."""
-    import torch
-
-    net = policy.net
-    lin = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
-    if [tuple(m.weight.shape) for m in lin] != [w.shape for w in net.weights[:-1]]:
-        raise SystemExit("the PPO actor's layers do not match the policy's")
-    W0 = net.weights[0] / net.std
-    b0 = net.biases[0] - W0 @ net.mean
-    layers = [(W0, b0)] + list(zip(net.weights[1:-1], net.biases[1:-1], strict=True))
-    with torch.no_grad():
-        for m, (w, b) in zip(lin, layers, strict=True):
-            m.weight.copy_(torch.as_tensor(w))
-            m.bias.copy_(torch.as_tensor(b))
-        model.policy.action_net.weight.copy_(torch.as_tensor(net.weights[-1]))
-        model.policy.action_net.bias.copy_(torch.as_tensor(net.biases[-1]))
-        model.policy.log_std.fill_(math.log(init_std))
 
 
 def zero_action_return(env, episodes: int) -> float:
@@ -115,6 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="steps with the actor frozen while the critic learns")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--save", help="write the fine-tuned PPO model (.zip)")
+    ap.add_argument("--export", help="write the fine-tuned actor as a policy file (.npz)")
     ap.add_argument("--curve", help="write the returns against PPO steps (.png)")
     a = ap.parse_args(argv)
     try:
@@ -134,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
                   file=sys.stderr)
             return 2
     from mjchar.controllers.learned import find_policy
+    from mjchar.controllers.learned.policy_file import save_policy
+    from mjchar.learn.finetune import actor_mlp, load_actor
 
     torch.set_num_threads(1)
     policy = find_policy(a.policy)
@@ -143,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
                 n_epochs=a.epochs,
                 policy_kwargs={"net_arch": {"pi": hidden, "vf": [256, 256]},
                                "activation_fn": torch.nn.ELU})
-    load_into_ppo(model, policy, a.init_std)
+    load_actor(model, policy.net, a.init_std)
 
     rows: list[tuple[int, float, float]] = []
 
@@ -176,6 +160,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"fine-tuned {done} steps in {time.perf_counter() - t0:.0f} s")
     if a.save:
         model.save(a.save)
+    if a.export:
+        meta = dict(policy.meta, training={**policy.meta.get("training", {}),
+                                           "ppo_steps_after": done})
+        save_policy(a.export, actor_mlp(model, policy.net), meta,
+                    str(policy.arrays["clip_bvh"]) if "clip_bvh" in policy.arrays else None)
     if a.curve:
         plot_returns(rows, a.curve, zero_action=zero)
     return 0

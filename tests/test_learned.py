@@ -3,6 +3,7 @@ observation shared with ``mjchar/Imitation-v0``, and ``mjchar learn``."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -181,7 +182,7 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
     setup = LearnSetup(clip="walk", loop=True, label_samples=8)
     out = tmp_path / "walk.npz"
     opts = LearnOptions(minutes=0.01, workers=2, episodes=2, episode_seconds=1.0,
-                        eval_phases=2, eval_seconds=2.0, max_steps=800)
+                        eval_phases=2, eval_seconds=2.0, max_steps=800, rl_share=0.0)
     rows = []
     for i in range(3):
         learn(setup, out, opts, resume=i > 0)
@@ -202,6 +203,61 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
             for i in range(4)]
     col.close()
     assert sum(r.episode_return for r in learned) > sum(r.episode_return for r in zero)
+
+
+def test_the_ppo_actor_is_the_distilled_network_and_back():
+    """The distilled network copied into the PPO actor (the normalisation folded into the first
+    layer) and written back as a network gives the network's outputs."""
+    pytest.importorskip("stable_baselines3", reason="needs the rl extra")
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.learn.dagger import LearnOptions
+    from mjchar.learn.finetune import FinetuneOptions, Finetuner
+
+    setup = LearnSetup(clip="walk", loop=True)
+    env = make_env(setup)
+    n_in, nu = env.observation_space.shape[0], env.action_space.shape[0]
+    env.close()
+    net = _random_mlp(n_in, nu, hidden=(32, 16), scale=0.1)
+    tuner = Finetuner(setup, net, LearnOptions(),
+                      FinetuneOptions(critic_warmup=0, envs=1, n_steps=64))
+    X = np.random.default_rng(2).normal(size=(20, n_in))
+    back = tuner.mlp()
+    tuner.close()
+    np.testing.assert_allclose(back(X), net(X), rtol=1e-4, atol=1e-5)
+    assert back.hidden == net.hidden
+    np.testing.assert_array_equal(back.mean, net.mean)
+
+
+@pytest.mark.slow
+def test_a_learn_run_fine_tunes_with_ppo_after_dagger_and_resumes(tmp_path):
+    """With rl_share, the budget's second part is PPO from the best distilled network: the
+    curve's rows are DAgger's then PPO's (steps growing), the PPO model is kept, and --resume
+    continues fine-tuning (no more labels)."""
+    pytest.importorskip("stable_baselines3", reason="needs the rl extra")
+    from mjchar.learn.collect import LearnSetup
+    from mjchar.learn.dagger import LearnOptions, learn
+    from mjchar.learn.finetune import FinetuneOptions
+
+    setup = LearnSetup(clip="walk", loop=True, label_samples=8)
+    out = tmp_path / "walk.npz"
+    opts = LearnOptions(minutes=0.5, workers=2, episodes=2, episode_seconds=1.0,
+                        eval_phases=2, eval_seconds=2.0, max_steps=300, rl_share=0.5,
+                        rl_chunk=512, finetune=FinetuneOptions(critic_warmup=256, n_steps=256,
+                                                               envs=1))
+    first = learn(setup, out, opts)
+    rows = json.loads((tmp_path / "walk.curve.json").read_text())
+    stages = [r["stage"] for r in rows]
+    assert stages[0] == "dagger" and stages[-1] == "rl"
+    assert stages == sorted(stages)  # ("dagger" < "rl"): every DAgger row before the first PPO row
+    steps = [r["rl_steps"] for r in rows if r["stage"] == "rl"]
+    assert steps == sorted(steps) and steps[0] > 0
+    assert (tmp_path / "walk.ppo.zip").is_file() and first["stage"] == "rl"
+    written = [r for r in rows if r["written"]][-1]
+    assert load_policy(out).meta["training"]["iteration"] == written["iteration"]
+    again = learn(setup, out, dataclasses.replace(opts, minutes=0.1), resume=True)
+    more = json.loads((tmp_path / "walk.curve.json").read_text())[len(rows):]
+    assert more and all(r["stage"] == "rl" for r in more)
+    assert more[0]["rl_steps"] > steps[-1] and again["labels"] == first["labels"]
 
 
 def test_the_bundled_policy_describes_itself():

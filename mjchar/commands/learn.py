@@ -28,7 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Distil the closed-loop sampling MPC into a network that tracks the clip "
                     "faster than real time: roll out the learner mixed with the MPC, with action "
                     "noise, perturbed starts and pushes; label the visited states with the MPC; "
-                    "train on everything labelled so far; repeat until --minutes is spent. "
+                    "train on everything labelled so far; repeat; then fine-tune the best network "
+                    "with PPO on mjchar/Imitation-v0 (--rl-share of the --minutes). "
                     "Writes POLICY (a self-describing .npz that `mjchar run policy POLICY` runs "
                     "with numpy only) after every iteration, a learning curve beside it "
                     "(POLICY stem + .curve.png / .curve.json) and the state --resume continues "
@@ -57,8 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--label-nominal", choices=("plan", "learner"), default="plan",
                    help="what a label is warm started from: the MPC's previous plan in the "
                         "episode (default) or the learner's own action")
-    p.add_argument("--episode-seconds", type=positive("episode seconds"), default=1.5,
-                   metavar="S", help="simulated seconds per training episode (default 1.5)")
+    p.add_argument("--episode-seconds", type=positive("episode seconds"), default=4.0,
+                   metavar="S", help="simulated seconds per DAgger episode (default 4)")
     p.add_argument("--episodes", type=integer("episodes", 1), metavar="N",
                    help="episodes per iteration (default: one per worker)")
     p.add_argument("--noise", type=_fraction("noise"), default=0.1, metavar="SD",
@@ -66,6 +67,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--future-steps", type=integer("future steps", 0), default=1, metavar="K",
                    help="reference poses 1..K control steps ahead in the observation "
                         "(default 1)")
+    p.add_argument("--rl-share", type=_fraction("rl share"), default=0.5, metavar="F",
+                   help="share of the budget spent fine-tuning the distilled network with PPO "
+                        "after DAgger (default 0.5; 0: DAgger only; needs stable-baselines3)")
     p.add_argument("--resume", action="store_true",
                    help="continue from POLICY's learn state (its data set, network, curve)")
     p.add_argument("--json", action="store_true", help="print one JSON object, no progress")
@@ -91,6 +95,13 @@ def run(args: argparse.Namespace) -> int:
     check_model_file(args.model)
     check_output(args.output, inputs=[source, args.model], flag="-o", suffixes=(".npz",))
     import_torch()  # before anything long: the one-line install hint
+    if args.rl_share >= 1.0:
+        raise LearnError("--rl-share must be below 1: fine-tuning starts from a distilled "
+                         "network")
+    if args.rl_share > 0:
+        from mjchar.learn.finetune import import_sb3
+
+        import_sb3()
     setup = LearnSetup(clip=os.fspath(source) if os.path.isfile(args.clip) else args.clip,
                        loop=args.loop, model=args.model,
                        future_steps=tuple(range(1, args.future_steps + 1)),
@@ -98,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     opts = LearnOptions(minutes=args.minutes, seed=args.seed, workers=args.workers,
                         executor=args.executor, ray_address=args.ray_address,
                         episodes=args.episodes, episode_seconds=args.episode_seconds,
-                        noise=args.noise)
+                        noise=args.noise, rl_share=args.rl_share)
     progress = None if args.json else Progress()
     summary = learn(setup, args.output, opts, resume=args.resume, progress=progress,
                     log=progress)

@@ -1,5 +1,5 @@
 """The learning curve as a picture: tracking error and fall rate of the learner against wall
-time (matplotlib, imported here only)."""
+time, DAgger's iterations then PPO's evaluations (matplotlib, imported here only)."""
 
 from __future__ import annotations
 
@@ -29,7 +29,11 @@ def plot_curve(rows: list[dict], path) -> Path:
              label="fall rate")
     ax2.set_ylabel("fall rate of the evaluation episodes", color="tab:red")
     ax2.set_ylim(-0.05, 1.05)
-    ax.set_title("mjchar learn: the learner alone, after each DAgger iteration")
+    rl = [m for m, r in zip(minutes, rows, strict=True) if r.get("stage") == "rl"]
+    if rl:
+        ax.axvline(rl[0], color="tab:gray", ls=":", label="PPO fine-tuning from here")
+        ax.legend(loc="upper right", fontsize="small")
+    ax.set_title("mjchar learn: the learner alone, after each iteration")
     fig.tight_layout()
     path = Path(path)
     with atomic_path(path) as tmp:

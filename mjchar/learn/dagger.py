@@ -38,6 +38,7 @@ import numpy as np
 from mjchar.controllers.learned.policy_file import clip_hash, save_policy
 
 from .collect import Episode, LearnSetup, make_env
+from .finetune import FinetuneOptions
 from .train import LearnError, Trainer, import_torch
 from .workers import episode_pool
 
@@ -67,6 +68,10 @@ class LearnOptions:
             set per iteration (at most ``max_steps`` minibatches of ``batch``).
         eval_phases, eval_seconds: the evaluation episodes.
         threads: torch threads while training.
+        rl_share: the share of the budget spent on RL fine-tuning after DAgger
+            (:mod:`.finetune`: PPO from the best distilled network; 0: DAgger only).
+        rl_chunk: PPO steps between two evaluations of the fine-tuned actor.
+        finetune: PPO's settings (:class:`~.finetune.FinetuneOptions`).
     """
 
     minutes: float = 60.0
@@ -75,7 +80,7 @@ class LearnOptions:
     executor: str = "local"
     ray_address: str | None = None
     episodes: int | None = None
-    episode_seconds: float = 1.5
+    episode_seconds: float = 4.0
     beta_decay: float = 0.5
     noise: float = 0.1
     perturb_rate: float = 0.3
@@ -91,6 +96,9 @@ class LearnOptions:
     eval_phases: int = 4
     eval_seconds: float = 10.0
     threads: int = 1
+    rl_share: float = 0.5
+    rl_chunk: int = 20_000
+    finetune: FinetuneOptions = field(default_factory=FinetuneOptions)
 
 
 def outputs(policy: str | os.PathLike) -> dict[str, Path]:
@@ -98,7 +106,7 @@ def outputs(policy: str | os.PathLike) -> dict[str, Path]:
     p = Path(policy)
     stem = p.with_suffix("")
     return {"policy": p, "curve": Path(f"{stem}.curve.png"), "numbers": Path(f"{stem}.curve.json"),
-            "state": Path(f"{stem}.learn.pt")}
+            "state": Path(f"{stem}.learn.pt"), "rl_state": Path(f"{stem}.ppo.zip")}
 
 
 def policy_metadata(setup: LearnSetup, env) -> dict:
@@ -170,112 +178,190 @@ def _eval_jobs(opts: LearnOptions, policy) -> list[Episode]:
 
 def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: bool = False,
           progress=None, log=None) -> dict:
-    """Run DAgger (module docstring) until ``opts.minutes`` of wall time have passed; returns a
+    """Run DAgger (module docstring) for ``1 - opts.rl_share`` of ``opts.minutes`` of wall
+    time, then fine-tune the best network with PPO for the rest (:mod:`.finetune`); returns a
     summary (iterations, labels, data set size, wall time, the last evaluation).
 
     Args:
         setup: the clip, model and labeller settings (:class:`~.collect.LearnSetup`).
         out: the policy file to write (``.npz``); the other outputs sit beside it.
-        resume: continue from ``out``'s ``.learn.pt`` state (data set, network, curve).
+        resume: continue from ``out``'s ``.learn.pt`` state (data set, network, curve; the
+            PPO model ``.ppo.zip`` once fine-tuning has started).
         progress: a :class:`~mjchar.controllers.core.progress.Progress` (a bar over the budget).
         log: ``log(line)`` after each iteration (``None``: silent).
     """
     opts = opts or LearnOptions()
-    torch = import_torch()
-    files = outputs(out)
-    t_start = time.perf_counter()
-    budget = 60.0 * float(opts.minutes)
-    env = make_env(setup)
-    meta = policy_metadata(setup, env)
-    clip_text = Path(setup.clip).read_text() if os.path.isfile(setup.clip) else None
-    n_in, nu = env.observation_space.shape[0], env.action_space.shape[0]
-    env.close()
-    trainer = Trainer(n_in, nu, opts.hidden, lr=opts.lr, batch=opts.batch, seed=opts.seed,
-                      threads=opts.threads)
-    X = np.zeros((0, n_in), np.float32)
-    Y = np.zeros((0, nu), np.float32)
-    curve, it, elapsed0, labels, label_s = _Curve(), 0, 0.0, 0, 0.0
-    best = None  # the evaluation score of the network in the policy file (_score)
-    if resume:
+    if not 0.0 <= opts.rl_share < 1.0:
+        raise LearnError(f"rl_share must be in [0, 1) (fine-tuning starts from a distilled "
+                         f"network), got {opts.rl_share:g}")
+    if opts.rl_share > 0:
+        from .finetune import import_sb3
+
+        import_sb3()  # before anything long: the one-line install hint
+    run = _LearnRun(setup, out, opts, resume)
+    if progress is not None:
+        progress.start(opts.minutes, unit="min", desc="learning")
+    with episode_pool(setup, opts.workers, executor=opts.executor,
+                      address=opts.ray_address) as pool:
+        if run.stage == "dagger":
+            run.dagger(pool, 60.0 * opts.minutes * (1.0 - opts.rl_share), progress, log)
+        if opts.rl_share > 0 and run.left() > 0:
+            run.finetune(pool, progress, log)
+    if progress is not None:
+        progress.close()
+    summary = dict(run.summary)
+    summary.update(outputs={k: str(v) for k, v in run.files.items() if v.exists()})
+    return summary
+
+
+class _LearnRun:
+    """One ``learn`` call: its outputs, data set, network, curve and clock."""
+
+    def __init__(self, setup: LearnSetup, out, opts: LearnOptions, resume: bool):
+        self.torch = import_torch()
+        self.setup, self.opts, self.files = setup, opts, outputs(out)
+        self.t_start = time.perf_counter()
+        env = make_env(setup)
+        self.meta = policy_metadata(setup, env)
+        self.clip_text = Path(setup.clip).read_text() if os.path.isfile(setup.clip) else None
+        n_in, nu = env.observation_space.shape[0], env.action_space.shape[0]
+        env.close()
+        self.trainer = Trainer(n_in, nu, opts.hidden, lr=opts.lr, batch=opts.batch,
+                               seed=opts.seed, threads=opts.threads)
+        self.X = np.zeros((0, n_in), np.float32)
+        self.Y = np.zeros((0, nu), np.float32)
+        self.curve, self.it, self.elapsed0, self.labels, self.label_s = _Curve(), 0, 0.0, 0, 0.0
+        self.best = None  # the evaluation score of the network in the policy file (_score)
+        self.stage, self.rl_steps, self.summary = "dagger", 0, {}
+        if resume:
+            self._resume()
+        self.rng = np.random.default_rng([opts.seed, self.it])
+
+    def _resume(self) -> None:
+        files = self.files
         if not files["state"].is_file():
             raise LearnError(f"{files['state']}: nothing to resume (no learn state beside "
-                             f"{out}); run without --resume")
-        st = torch.load(files["state"], weights_only=False)
+                             f"{files['policy']}); run without --resume")
+        st = self.torch.load(files["state"], weights_only=False)
+        meta = self.meta
         if st["meta"]["clip"]["hash"] != meta["clip"]["hash"] or (
                 st["meta"]["model"]["fingerprint"] != meta["model"]["fingerprint"]):
             raise LearnError(f"{files['state']} was learned on another clip or model; give "
                              "another -o or run without --resume")
-        X, Y = st["X"], st["Y"]
-        trainer.load_state(st["trainer"])
-        best = st.get("best")
-        curve.rows = st["curve"]
-        it, elapsed0 = st["iteration"], st["elapsed_s"]
-        labels, label_s = st["labels"], st["label_seconds"]
-    rng = np.random.default_rng([opts.seed, it])
-    policy = trainer.mlp() if len(X) else None
-    if progress is not None:
-        progress.start(opts.minutes, unit="min", desc="learning")
-    summary = {}
-    with episode_pool(setup, opts.workers, executor=opts.executor,
-                      address=opts.ray_address) as pool:
+        self.X, self.Y = st["X"], st["Y"]
+        self.trainer.load_state(st["trainer"])
+        self.best = st.get("best")
+        self.curve.rows = st["curve"]
+        self.it, self.elapsed0 = st["iteration"], st["elapsed_s"]
+        self.labels, self.label_s = st["labels"], st["label_seconds"]
+        self.stage, self.rl_steps = st.get("stage", "dagger"), st.get("rl_steps", 0)
+        if self.stage == "rl" and not files["rl_state"].is_file():
+            raise LearnError(f"{files['rl_state']}: the fine-tuning state is missing; run "
+                             "without --resume")
+
+    def wall(self) -> float:
+        """Seconds of learning so far (this call and the runs it resumes)."""
+        return self.elapsed0 + time.perf_counter() - self.t_start
+
+    def left(self) -> float:
+        """Seconds of this call's budget left."""
+        return 60.0 * self.opts.minutes - (time.perf_counter() - self.t_start)
+
+    def dagger(self, pool, budget: float, progress, log) -> None:
+        """DAgger iterations until ``budget`` seconds of this call have passed (one at least,
+        unless the budget is none)."""
+        opts = self.opts
+        policy = self.trainer.mlp() if len(self.X) else None
         n_episodes = opts.episodes or pool.parallelism
-        while True:
-            now = time.perf_counter() - t_start
-            if now >= budget and summary:  # (one iteration at least)
+        while budget > 0:
+            if time.perf_counter() - self.t_start >= budget and self.summary:
                 break
-            beta = opts.beta_decay ** it
+            beta = opts.beta_decay ** self.it
             w = time.perf_counter()
-            results = pool.map(_episodes(opts, rng, n_episodes, beta, policy))
+            results = pool.map(_episodes(opts, self.rng, n_episodes, beta, policy))
             collect_s = time.perf_counter() - w
             new = sum(len(r.obs) for r in results)
-            X = np.concatenate([X] + [r.obs for r in results])
-            Y = np.concatenate([Y] + [r.labels for r in results])
-            labels += new
-            label_s += sum(r.label_seconds for r in results)
+            self.X = np.concatenate([self.X] + [r.obs for r in results])
+            self.Y = np.concatenate([self.Y] + [r.labels for r in results])
+            self.labels += new
+            self.label_s += sum(r.label_seconds for r in results)
             w = time.perf_counter()
-            before, after = trainer.fit(X, Y, opts.epochs, opts.max_steps)
+            before, after = self.trainer.fit(self.X, self.Y, opts.epochs, opts.max_steps)
             train_s = time.perf_counter() - w
-            policy = trainer.mlp()
-            w = time.perf_counter()
-            ev = pool.map(_eval_jobs(opts, policy))
-            eval_s = time.perf_counter() - w
-            it += 1
-            wall = elapsed0 + time.perf_counter() - t_start
-            row = {"iteration": it, "wall_s": wall, "beta": beta, "labels": labels,
-                   "data": int(len(X)), "loss_before": before, "loss_after": after,
-                   "eval_error_m": float(np.mean([r.tracking_error_m for r in ev])),
-                   "eval_fall_rate": float(np.mean([r.fell for r in ev])),
-                   "eval_survived_s": float(np.mean([r.sim_seconds for r in ev])),
-                   "eval_return": float(np.mean([r.episode_return for r in ev])),
-                   "collect_s": collect_s, "train_s": train_s, "eval_s": eval_s,
-                   "labels_per_s": new / max(collect_s, 1e-9),
-                   "clipped": float(np.mean([r.clipped for r in results])),
-                   "expert_falls": int(sum(r.fell for r in results))}
-            score = _score(row)
-            row["written"] = best is None or score <= best
-            curve.add(**row)
-            if row["written"]:  # the policy file holds the best network evaluated so far
-                best = score
-                meta_now = dict(meta, training={
-                    "method": "DAgger + DART, MPC labels", "iteration": it, "iterations": it,
-                    "labels": labels, "wall_s": wall, "label_seconds": label_s,
-                    "setup": _jsonable(_named(asdict(setup))), "options": _jsonable(asdict(opts)),
-                    "eval": {k: row[k] for k in ("eval_error_m", "eval_fall_rate",
-                                                 "eval_survived_s")}})
-                save_policy(files["policy"], policy, meta_now, clip_text)
-            _save_state(torch, files["state"], X=X, Y=Y, trainer=trainer.state(),
-                        curve=curve.rows, iteration=it, elapsed_s=wall, labels=labels,
-                        label_seconds=label_s, meta=meta, best=best)
-            _save_curve(files, curve.rows)
-            summary = dict(row)
-            if log is not None:
-                log(_line(row))
-            if progress is not None:
-                progress.update(min(opts.minutes, (time.perf_counter() - t_start) / 60.0))
-    if progress is not None:
-        progress.close()
-    summary.update(outputs={k: str(v) for k, v in files.items()})
-    return summary
+            policy = self.trainer.mlp()
+            self._record(pool, policy, progress, log, stage="dagger", beta=beta,
+                         loss_before=before, loss_after=after, collect_s=collect_s,
+                         train_s=train_s, labels_per_s=new / max(collect_s, 1e-9),
+                         clipped=float(np.mean([r.clipped for r in results])),
+                         expert_falls=int(sum(r.fell for r in results)))
+
+    def finetune(self, pool, progress, log) -> None:
+        """PPO from the best network so far (the policy file's) until the budget ends."""
+        from mjchar.controllers.learned.policy_file import load_policy
+
+        from .finetune import Finetuner
+
+        opts = self.opts
+        setup = self.setup
+        # the policy file holds the network fine-tuning starts from (the best distilled one),
+        # and every fine-tuned network written keeps its input normalisation
+        start = load_policy(self.files["policy"]).net
+        saved = self.files["rl_state"] if self.stage == "rl" else None
+        tuner = Finetuner(setup, start, opts, opts.finetune, saved=saved)
+        self.stage = "rl"
+        try:
+            while self.left() > 0:
+                w = time.perf_counter()
+                tuner.train(opts.rl_chunk)
+                train_s = time.perf_counter() - w
+                self.rl_steps = tuner.steps
+                tuner.save(self.files["rl_state"])
+                self._record(pool, tuner.mlp(), progress, log, stage="rl", beta=0.0,
+                             train_s=train_s, rl_steps=tuner.steps)
+        finally:
+            tuner.close()
+
+    def _record(self, pool, policy, progress, log, **numbers) -> None:
+        """Evaluate ``policy`` alone, add the curve's row, write the policy file when it is
+        the best so far, the state and the curve."""
+        opts = self.opts
+        w = time.perf_counter()
+        ev = pool.map(_eval_jobs(opts, policy))
+        eval_s = time.perf_counter() - w
+        self.it += 1
+        wall = self.wall()
+        row = {"iteration": self.it, "wall_s": wall, "labels": self.labels,
+               "data": int(len(self.X)), **numbers,
+               "eval_error_m": float(np.mean([r.tracking_error_m for r in ev])),
+               "eval_fall_rate": float(np.mean([r.fell for r in ev])),
+               "eval_survived_s": float(np.mean([r.sim_seconds for r in ev])),
+               "eval_return": float(np.mean([r.episode_return for r in ev])), "eval_s": eval_s}
+        score = _score(row)
+        row["written"] = self.best is None or score <= self.best
+        self.curve.add(**row)
+        if row["written"]:  # the policy file holds the best network evaluated so far
+            self.best = score
+            method = "DAgger + DART, MPC labels"
+            if row["stage"] == "rl":
+                method += f", then PPO fine-tuning ({row['rl_steps']} steps)"
+            meta_now = dict(self.meta, training={
+                "method": method, "iteration": self.it, "iterations": self.it,
+                "labels": self.labels, "wall_s": wall, "label_seconds": self.label_s,
+                "rl_steps": self.rl_steps,
+                "setup": _jsonable(_named(asdict(self.setup))), "options": _jsonable(asdict(opts)),
+                "eval": {k: row[k] for k in ("eval_error_m", "eval_fall_rate",
+                                             "eval_survived_s")}})
+            save_policy(self.files["policy"], policy, meta_now, self.clip_text)
+        _save_state(self.torch, self.files["state"], X=self.X, Y=self.Y,
+                    trainer=self.trainer.state(), curve=self.curve.rows, iteration=self.it,
+                    elapsed_s=wall, labels=self.labels, label_seconds=self.label_s,
+                    meta=self.meta, best=self.best, stage=self.stage, rl_steps=self.rl_steps)
+        _save_curve(self.files, self.curve.rows)
+        self.summary = dict(row)
+        if log is not None:
+            log(_line(row))
+        if progress is not None:
+            progress.update(min(opts.minutes, (time.perf_counter() - self.t_start) / 60.0))
 
 
 def _score(row: dict) -> tuple:
@@ -286,11 +372,16 @@ def _score(row: dict) -> tuple:
 
 
 def _line(row: dict) -> str:
-    return (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  beta {row['beta']:.3f}  "
-            f"labels {row['labels']:6d} ({row['labels_per_s']:.2f}/s)  loss "
-            f"{row['loss_before']:.4f}->{row['loss_after']:.4f}  eval error "
-            f"{100 * row['eval_error_m']:.1f} cm  falls {row['eval_fall_rate']:.2f}  survived "
-            f"{row['eval_survived_s']:.1f} s" + ("  (written)" if row.get("written") else ""))
+    if row.get("stage") == "rl":
+        head = (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  PPO steps "
+                f"{row['rl_steps']:8d} ({row['train_s']:.0f} s)")
+    else:
+        head = (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  beta "
+                f"{row['beta']:.3f}  labels {row['labels']:6d} ({row['labels_per_s']:.2f}/s)  "
+                f"loss {row['loss_before']:.4f}->{row['loss_after']:.4f}")
+    return (f"{head}  eval error {100 * row['eval_error_m']:.1f} cm  falls "
+            f"{row['eval_fall_rate']:.2f}  survived {row['eval_survived_s']:.1f} s"
+            + ("  (written)" if row.get("written") else ""))
 
 
 def _named(setup: dict) -> dict:
