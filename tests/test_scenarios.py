@@ -172,3 +172,21 @@ def test_walk_seeds_perturb_a_walker_without_its_own_start_state():
     a, b, c = final(0), final(1), final(0)
     assert np.array_equal(a, c)
     assert np.abs(a - b).max() > 1e-4
+
+
+def test_track_with_a_seed_starts_from_the_clips_first_frame_perturbed():
+    """``track --seed S`` is the run from ``perturbed_start`` of the clip's first frame (an
+    independent run from that state gives the same errors); without a seed, the frame itself."""
+    from mjchar.controllers.core.runs import RunSpec, execute
+
+    def built(seed):
+        return RunSpec("pd", "track", seed=seed, scenario_options={"duration": 0.3}).build()
+
+    perturbed, plain = execute(built(3)), execute(built(None))
+    run = built(None)
+    ref = run.reference
+    start = S.perturbed_start(run.character, ref.qpos(0.0), ref.qvel(0.0), 3)
+    by_hand = S.track(run.character, run.controller, ref, duration=0.3, start=start)
+    assert perturbed.seed == 3 and plain.seed is None
+    assert perturbed.tracking_error_m == by_hand.tracking_error_m
+    assert perturbed.tracking_error_m != plain.tracking_error_m

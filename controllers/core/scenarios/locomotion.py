@@ -11,8 +11,11 @@
 - ``slopes``: walk up (``degrees`` > 0) or down a tilted floor; reached = no fall and
   ``distance`` covered along the slope.
 
-``track`` and ``walk`` take one push while moving (``force``, ``direction``, ``push_time``,
-``push_duration``), the same push the ``push`` scenario applies to a standing character.
+``track`` with a ``seed`` starts from the clip's first frame perturbed from that seed
+(:func:`~mjchar.controllers.core.scenarios.shared.perturbed_start`: joints N(0, 0.1 rad), root
+velocity N(0, 0.2 m/s)). ``track`` and ``walk`` take one push while moving (``force``,
+``direction``, ``push_time``, ``push_duration``), the same push the ``push`` scenario applies
+to a standing character.
 """
 
 from __future__ import annotations
@@ -26,7 +29,15 @@ from ..limits import MAX_DURATION_S
 from ..metrics import Result
 from .options import DISTANCE, DURATION, PUSH_WHILE_MOVING, SEED, SLOPE, STEADY_WINDOW
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
-from .shared import PushEvent, check_push, pushed, simulate, standing_pose, with_push
+from .shared import (
+    PushEvent,
+    check_push,
+    perturbed_start,
+    pushed,
+    simulate,
+    standing_pose,
+    with_push,
+)
 from .terrain import GaitDriver, TerrainError, finish_walk, place_on_floor, tilt_floor, walk_start
 
 #: run length in s of a walk with no clip when no duration is given
@@ -191,15 +202,22 @@ def _push_event(force, direction, push_time, push_duration) -> PushEvent | None:
 
 
 def _track(run, *, duration=None, force=None, direction=None, push_time=None,
-           push_duration=None) -> Result:
+           push_duration=None, seed=None) -> Result:
     push = _push_event(force, direction, push_time, push_duration)
     play = getattr(run.controller, "play", None)
     if play is not None:  # a saved trajectory: its own start, control step and reference
+        if seed is not None:
+            raise ScenarioError("a saved trajectory plays from its own start state: --seed "
+                                "(a perturbed start) does not apply")
         return play(run.character, duration=duration, push=push,
                     frame_callback=run.frame_callback,
                     progress=run.simulate_options()["progress"])
+    start = None
+    if seed is not None:  # the clip's first frame, perturbed (the MPC's perturbed starts)
+        ref = run.reference
+        start = perturbed_start(run.character, ref.qpos(0.0), ref.qvel(0.0), int(seed))
     return track(run.character, run.controller, run.reference, duration=duration, push=push,
-                 **run.simulate_options())
+                 start=start, seed=seed, **run.simulate_options())
 
 
 def _walk(run, *, duration=None, force=None, direction=None, push_time=None,
@@ -249,7 +267,7 @@ def _bench_slopes(settings, controller) -> list[BenchRun]:
 
 register(ScenarioSpec(
     name="track", measures="follow the reference clip from its first frame (tracking errors)",
-    runner=_track, needs=("track", "replay"), options=(DURATION, *PUSH_WHILE_MOVING),
+    runner=_track, needs=("track", "replay"), options=(DURATION, *PUSH_WHILE_MOVING, SEED),
     reference="required", moving=True, bench=_bench_track))
 register(ScenarioSpec(
     name="walk", measures="locomotion: distance and speed (trackers follow the clip; walkers "

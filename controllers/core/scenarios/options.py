@@ -29,7 +29,9 @@ ALLOW_STEPS = Option("allow_steps", "--allow-steps", "switch",
 SEED = Option("seed", "--seed", "seed",
               "random seed: random-push's directions (default 0); walk and slopes: start "
               "walkers from their own start state perturbed from it (default: the standing "
-              "pose at rest)", metavar="N")
+              "pose at rest); track: start from the clip's first frame perturbed from it "
+              "(joints N(0, 0.1 rad), root velocity N(0, 0.2 m/s); default: unperturbed)",
+              metavar="N")
 STEADY_WINDOW = Option("steady_window", "--steady-window", "seconds",
                        "walk: also report the steady speed over the last S seconds",
                        high=MAX_DURATION_S, metavar="S")
