@@ -12,7 +12,9 @@ MPC on the same run.
   MPC (``--mpc-seconds`` of it when given): wall and CPU seconds per simulated second of each,
   and their ratios.
 
-The load average is printed with every part (the machine may be shared).
+Every run is built as ``mjchar run policy POLICY --motion CLIP [--loop]`` builds it (the run
+builder, ``RunSpec``): a perturbed start is ``track --seed S``, a push ``--push 100 --direction
+90 --push-time T``. The load average is printed with every part (the machine may be shared).
 
     python -m mjchar.perf.policy POLICY --loop --pushes --perturbed --speed
 """
@@ -22,10 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from mjchar.controllers.core import scenarios as S
-from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.registry import make_controller
-from mjchar.controllers.core.runs import RunSpec, load_reference
+from mjchar.controllers.core.runs import RunSpec, execute
 from mjchar.controllers.learned import find_policy
 
 from .timing import load_average, timed
@@ -33,14 +32,14 @@ from .timing import load_average, timed
 SIDEWAYS = {"left": 90.0, "right": 270.0}
 
 
-def _setup(policy, controller: str = "policy"):
+def _spec(policy, controller: str = "policy", **scenario_options) -> RunSpec:
+    """The run of ``controller`` tracking ``policy``'s own clip (as ``mjchar run``);
+    ``scenario_options``: the track scenario's (``duration``, ``force``, ``seed``...)."""
     p = find_policy(policy)
-    ch = Character()
-    spec = RunSpec("policy", "track", motion=p.clip_motion(), loop=p.meta["clip"]["loop"])
-    ref = load_reference(spec, ch)
-    c = (make_controller("policy", ch, ref, policy=p) if controller == "policy"
-         else make_controller(controller, ch, ref))
-    return ch, ref, c
+    seed = scenario_options.pop("seed", None)
+    return RunSpec(controller, "track", motion=p.clip_motion(), loop=p.meta["clip"]["loop"],
+                   options={"policy": p} if controller == "policy" else {}, seed=seed,
+                   scenario_options=scenario_options)
 
 
 def _summary(r, t) -> dict:
@@ -50,21 +49,31 @@ def _summary(r, t) -> dict:
             "load": load_average()}
 
 
+def _timed(spec: RunSpec):
+    """``(result, timing)`` of the run (building it is not timed)."""
+    run = spec.build()
+    try:
+        return timed(execute, run)
+    finally:
+        close = getattr(run.controller, "close", None)
+        if close is not None:
+            close()
+
+
 def loop(policy, duration: float = 20.0) -> dict:
-    ch, ref, c = _setup(policy)
-    r, t = timed(S.track, ch, c, ref, duration=duration)
+    r, t = _timed(_spec(policy, duration=duration))
     return _summary(r, t)
 
 
 def pushes(policy, after: float = 2.0, force: float = 100.0, settle: float = 3.0) -> dict:
+    cycle = _cycle(policy)
     out = {}
     for name, deg in SIDEWAYS.items():
         rows = []
         for k in range(8):
-            ch, ref, c = _setup(policy)
-            at = after + k * ref.duration / 8
-            push = S.PushEvent(force, deg, at, 0.2)
-            r = S.track(ch, c, ref, duration=push.end + settle, push=push)
+            at = after + k * cycle / 8
+            r, _ = _timed(_spec(policy, duration=at + 0.2 + settle, force=force, direction=deg,
+                                push_time=at, push_duration=0.2))
             rows.append({"phase": k / 8, "time_s": round(at, 3), "fell": r.fell,
                          "tracking_error_m": r.tracking_error_m})
         out[name] = {"survived": sum(not x["fell"] for x in rows), "of": 8, "runs": rows}
@@ -72,23 +81,23 @@ def pushes(policy, after: float = 2.0, force: float = 100.0, settle: float = 3.0
     return out
 
 
+def _cycle(policy) -> float:
+    """The length of the cycle ``policy`` tracks (s): the reference its runs follow."""
+    return float(_spec(policy, duration=0.1).build().reference.duration)
+
+
 def perturbed(policy, duration: float = 20.0, seeds=range(5)) -> dict:
     rows = []
     for seed in seeds:
-        ch, ref, c = _setup(policy)
-        start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
-        r, t = timed(S.track, ch, c, ref, duration=duration, start=start)
+        r, t = _timed(_spec(policy, duration=duration, seed=seed))
         rows.append({"seed": seed, **_summary(r, t)})
     return {"no_fall": sum(not x["fell"] for x in rows), "of": len(rows), "runs": rows}
 
 
 def speed(policy, duration: float = 20.0, mpc_seconds: float | None = None) -> dict:
-    ch, ref, c = _setup(policy)
-    r, tp = timed(S.track, ch, c, ref, duration=duration)
-    ch, ref, m = _setup(policy, "mpc")
+    r, tp = _timed(_spec(policy, duration=duration))
     sim = duration if mpc_seconds is None else mpc_seconds
-    rm, tm = timed(S.track, ch, m, ref, duration=sim)
-    m.close()
+    rm, tm = _timed(_spec(policy, "mpc", duration=sim))
     # per simulated second (a run that falls ends early): wall and CPU seconds of each
     pw, pc = tp.wall_s / r.sim_time_s, tp.cpu_s / r.sim_time_s
     mw, mc = tm.wall_s / rm.sim_time_s, tm.cpu_s / rm.sim_time_s
