@@ -56,7 +56,9 @@ class RunSpec:
         scenario: a registered scenario it runs (``None``: its default scenario).
         model: ``None`` (the bundled humanoid), an MJCF path or an ``MjModel``.
         motion: the clip followed where the scenario follows one: ``None`` (the bundled walk),
-            a bundled clip's name (``"walk"``, ``"idle"``), a BVH path or a ``Motion``.
+            a bundled clip's name (``"walk"``, ``"idle"``), a BVH path, a ``Motion``, or a
+            ``ReferenceMotion`` already prepared for the model (used as it is: ``loop``,
+            ``floor`` and conditioning do not apply).
         loop: follow a seamless cycle cut from the clip, repeated for as long as the run lasts.
         floor: how the clip is placed on the floor (default: the controller's way).
         timestep: physics time step in s (``None``: the controller's).
@@ -256,6 +258,11 @@ def load_reference(spec: RunSpec, character: Character, progress=None, condition
     from mjchar.bvh.reference.conditioning import condition as condition_clip
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
 
+    if isinstance(spec.motion, ReferenceMotion):  # prepared already: used as it is
+        if spec.motion.model.nq != character.model.nq:
+            raise RunError(f"the reference was prepared for a model with nq = "
+                           f"{spec.motion.model.nq}, not this one ({character.model.nq})")
+        return spec.motion
     source = motion_source(spec.motion)
     motion = load(source) if isinstance(source, Path) else source
     if motion.n_frames == 0:

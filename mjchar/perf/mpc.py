@@ -36,6 +36,7 @@ them), their real-time factors are not the controller's (use ``--speed`` alone f
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -47,13 +48,11 @@ from mjchar.bvh.editing.clips import make_cyclic
 from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.registry import make_controller
+from mjchar.controllers.core.runs import RunSpec, execute
 from mjchar.controllers.core.workers import process_pool
-from mjchar.controllers.sampling.mpc import MpcOptions, make_mpc, plan_timestep
+from mjchar.controllers.sampling.mpc import MpcOptions, plan_timestep
 from mjchar.controllers.sampling.trajectory import (
-    ReplayController,
     StoredReference,
-    load_trajectory,
 )
 
 from .physics import raw_step_rate
@@ -99,13 +98,29 @@ class ErrorTrace:
         return t, np.linalg.norm(np.array(self.pos) - ref, axis=-1).mean(axis=1)
 
 
-def run_mpc(ref, duration=None, options=None, **kw):
-    """``(ScenarioResult, Timing, controller stats)`` of the MPC tracking ``ref``."""
-    ch = Character()
-    c = make_mpc(ch, ref, **(options or {}))
-    r, t = timed(S.track, ch, c, ref, duration=duration, **kw)
-    c.close()
-    return r, t, c.stats
+def track_spec(controller: str, ref, options=None, *, push: S.PushEvent | None = None,
+               seed: int | None = None, duration=None) -> RunSpec:
+    """The run of ``controller`` tracking the prepared reference ``ref`` (as ``mjchar run
+    CONTROLLER track`` builds it); ``options``: the controller's (the MPC's
+    :class:`MpcOptions` fields); ``seed``: a perturbed start (``track --seed``)."""
+    scenario = {"duration": duration}
+    if push is not None:
+        scenario.update(force=push.force, direction=push.direction, push_time=push.time,
+                        push_duration=push.duration)
+    return RunSpec(controller, "track", motion=ref, options=dict(options or {}), seed=seed,
+                   scenario_options=scenario)
+
+
+def run_mpc(ref, duration=None, options=None, *, seed=None, push=None, frame_callback=None):
+    """``(ScenarioResult, Timing, controller stats)`` of the MPC tracking ``ref`` (``seed``: a
+    perturbed start; ``push``: one push while tracking)."""
+    run = track_spec("mpc", ref, options, push=push, seed=seed,
+                     duration=duration).build(frame_callback=frame_callback)
+    try:
+        r, t = timed(execute, run)
+    finally:
+        run.controller.close()
+    return r, t, run.controller.stats
 
 
 def summary(r, timing, stats=None) -> dict:
@@ -132,10 +147,7 @@ def _loop(duration: float, options: dict) -> dict:
 
 
 def _perturbed(seed: int, options: dict) -> dict:
-    ch = Character()
-    ref = reference(ch, "walk60")
-    start = S.perturbed_start(ch, ref.qpos(0.0), ref.qvel(0.0), seed)
-    r, t, st = run_mpc(ref, options=options, start=start)
+    r, t, st = run_mpc(reference(Character(), "walk60"), options=options, seed=seed)
     return summary(r, t, st)
 
 
@@ -146,28 +158,25 @@ def _curve_point(n_h: tuple, options: dict) -> dict:
 
 def _pushed(controller: str, push: S.PushEvent, options: dict) -> dict:
     """One pushed run; the recovery time is measured from the push's end."""
-    ch = Character()
     if controller == "samcon_replay":
-        tr = load_trajectory(TRAJECTORIES / "samcon_walk60.npz")
-        ref = StoredReference(ch.model, tr.reference_qpos, tr.control_dt, ch.joint_bodies)
-        ch.set_timestep(tr.timestep)
-        c = ReplayController(tr)
-        trace = ErrorTrace(ref)
-        duration = tr.duration
-        kw = {"qpos": tr.initial_qpos, "qvel": tr.initial_qvel, "control_dt": tr.control_dt}
-        r = S.simulate(ch, c, duration=duration, scenario="track", reference=ref,
-                       **S.with_push(push, {"frame_callback": trace, **kw}))
+        spec = RunSpec("samcon_replay", "track",
+                       options={"trajectory": TRAJECTORIES / "samcon_walk60.npz"},
+                       scenario_options={"force": push.force, "direction": push.direction,
+                                         "push_time": push.time,
+                                         "push_duration": push.duration})
+        run = spec.build()
+        tr = run.controller.trajectory
+        trace = ErrorTrace(StoredReference(run.character.model, tr.reference_qpos,
+                                           tr.control_dt, run.character.joint_bodies))
+        r = execute(dataclasses.replace(run, frame_callback=trace))
     else:
-        ref = reference(ch, "walk60", cyclic=True)
-        duration = push.end + SETTLE
+        ref = reference(Character(), "walk60", cyclic=True)
         trace = ErrorTrace(ref)
         if controller == "mpc":
-            c = make_mpc(ch, ref, **options)
+            r, _, _ = run_mpc(ref, push.end + SETTLE, options, push=push, frame_callback=trace)
         else:
-            c = make_controller(controller, ch, ref)
-        r = S.track(ch, c, ref, duration=duration, push=push, frame_callback=trace)
-        if controller == "mpc":
-            c.close()
+            r = track_spec(controller, ref, push=push, duration=push.end + SETTLE).execute(
+                frame_callback=trace)
     t, e = trace.errors()
     after = t >= push.end
     high = np.flatnonzero(after & (e >= RECOVERED))
@@ -299,12 +308,9 @@ def determinism(options: dict) -> dict:
     ref = reference(Character(), "walk60")
     rows = {}
     for key, o in (("a", {}), ("b", {}), ("threads1", {"threads": 1})):
-        ch = Character()
-        c = make_mpc(ch, ref, **{**options, **o})
         q = []
-        S.track(ch, c, ref, duration=1.0,
+        run_mpc(ref, 1.0, {**options, **o},
                 frame_callback=lambda ch, q=q: q.append(ch.state.qpos.copy()))
-        c.close()
         rows[key] = np.array(q)
     out = {"same_seed": bool(np.array_equal(rows["a"], rows["b"])),
            "one_vs_all_threads": bool(np.array_equal(rows["a"], rows["threads1"]))}
