@@ -145,15 +145,12 @@ def _convert(rig, folder: Path) -> dict:
     }
 
 
-def _character(rec: dict, controller: str):
-    from mjchar.controllers import registry
-    from mjchar.controllers.core.character import Character
+def _spec(rec: dict, controller: str, scenario: str, **kw):
+    """The run of ``controller`` on the rig's model, as ``mjchar run CONTROLLER SCENARIO
+    --model RIG.xml`` builds it (``kw``: further :class:`RunSpec` fields)."""
+    from mjchar.controllers.core.runs import RunSpec
 
-    ch = Character(rec["_paths"][1])
-    ts = registry.default_timestep(controller)
-    if ts:
-        ch.set_timestep(ts)
-    return ch
+    return RunSpec(controller, scenario, model=rec["_paths"][1], **kw)
 
 
 def _run(result) -> dict:
@@ -165,12 +162,8 @@ def _run(result) -> dict:
 
 # -- the checks -----------------------------------------------------------------------------------
 def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
-    from mjchar.controllers import registry
-    from mjchar.controllers.core import scenarios as S
-
-    ch = _character(rec, "static_balance")
-    c = registry.make_controller("static_balance", ch, S.standing_pose(ch))
-    r = _run(S.stand(ch, c, duration=cfg.stand_duration))
+    r = _run(_spec(rec, "static_balance", "stand",
+                   scenario_options={"duration": cfg.stand_duration}).execute())
     ok = not r["fell"]
     return {"ok": ok, "run": r,
             "summary": ("stands " if ok else f"falls at {r['fall_time_s']:.1f} s of ")
@@ -178,15 +171,11 @@ def _stand(rig, rec, cfg: SkeletonConfig) -> dict:
 
 
 def _push(rig, rec, cfg: SkeletonConfig) -> dict:
-    from mjchar.controllers import registry
-    from mjchar.controllers.core import scenarios as S
-
     runs = {}
     for d in PUSH_DIRECTIONS:
-        ch = _character(rec, "static_balance")
-        c = registry.make_controller("static_balance", ch, S.standing_pose(ch))
-        runs[f"{d:g}"] = _run(S.push(ch, c, force=cfg.push_force, direction=d,
-                                     push_duration=cfg.push_duration))
+        runs[f"{d:g}"] = _run(_spec(rec, "static_balance", "push", scenario_options={
+            "force": cfg.push_force, "direction": d,
+            "push_duration": cfg.push_duration}).execute())
     n = sum(not r["fell"] for r in runs.values())
     return {"ok": n == len(runs), "runs": runs,
             "summary": f"{n}/{len(runs)} survive {cfg.push_force:g} N x {cfg.push_duration:g} s"}
@@ -198,16 +187,13 @@ def _walker(name: str, speeds: Callable[[SkeletonConfig], tuple[float, ...]]) ->
     within the tolerance of it. ``runs`` keys: the seed, or ``"SPEED/SEED"`` under commands."""
 
     def check(rig, rec, cfg: SkeletonConfig) -> dict:
-        from mjchar.controllers import registry
-        from mjchar.controllers.core.scenarios import walk
-
         runs, falls, off = {}, [], []
         for v in speeds(cfg) or (None,):
             for s in cfg.seeds:
-                ch = _character(rec, name)
-                c = registry.make_controller(name, ch, **({} if v is None else {"speed": v}))
-                r = _run(walk(ch, c, duration=cfg.walk_duration, seed=int(s),
-                              steady_window=cfg.steady_window))
+                r = _run(_spec(rec, name, "walk", seed=int(s),
+                               options={} if v is None else {"speed": v},
+                               scenario_options={"duration": cfg.walk_duration,
+                                                 "steady_window": cfg.steady_window}).execute())
                 key = str(s) if v is None else f"{v:g}/{s}"
                 runs[key] = r
                 where = f"seed {s}" if v is None else f"{v:g} m/s seed {s}"
@@ -230,13 +216,13 @@ def _hand_of_god(rig, rec, cfg: SkeletonConfig) -> dict:
     from mjchar import bvh
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
     from mjchar.controllers import registry
-    from mjchar.controllers.core import scenarios as S
+    from mjchar.controllers.core.character import Character
 
-    ch = _character(rec, "hand_of_god")
+    # the rig's clip as it is (no conditioning: the converter's replay is what is measured)
+    ch = Character(rec["_paths"][1])
     ref = ReferenceMotion(ch.model, bvh.load(rec["_paths"][0]), info=ch.info,
                           floor=registry.get("hand_of_god").floor)
-    c = registry.make_controller("hand_of_god", ch, ref)
-    r = _run(S.track(ch, c, ref))
+    r = _run(_spec(rec, "hand_of_god", "track", motion=ref).execute())
     ok = not r["fell"] and r["tracking_error_m"] < cfg.track_error
     return {"ok": ok, "run": r,
             "summary": f"{r['tracking_error_m'] * 100:.1f} cm over {r['sim_time_s']:.1f} s"
@@ -247,7 +233,6 @@ def _samcon(rig, rec, cfg: SkeletonConfig) -> dict:
     from mjchar import bvh
     from mjchar.bvh.reference.reference_motion import ReferenceMotion
     from mjchar.controllers.sampling.samcon import RECONSTRUCTION_OPTIONS, Samcon, SamconOptions
-    from mjchar.controllers.sampling.trajectory import replay
 
     bvh_path, xml = rec["_paths"]
     from mjchar.controllers.core.character import Character
@@ -262,7 +247,8 @@ def _samcon(rig, rec, cfg: SkeletonConfig) -> dict:
     t0 = time.perf_counter()
     with Samcon(ref, model=xml, options=SamconOptions(**opts), source_motion=bvh_path) as s:
         result = s.run(progress=False)
-    r = _run(replay(result.trajectory, model=xml))
+    r = _run(_spec(rec, "replay", "track",
+                   options={"trajectory": result.trajectory}).execute())
     ok = not r["fell"] and r["tracking_error_m"] < cfg.samcon_error
     return {"ok": ok, "run": r, "wall_s": time.perf_counter() - t0,
             "summary": f"{r['tracking_error_m'] * 100:.1f} cm over {r['sim_time_s']:.1f} s"
