@@ -407,8 +407,9 @@ class ReplayController:
     At simulated time ``t`` it sends ``targets[i]`` with ``i = round(t / control_dt)`` (the last
     row after the end), and clears the solver warm start at the trajectory's
     ``warmstart_resets``, as the optimiser's rollouts did. It brings what a run of it needs: its
-    physics step (:attr:`timestep`, applied by ``make_controller``), and :meth:`play`, which the
-    ``track`` scenario calls: the trajectory's start state, control step and stored reference.
+    physics step (:attr:`timestep`, applied by ``make_controller``), and :meth:`replay_setup`,
+    which the ``track`` scenario plays from: the trajectory's start state, control step and
+    stored reference.
 
     Args:
         trajectory: a :class:`Trajectory` or a path to one.
@@ -453,13 +454,15 @@ class ReplayController:
         return Action(target=tr.targets[min(max(i, 0), tr.n_controls - 1)])
 
 
-    def play(self, character: Character, *, duration: float | None = None,
-             stop_on_fall: bool = True, frame_callback=None, reference=None,
-             push=None, hold_last: bool = False, progress=None) -> Result:
-        """Play the trajectory open-loop on ``character`` from its initial state and report the
-        usual metrics (the ``track`` scenario of a replay; see :func:`replay`)."""
+    def replay_setup(self, character: Character, *, duration: float | None = None,
+                     reference=None, hold_last: bool = False):
+        """What the ``track`` scenario plays from (a
+        :class:`~mjchar.controllers.core.scenarios.replay.ReplaySetup`): the trajectory's start
+        state and control step, ``duration`` (default: the trajectory's, its most unless
+        ``hold_last`` holds the last target past the end) and the reference (default: the
+        stored rows)."""
         from ..core.scenarios.locomotion import clip_duration
-        from ..core.scenarios.shared import simulate, with_push
+        from ..core.scenarios.replay import ReplaySetup
 
         tr = self.trajectory
         tr.validate(character.model)
@@ -470,34 +473,20 @@ class ReplayController:
             duration = float(duration)  # past the end: the last target held (simulate checks)
         else:
             duration = clip_duration(tr, duration, "trajectory")
-        stats = {"min_root": math.inf, "clear": 0.0}
-
-        def watch(ch: Character) -> None:
-            stats["min_root"] = min(stats["min_root"], ch.state.root_height)
-            stats["clear"] = max(stats["clear"], ch.poses.lowest_point(ch.state.qpos))
-            if frame_callback is not None:
-                frame_callback(ch)
-
-        if push is not None and push.end > duration + 1e-9:
-            raise TrajectoryError(f"the push ({push.time} s + {push.duration} s) ends after the "
-                                  f"replay ({duration:.2f} s)")
-        result = simulate(character, self, duration=duration, scenario="replay",
-                          qpos=tr.initial_qpos, qvel=tr.initial_qvel, reference=reference,
-                          control_dt=tr.control_dt, stop_on_fall=stop_on_fall,
-                          progress=progress, **with_push(push, {"frame_callback": watch}))
-        if push is not None:
-            result.push_N, result.push_direction_deg = float(push.force), float(push.direction)
-        extra = {"min_root_height_m": stats["min_root"], "max_clearance_m": stats["clear"],
-                 "final_root_height_m": character.state.root_height,
-                 "trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
-        if reference is not None:
-            ref_root = reference.body_positions(character.time)[character.root_body]
-            extra["final_root_error_m"] = float(np.linalg.norm(character.state.root_position
-                                                               - ref_root))
+        info = {"trajectory_duration_s": tr.duration, "method": tr.metadata.get("method")}
         if tr.source_motion:
-            extra["source_motion"] = tr.source_motion
-        result.extra.update(extra)
-        return result
+            info["source_motion"] = tr.source_motion
+        return ReplaySetup(tr.initial_qpos, tr.initial_qvel, tr.control_dt, duration,
+                           reference, info)
+
+    def play(self, character: Character, **options) -> Result:
+        """Play the trajectory open-loop on ``character`` from its initial state and report the
+        usual metrics (the ``track`` scenario of a replay:
+        :func:`~mjchar.controllers.core.scenarios.replay.play`, whose keywords ``options``
+        are)."""
+        from ..core.scenarios.replay import play
+
+        return play(character, self, **options)
 
 
 def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,

@@ -376,7 +376,9 @@ def _run_cell(ctx: BenchContext, name: str, scenario: str) -> list[dict]:
 
 def _stored(built):
     """A replay's stored reference (its tracking-error series), else ``None``."""
-    if not hasattr(built.controller, "play"):
+    from mjchar.controllers.core.scenarios.replay import plays_itself
+
+    if not plays_itself(built.controller):
         return None
     tr = built.controller.trajectory
     if tr.reference_qpos is None:

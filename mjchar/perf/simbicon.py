@@ -23,7 +23,7 @@ import sys
 import numpy as np
 
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.scenarios import slope_walk, walk
+from mjchar.controllers.core.runs import RunSpec
 from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
 from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
 
@@ -40,14 +40,19 @@ def log(msg: str) -> None:
     print(msg, flush=True)
 
 
-def character() -> Character:
-    return Character(timestep=DEFAULT_TIMESTEP)
+def simbicon_run(scenario: str, gait: str, seed: int, **options) -> RunSpec:
+    """SIMBICON with ``gait`` in ``scenario`` (as ``mjchar run simbicon SCENARIO --gait GAIT
+    --seed SEED`` builds it); ``options``: the scenario's, and ``feedback``."""
+    factory = {"gait": gait}
+    if "feedback" in options:
+        factory["feedback"] = options.pop("feedback")
+    return RunSpec("simbicon", scenario, options=factory, seed=seed, scenario_options=options)
 
 
 def bench_walk(gait: str, duration: float) -> dict:
     out = {}
     for seed in SEEDS:
-        r = walk(character(), make_simbicon(gait=gait), duration=duration, seed=seed)
+        r = simbicon_run("walk", gait, seed, duration=duration).execute()
         out[seed] = {
             "fell": r.fell,
             "fall_time_s": r.fall_time_s,
@@ -68,7 +73,7 @@ def bench_walk(gait: str, duration: float) -> dict:
 def bench_feedback_off(gait: str) -> dict:
     out = {}
     for seed in SEEDS:
-        r = walk(character(), make_simbicon(gait=gait, feedback=False), duration=10.0, seed=seed)
+        r = simbicon_run("walk", gait, seed, duration=10.0, feedback=False).execute()
         out[seed] = {"fell": r.fell, "fall_time_s": r.fall_time_s}
         log(
             f"feedback off seed {seed}: "
@@ -103,9 +108,7 @@ def bench_search(gait: str) -> dict:
 def bench_slopes(gait: str) -> dict:
     out = {}
     for deg in (5.0, -5.0):
-        r = slope_walk(
-            character(), make_simbicon(gait=gait), degrees=deg, distance=20.0, duration=45.0, seed=0
-        )
+        r = simbicon_run("slopes", gait, 0, degrees=deg, distance=20.0, duration=45.0).execute()
         out[f"{deg:+g}"] = {
             "reached_20m": r.extra["reached"],
             "fell": r.fell,
@@ -127,7 +130,7 @@ def bench_slopes(gait: str) -> dict:
 
 def bench_timing(gait: str, steps: int = 3000, repeats: int = 5) -> dict:
     """SIMBICON's cost per physics step over a bare ``mj_step`` (from its start state)."""
-    ch = character()
+    ch = Character(timestep=DEFAULT_TIMESTEP)
     probe = make_simbicon(gait=gait)
     probe.reset(ch)
     q, v = probe.start_state(ch, np.random.default_rng(0))

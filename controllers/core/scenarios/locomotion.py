@@ -1,9 +1,10 @@
 """Moving scenarios: ``track`` (follow a clip), ``walk`` and ``slopes``.
 
 - ``track``: start on the reference's first frame and follow it (tracking errors). A controller
-  that plays a saved trajectory (it has ``play``) brings its own start state, control step and
-  reference, and is played instead. A clip that does not loop, like a saved trajectory, ends:
-  a run past its end is refused (:func:`clip_duration`); ``--loop`` repeats a clip.
+  that plays a saved trajectory (it has ``replay_setup``) brings its own start state, control
+  step and reference, and is played instead (:mod:`.replay`). A clip that does not loop, like
+  a saved trajectory, ends: a run past its end is refused (:func:`clip_duration`); ``--loop``
+  repeats a clip.
 - ``walk``: locomotion, reported as distance and speed. Trackers walk by tracking the clip (as
   ``track``); walkers walk from the standing pose at rest, or, with a ``seed``, from their own
   start state (``start_state``) with a small seeded perturbation. ``steady_window`` adds the
@@ -29,6 +30,7 @@ from ..limits import MAX_DURATION_S
 from ..metrics import Result
 from .options import DISTANCE, DURATION, PUSH_WHILE_MOVING, SEED, SLOPE, STEADY_WINDOW
 from .registry import BenchRun, ScenarioError, ScenarioSpec, register
+from .replay import play, plays_itself
 from .shared import (
     PushEvent,
     check_push,
@@ -204,12 +206,11 @@ def _push_event(force, direction, push_time, push_duration) -> PushEvent | None:
 def _track(run, *, duration=None, force=None, direction=None, push_time=None,
            push_duration=None, seed=None) -> Result:
     push = _push_event(force, direction, push_time, push_duration)
-    play = getattr(run.controller, "play", None)
-    if play is not None:  # a saved trajectory: its own start, control step and reference
+    if plays_itself(run.controller):  # a saved trajectory: its own start, step and reference
         if seed is not None:
             raise ScenarioError("a saved trajectory plays from its own start state: --seed "
                                 "(a perturbed start) does not apply")
-        return play(run.character, duration=duration, push=push,
+        return play(run.character, run.controller, duration=duration, push=push,
                     frame_callback=run.frame_callback,
                     progress=run.simulate_options()["progress"])
     start = None
@@ -246,7 +247,7 @@ def _seed_label(seed) -> str:
 
 def _bench_track(settings, controller) -> list[BenchRun]:
     """The clip for ``track_duration`` s (default: all of it); a saved trajectory plays whole."""
-    if hasattr(controller, "play"):
+    if plays_itself(controller):
         return [BenchRun("trajectory")]
     return [BenchRun("clip", None, {"duration": settings.get("track_duration")})]
 
