@@ -283,6 +283,73 @@ def test_the_character_has_no_flat_forwarders_left():
     assert not bad, "\n".join(bad)
 
 
+#: where a run is built and simulated: the run builder and the scenarios
+BUILDER = ("mjchar.controllers.core.runs", "mjchar.controllers.core.scenarios")
+#: the scenarios' simulation entry points: a call of one outside the builder builds a run by hand
+RUNNERS = {"simulate", "run_scenario", "track", "walk", "stand", "push", "random_push",
+           "slope_walk"}
+SCENARIOS_PACKAGE = "mjchar.controllers.core.scenarios"
+
+
+def _scenario_calls(name: str, path: Path) -> list[str]:
+    """Calls in module ``name`` of a scenario runner (:data:`RUNNERS`) imported from the
+    scenarios (``from ...scenarios.shared import simulate``; ``scenarios as S`` then
+    ``S.track(...)``)."""
+    tree = ast.parse(path.read_text(), str(path))
+    is_pkg = path.name == "__init__.py"
+    package = name.split(".") if is_pkg else name.split(".")[:-1]
+    functions, modules = set(), set()
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = package[:len(package) - node.level + 1]
+            target = ".".join(base + ([node.module] if node.module else []))
+        else:
+            target = node.module or ""
+        for a in node.names:
+            if a.name in RUNNERS and (target.startswith(SCENARIOS_PACKAGE) or target in (
+                    "mjchar.controllers", "mjchar.controllers.core")):
+                functions.add(a.asname or a.name)
+            elif f"{target}.{a.name}".startswith(SCENARIOS_PACKAGE):
+                modules.add(a.asname or a.name)
+    where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path.name
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        f = node.func
+        if isinstance(f, ast.Name) and f.id in functions:
+            found.append(f"{where}:{node.lineno} {f.id}(...)")
+        elif (isinstance(f, ast.Attribute) and f.attr in RUNNERS
+              and isinstance(f.value, ast.Name) and f.value.id in modules):
+            found.append(f"{where}:{node.lineno} {f.value.id}.{f.attr}(...)")
+    return found
+
+
+def test_every_run_is_built_by_the_builder():
+    """One way in: outside the run builder and the scenarios (controllers/core/runs.py,
+    controllers/core/scenarios/), no module simulates a run by hand (``simulate``,
+    ``run_scenario`` or a scenario's runner function): the CLI, the Python API, the bench, perf
+    and the envs build every run with ``RunSpec``."""
+    by_hand = [call for name, path in MODULES.items()
+               if not name.startswith(BUILDER) for call in _scenario_calls(name, path)]
+    assert not by_hand, "\n".join(by_hand)
+
+
+def test_the_builder_test_sees_a_call_by_hand(tmp_path):
+    """The check above finds both forms of a call by hand (a guard against a check that cannot
+    fail)."""
+    code = tmp_path / "by_hand.py"
+    code.write_text("from mjchar.controllers.core import scenarios as S\n"
+                    "from mjchar.controllers.core.scenarios.shared import simulate\n"
+                    "from mjchar.controllers import run_scenario\n"
+                    "S.track(1, 2, 3)\nsimulate(1, 2)\nrun_scenario(1)\n")
+    calls = _scenario_calls("mjchar.perf.by_hand", code)
+    assert sorted(c.split()[-1] for c in calls) == ["S.track(...)", "run_scenario(...)",
+                                                    "simulate(...)"]
+
+
 MAX_FUNCTION_LINES = 80
 
 

@@ -59,7 +59,7 @@ CLAIMS = {
     "| at 1.2 m/s | cadence /min |": C.test_the_walkers_gait_figures_at_1_2_m_s,
     "How the walkers walk next to motion capture, at 1.2 m/s from the standing pose":
         C.test_the_walkers_gait_figures_at_1_2_m_s,
-    "own time step (SIMBICON's 1 ms) is applied when it is made":
+    "own time step, SIMBICON's 1 ms,":
         C.test_the_walkers_gait_figures_at_1_2_m_s,
 }
 

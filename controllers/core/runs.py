@@ -164,13 +164,8 @@ class RunSpec:
 
 
 def execute(run: Run):
-    """Run a built :class:`Run` through its scenario's runner."""
-    spec: RunSpec = run.spec
-    sspec = spec.scenario_spec
-    options = dict(spec.scenario_options)
-    if spec.seed is not None and sspec.option("seed") is not None:
-        options["seed"] = spec.seed
-    return sspec.runner(run, **options)
+    """Run a built :class:`Run` through its scenario's runner (:meth:`Run.execute`)."""
+    return run.execute()
 
 
 def follows_clip(cspec, sspec) -> bool:

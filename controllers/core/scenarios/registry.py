@@ -251,6 +251,18 @@ class Run:
     seed: int | None = None
     progress: Callable[[str], None] | None = None
 
+    def execute(self):
+        """Run it through its scenario's runner (the scenario and its options are the
+        description's, ``spec``): the scenario's result (a Result, or a protocol's rates)."""
+        if self.spec is None:
+            raise ScenarioError("a run built by hand has no scenario to execute: use "
+                                "run_scenario(name, character, controller)")
+        sspec = self.spec.scenario_spec
+        options = dict(self.spec.scenario_options)
+        if self.spec.seed is not None and sspec.option("seed") is not None:
+            options["seed"] = self.spec.seed
+        return sspec.runner(self, **options)
+
     def simulate_options(self) -> dict:
         """The keywords of :func:`~mjchar.controllers.core.scenarios.shared.simulate` this
         run sets (frame callback, control step, progress bar)."""
