@@ -43,6 +43,9 @@ WALK_S, IPM_SPEED_MPS, IPM_SPEED_TOL = 60.0, 1.0, 0.15
 SAMCON_REPLAY_CM, CMAES_REPLAY_CM = 5.0, 4.0
 #: the MPC tracks walk60 within (cm), at each of MPC_SEEDS
 MPC_WALK60_CM, MPC_SEEDS = 4.0, (0, 1, 2)
+#: the bundled walk60 policy tracks its looped clip this long (s) within (cm); it was learned
+#: in POLICY_LEARN_MINUTES on POLICY_LEARN_CORES cores (its file says how long it took)
+POLICY_LOOP_S, POLICY_LOOP_CM, POLICY_LEARN_MINUTES, POLICY_LEARN_CORES = 20.0, 6.0, 60, 2
 #: the gait table's columns and their tolerances (the spread over seeds, docs/claims.md)
 GAIT_COLUMNS = ("cadence /min", "step m", "width m", "lean deg", "knee deg", "slip cm/step")
 GAIT_TOLERANCE = (8.0, 0.02, 0.01, 0.2, 1.5, 0.3)
@@ -141,6 +144,24 @@ def test_mpc_tracks_walk60(seed):
     r = RunSpec("mpc", "track", motion=shared_clip("walk60.bvh"), options={"seed": seed}).execute()
     assert not r.fell and r.tracking_error_m < MPC_WALK60_CM / 100
     assert_no_root_help(r)
+
+
+# policy: "tracks looped walk60 for 20 s within 6 cm", "learned in one hour on 2 cores"
+def test_the_bundled_policy_tracks_looped_walk60():
+    """docs/learning.md, "Against the bars": no fall, the mean joint error under 6 cm (3.2 cm
+    measured), no root force; and the file says it was learned within the hour, on the
+    cores and with the stages the README states."""
+    from mjchar.controllers.learned import find_policy
+    from mjchar.perf.policy import loop
+
+    r = loop("walk60", duration=POLICY_LOOP_S)
+    assert not r["fell"] and r["sim_s"] == pytest.approx(POLICY_LOOP_S, abs=0.05)
+    assert r["tracking_error_m"] < POLICY_LOOP_CM / 100
+    assert r["root_force_max_N"] == 0.0
+    training = find_policy("walk60").meta["training"]
+    assert training["options"]["minutes"] <= POLICY_LEARN_MINUTES
+    assert training["wall_s"] <= 60 * POLICY_LEARN_MINUTES
+    assert "PPO" in training["method"] and "DAgger" in training["method"]
 
 
 # the gait table: "at 1.2 m/s | cadence | step | width | lean | knee | slip", three rows and

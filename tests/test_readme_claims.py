@@ -61,6 +61,10 @@ CLAIMS = {
         C.test_the_walkers_gait_figures_at_1_2_m_s,
     "own time step, SIMBICON's 1 ms,":
         C.test_the_walkers_gait_figures_at_1_2_m_s,
+    "learned in\none hour on 2 cores, tracks its looped clip for 20 s within 6 cm":
+        C.test_the_bundled_policy_tracks_looped_walk60,
+    "the bundled policy tracks looped walk60 for 20 s within 6 cm":
+        C.test_the_bundled_policy_tracks_looped_walk60,
 }
 
 #: README pattern -> the bounds its numbers must equal, in order (the tests' constants)
@@ -75,6 +79,10 @@ BOUNDS = {
     r"([\d.]+) N": (C.WALK_S, C.IPM_SPEED_MPS, C.IPM_SPEED_TOL, C.IPM_PUSH_N),
     r"replay walk60 within ([\d.]+) cm and ([\d.]+) cm": (C.SAMCON_REPLAY_CM, C.CMAES_REPLAY_CM),
     r"`mpc` .*? tracks walk60 within ([\d.]+) cm": (C.MPC_WALK60_CM,),
+    r"`policy` .*? tracks looped walk60 for ([\d.]+) s within ([\d.]+) cm":
+        (C.POLICY_LOOP_S, C.POLICY_LOOP_CM),
+    r"learned in\s+one hour on (\d+) cores, tracks its looped clip for ([\d.]+) s within "
+    r"([\d.]+) cm": (C.POLICY_LEARN_CORES, C.POLICY_LOOP_S, C.POLICY_LOOP_CM),
     r"\| tolerance \(seeds, CPUs\) \|" + r" ±([\d.]+) \|" * 6: C.GAIT_TOLERANCE,
     r"Pushes are ([\d.]+) s long, at (\d+) phases of the stride\s+\(walkers, on the chest\) or "
     r"(\d+) moments\s+\(standing controllers, on the pelvis\) x (\d+) seeds":

@@ -273,9 +273,11 @@ class _LearnRun:
         opts = self.opts
         policy = self.trainer.mlp() if len(self.X) else None
         n_episodes = opts.episodes or pool.parallelism
+        last = 0.0  # the last iteration's wall time: one that would not end in time is not begun
         while budget > 0:
-            if time.perf_counter() - self.t_start >= budget and self.summary:
+            if time.perf_counter() - self.t_start + last > budget and self.summary:
                 break
+            began = time.perf_counter()
             beta = opts.beta_decay ** self.it
             w = time.perf_counter()
             results = pool.map(_episodes(opts, self.rng, n_episodes, beta, policy))
@@ -294,6 +296,7 @@ class _LearnRun:
                          train_s=train_s, labels_per_s=new / max(collect_s, 1e-9),
                          clipped=float(np.mean([r.clipped for r in results])),
                          expert_falls=int(sum(r.fell for r in results)))
+            last = time.perf_counter() - began
 
     def finetune(self, pool, progress, log) -> None:
         """PPO from the best network so far (the policy file's) until the budget ends."""
@@ -310,7 +313,8 @@ class _LearnRun:
         tuner = Finetuner(setup, start, opts, opts.finetune, saved=saved)
         self.stage = "rl"
         try:
-            while self.left() > 0:
+            last = 0.0  # as in DAgger: a chunk that would not end in time is not begun
+            while self.left() > last:
                 w = time.perf_counter()
                 tuner.train(opts.rl_chunk)
                 train_s = time.perf_counter() - w
@@ -318,6 +322,7 @@ class _LearnRun:
                 tuner.save(self.files["rl_state"])
                 self._record(pool, tuner.mlp(), progress, log, stage="rl", beta=0.0,
                              train_s=train_s, rl_steps=tuner.steps)
+                last = time.perf_counter() - w
         finally:
             tuner.close()
 
