@@ -53,8 +53,8 @@ class FinetuneOptions:
         envs: training environments (more than 1: one process each; ``None``: one per core).
         episode_seconds: length of a training episode (s).
         max_tracking_error: the training env's early termination (m): an episode ends when
-            the mean joint error passes it, so the actor learns to stay near the clip (the
-            env's default, 0.3 m, lets a policy drift a body-length away and still score).
+            the mean joint error passes it, so the actor learns to stay near the clip (with
+            the env's default, 0.3 m, a policy drifting 15 cm from the clip still scores).
         reward_weights, reward_scales: the training env's reward terms
             (:class:`~mjchar.envs.imitation.ImitationEnv`; evaluations use the tracking error,
             not the reward): DeepMimic's, with more weight on the centre of mass and a sharper
