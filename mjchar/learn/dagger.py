@@ -18,9 +18,13 @@ the expert), iteration ``i = 0, 1, ...`` until the wall-clock budget ends:
    curve); write the policy file (:mod:`mjchar.controllers.learned.policy_file`), the curve and
    the resumable state.
 
+For the last ``rl_share`` of the budget (half by default) the best network is then fine-tuned
+with PPO (:mod:`.finetune`), evaluated and written the same way.
+
 Outputs beside the policy ``POLICY.npz``: ``POLICY.curve.png`` (the curve),
-``POLICY.curve.json`` (its numbers) and ``POLICY.learn.pt`` (data set, network and optimiser
-state, curve: ``resume=True`` continues from it). Every file is written atomically after every
+``POLICY.curve.json`` (its numbers), ``POLICY.learn.pt`` (data set, network and optimiser
+state, curve: ``resume=True`` continues from it) and, once fine-tuning has started,
+``POLICY.ppo.zip`` (the PPO model). Every file is written atomically after every
 iteration, so a run stopped at any time leaves a usable policy.
 """
 
