@@ -75,6 +75,15 @@ def _modules() -> dict[str, Path]:
 MODULES = _modules()
 
 
+def _from_target(node: ast.ImportFrom, package: list[str]) -> str:
+    """The absolute module a ``from ... import`` in ``package`` names (relative levels
+    resolved)."""
+    if node.level:
+        base = package[:len(package) - node.level + 1]
+        return ".".join(base + ([node.module] if node.module else []))
+    return node.module or ""
+
+
 def _imports(name: str, path: Path) -> set[str]:
     """The project modules ``name`` imports (resolved to modules: ``from pkg import mod`` is an
     import of ``pkg.mod`` when that is a module, else of ``pkg``)."""
@@ -85,11 +94,7 @@ def _imports(name: str, path: Path) -> set[str]:
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package[:len(package) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module
+            target = _from_target(node, package)
             for a in node.names:
                 sub = f"{target}.{a.name}"
                 found.add(sub if sub in MODULES else target)
@@ -302,11 +307,7 @@ def _scenario_calls(name: str, path: Path) -> list[str]:
     for node in ast.walk(tree):
         if not isinstance(node, ast.ImportFrom):
             continue
-        if node.level:
-            base = package[:len(package) - node.level + 1]
-            target = ".".join(base + ([node.module] if node.module else []))
-        else:
-            target = node.module or ""
+        target = _from_target(node, package)
         for a in node.names:
             if a.name in RUNNERS and (target.startswith(SCENARIOS_PACKAGE) or target in (
                     "mjchar.controllers", "mjchar.controllers.core")):

@@ -309,12 +309,11 @@ class _LearnRun:
         from .finetune import Finetuner
 
         opts = self.opts
-        setup = self.setup
         # the policy file holds the network fine-tuning starts from (the best distilled one),
         # and every fine-tuned network written keeps its input normalisation
         start = load_policy(self.files["policy"]).net
         saved = self.files["rl_state"] if self.stage == "rl" else None
-        tuner = Finetuner(setup, start, opts, opts.finetune, saved=saved)
+        tuner = Finetuner(self.setup, start, opts, opts.finetune, saved=saved)
         self.stage = "rl"
         try:
             last = 0.0  # as in DAgger: a chunk that would not end in time is not begun
