@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 import numpy as np
 import pytest
@@ -194,7 +195,8 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
     assert written and written[0]["iteration"] == 1
     policy = load_policy(out)
     assert policy.meta["training"]["iteration"] == written[-1]["iteration"]
-    key = [(r["eval_fall_rate"], -r["eval_survived_s"], r["eval_error_m"]) for r in rows]
+    key = [(r["eval_fall_rate"], r["disturbed_fall_rate"], -r["eval_survived_s"],
+            r["eval_error_m"]) for r in rows]
     assert key[written[-1]["iteration"] - 1] == min(key[:written[-1]["iteration"]])
     col = Collector(setup)
     learned = [col.run(Episode(seed=i, phase=i / 4, seconds=3.0, policy=policy.net,
@@ -203,6 +205,35 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
             for i in range(4)]
     col.close()
     assert sum(r.episode_return for r in learned) > sum(r.episode_return for r in zero)
+
+
+def test_the_kept_network_is_chosen_on_disturbed_episodes_too():
+    """The evaluation adds a fixed validation set of perturbed starts and pushes (eight
+    different directions); a network that falls less there ranks above one that tracks the
+    undisturbed clip a little closer, and a fall on the clip ranks below both."""
+    from mjchar.learn.dagger import LearnOptions, _eval_jobs, _score
+
+    opts = LearnOptions()
+    clip, disturbed = _eval_jobs(opts, None)
+    assert len(clip) == opts.eval_phases and all(j.push is None and j.perturb is None
+                                                 for j in clip)
+    perturbed = [j for j in disturbed if j.perturb is not None]
+    pushes = [j for j in disturbed if j.push is not None]
+    assert len(perturbed) == opts.eval_perturbed and len(pushes) == opts.eval_pushes
+    directions = {round(math.degrees(math.atan2(j.push[2], j.push[1])) % 360, 3) for j in pushes}
+    assert len(directions) == 8
+    assert all(math.hypot(j.push[1], j.push[2]) == pytest.approx(opts.eval_push_force)
+               for j in pushes)
+    assert all(j.beta == 0.0 and j.noise == 0.0 and not j.label for j in clip + disturbed)
+    assert [j.seed for j in disturbed] == [j.seed for j in _eval_jobs(opts, None)[1]]
+
+    def row(falls, disturbed, error):
+        return {"eval_fall_rate": falls, "disturbed_fall_rate": disturbed,
+                "eval_survived_s": 10.0 * (1 - falls), "eval_error_m": error}
+
+    assert _score(row(0.0, 0.25, 0.04)) < _score(row(0.0, 0.5, 0.03))
+    assert _score(row(0.0, 1.0, 0.09)) < _score(row(0.25, 0.0, 0.03))
+    assert _score(row(0.0, 0.25, 0.03)) < _score(row(0.0, 0.25, 0.04))
 
 
 def test_the_ppo_actor_is_the_distilled_network_and_back():

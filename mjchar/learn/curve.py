@@ -1,5 +1,6 @@
-"""The learning curve as a picture: tracking error and fall rate of the learner against wall
-time, DAgger's iterations then PPO's evaluations (matplotlib, imported here only)."""
+"""The learning curve as a picture: tracking error and fall rates (on the clip; pushed or
+perturbed) of the learner against wall time, DAgger's iterations then PPO's evaluations
+(matplotlib, imported here only)."""
 
 from __future__ import annotations
 
@@ -26,8 +27,12 @@ def plot_curve(rows: list[dict], path) -> Path:
     ax.set_ylabel("mean joint error (cm)", color="tab:blue")
     ax2 = ax.twinx()
     ax2.plot(minutes, [r["eval_fall_rate"] for r in rows], "s--", color="tab:red",
-             label="fall rate")
+             label="fall rate on the clip")
+    if any("disturbed_fall_rate" in r for r in rows):
+        ax2.plot(minutes, [r.get("disturbed_fall_rate", float("nan")) for r in rows], "^:",
+                 color="tab:orange", label="fall rate, pushed or perturbed")
     ax2.set_ylabel("fall rate of the evaluation episodes", color="tab:red")
+    ax2.legend(loc="center right", fontsize="small")
     ax2.set_ylim(-0.05, 1.05)
     rl = [m for m, r in zip(minutes, rows, strict=True) if r.get("stage") == "rl"]
     if rl:

@@ -15,8 +15,12 @@ the expert), iteration ``i = 0, 1, ...`` until the wall-clock budget ends:
    squared error in the env's scaled action space), continuing from the last weights;
 4. **evaluate** the learner alone (no noise, no expert) from ``eval_phases`` phases for
    ``eval_seconds`` each: mean tracking error and fall rate, against wall time (the learning
-   curve); write the policy file (:mod:`mjchar.controllers.learned.policy_file`), the curve and
-   the resumable state.
+   curve); and on a fixed validation set of disturbed episodes (``eval_perturbed`` perturbed
+   starts, ``eval_pushes`` pushes of ``eval_push_force`` in eight directions at spread phases):
+   their fall rate. The policy file (:mod:`mjchar.controllers.learned.policy_file`) keeps the
+   best network evaluated (:func:`_score`: no fall on the clip, then fewest falls of the
+   disturbed episodes, then the smaller tracking error); the curve and the resumable state are
+   written after every iteration.
 
 For the last ``rl_share`` of the budget (half by default) the best network is then fine-tuned
 with PPO (:mod:`.finetune`), evaluated and written the same way.
@@ -70,7 +74,10 @@ class LearnOptions:
             the root in a random direction, its force range (N) and duration (s).
         hidden: hidden layer widths; lr: Adam's learning rate; epochs: passes over the data
             set per iteration (at most ``max_steps`` minibatches of ``batch``).
-        eval_phases, eval_seconds: the evaluation episodes.
+        eval_phases, eval_seconds: the evaluation episodes on the clip (undisturbed).
+        eval_perturbed, eval_pushes, eval_push_force: the disturbed validation episodes
+            (:func:`_eval_jobs`): perturbed starts (``perturb``, ``eval_seconds`` long) and
+            pushes (``eval_push_force`` N for ``push_duration`` s, 1 s in, 3 s after it).
         threads: torch threads while training.
         rl_share: the share of the budget spent on RL fine-tuning after DAgger
             (:mod:`.finetune`: PPO from the best distilled network; 0: DAgger only).
@@ -87,9 +94,9 @@ class LearnOptions:
     episode_seconds: float = 4.0
     beta_decay: float = 0.5
     noise: float = 0.1
-    perturb_rate: float = 0.3
+    perturb_rate: float = 0.5
     perturb: tuple[float, float] = (0.1, 0.2)
-    push_rate: float = 0.3
+    push_rate: float = 0.5
     push_force: tuple[float, float] = (60.0, 150.0)
     push_duration: float = 0.2
     hidden: tuple[int, ...] = (512, 512)
@@ -99,6 +106,9 @@ class LearnOptions:
     max_steps: int = 3000
     eval_phases: int = 4
     eval_seconds: float = 10.0
+    eval_perturbed: int = 4
+    eval_pushes: int = 8
+    eval_push_force: float = 100.0
     threads: int = 1
     rl_share: float = 0.5
     rl_chunk: int = 20_000
@@ -174,10 +184,28 @@ def _episodes(opts: LearnOptions, rng: np.random.Generator, n: int, beta: float,
     return jobs
 
 
-def _eval_jobs(opts: LearnOptions, policy) -> list[Episode]:
-    return [Episode(seed=1000 + i, phase=i / opts.eval_phases, seconds=opts.eval_seconds,
-                    beta=0.0, noise=0.0, policy=policy, label=False)
+def _eval_jobs(opts: LearnOptions, policy) -> tuple[list[Episode], list[Episode]]:
+    """The evaluation episodes, the same at every iteration: ``(on the clip, disturbed)``.
+
+    On the clip: ``eval_phases`` starts at evenly spaced phases. Disturbed (a validation set
+    whose seeds, phases and directions are not the training episodes' draws): perturbed starts
+    at the phases between those; pushes at ``eval_pushes`` evenly spaced phases, 1 s in, their
+    directions stepping by 135 degrees (eight different directions in eight pushes)."""
+    def job(seed, phase, seconds, **kw):
+        return Episode(seed=seed, phase=phase, seconds=seconds, beta=0.0, noise=0.0,
+                       policy=policy, label=False, **kw)
+
+    clip = [job(1000 + i, i / opts.eval_phases, opts.eval_seconds)
             for i in range(opts.eval_phases)]
+    n, m = opts.eval_perturbed, opts.eval_pushes
+    disturbed = [job(2000 + i, (i + 0.5) / n, opts.eval_seconds, perturb=tuple(opts.perturb))
+                 for i in range(n)]
+    f, dur = opts.eval_push_force, opts.push_duration
+    for i in range(m):
+        ang = math.radians(22.5 + 135.0 * i)
+        disturbed.append(job(3000 + i, i / m, 1.0 + dur + 3.0,
+                             push=(1.0, f * math.cos(ang), f * math.sin(ang), dur)))
+    return clip, disturbed
 
 
 def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: bool = False,
@@ -255,6 +283,8 @@ class _LearnRun:
         self.X, self.Y = st["X"], st["Y"]
         self.trainer.load_state(st["trainer"])
         self.best = st.get("best")
+        if self.best is not None and len(self.best) != len(_score(st["curve"][-1])):
+            self.best = None  # a state written before the disturbed episodes were scored
         self.curve.rows = st["curve"]
         self.it, self.elapsed0 = st["iteration"], st["elapsed_s"]
         self.labels, self.label_s = st["labels"], st["label_seconds"]
@@ -334,7 +364,9 @@ class _LearnRun:
         the best so far, the state and the curve."""
         opts = self.opts
         w = time.perf_counter()
-        ev = pool.map(_eval_jobs(opts, policy))
+        clip, disturbed = _eval_jobs(opts, policy)
+        results = pool.map(clip + disturbed)
+        ev, dist = results[:len(clip)], results[len(clip):]
         eval_s = time.perf_counter() - w
         self.it += 1
         wall = self.wall()
@@ -343,7 +375,9 @@ class _LearnRun:
                "eval_error_m": float(np.mean([r.tracking_error_m for r in ev])),
                "eval_fall_rate": float(np.mean([r.fell for r in ev])),
                "eval_survived_s": float(np.mean([r.sim_seconds for r in ev])),
-               "eval_return": float(np.mean([r.episode_return for r in ev])), "eval_s": eval_s}
+               "eval_return": float(np.mean([r.episode_return for r in ev])),
+               "disturbed_fall_rate": float(np.mean([r.fell for r in dist])) if dist else 0.0,
+               "eval_s": eval_s}
         score = _score(row)
         row["written"] = self.best is None or score <= self.best
         self.curve.add(**row)
@@ -358,7 +392,7 @@ class _LearnRun:
                 "rl_steps": self.rl_steps,
                 "setup": _jsonable(_named(asdict(self.setup))), "options": _jsonable(asdict(opts)),
                 "eval": {k: row[k] for k in ("eval_error_m", "eval_fall_rate",
-                                             "eval_survived_s")}})
+                                             "eval_survived_s", "disturbed_fall_rate")}})
             save_policy(self.files["policy"], policy, meta_now, self.clip_text)
         _save_state(self.torch, self.files["state"], X=self.X, Y=self.Y,
                     trainer=self.trainer.state(), curve=self.curve.rows, iteration=self.it,
@@ -373,10 +407,11 @@ class _LearnRun:
 
 
 def _score(row: dict) -> tuple:
-    """How an iteration's network ranks (smaller is better): fewer evaluation falls, then
-    longer up before them, then a smaller tracking error."""
-    return (round(row["eval_fall_rate"], 6), -round(row["eval_survived_s"], 6),
-            row["eval_error_m"])
+    """How an iteration's network ranks (smaller is better): fewer falls on the clip, then
+    fewer falls of the disturbed episodes, then longer up on the clip, then a smaller tracking
+    error."""
+    return (round(row["eval_fall_rate"], 6), round(row.get("disturbed_fall_rate", 0.0), 6),
+            -round(row["eval_survived_s"], 6), row["eval_error_m"])
 
 
 def _line(row: dict) -> str:
@@ -388,7 +423,8 @@ def _line(row: dict) -> str:
                 f"{row['beta']:.3f}  labels {row['labels']:6d} ({row['labels_per_s']:.2f}/s)  "
                 f"loss {row['loss_before']:.4f}->{row['loss_after']:.4f}")
     return (f"{head}  eval error {100 * row['eval_error_m']:.1f} cm  falls "
-            f"{row['eval_fall_rate']:.2f}  survived {row['eval_survived_s']:.1f} s"
+            f"{row['eval_fall_rate']:.2f}  survived {row['eval_survived_s']:.1f} s  disturbed "
+            f"falls {row.get('disturbed_fall_rate', 0.0):.2f}"
             + ("  (written)" if row.get("written") else ""))
 
 
