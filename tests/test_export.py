@@ -1,4 +1,4 @@
-"""Simulated motion exported as BVH (mjchar.bvh.reference.export, mjchar.controllers.core.recording,
+"""Simulated motion exported as BVH (mjchar.bvh.reference.export, MotionRecorder,
 ``--export-bvh``).
 
 The bar: the exported clip is on the skeleton the model was converted from (its joint names,
@@ -20,13 +20,12 @@ from conftest import shared_clip
 from mjchar import bvh
 from mjchar.bvh.bundled.assets import TRAJECTORIES, humanoid_path, motion_path
 from mjchar.bvh.mjcf import ConversionError, ModelInfo, convert
-from mjchar.bvh.reference.export import ExportError, qpos_to_motion, resample_qpos
+from mjchar.bvh.reference.export import ExportError, MotionRecorder, qpos_to_motion, resample_qpos
 from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.cli import main
 from mjchar.controllers import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.recording import MotionRecorder
 
 TOLERANCE_M = 1e-3
 

@@ -13,12 +13,12 @@ from conftest import shared_clip
 
 from mjchar import bvh
 from mjchar.bvh.gait.analysis import GaitAnalysisError, _stride_yaws, analyse, analyse_clip, table
+from mjchar.bvh.reference.export import MotionRecorder
 from mjchar.bvh.rigs import units
 from mjchar.cli import main
 from mjchar.controllers import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.recording import MotionRecorder
 
 
 def _clip_fk(path):

@@ -282,7 +282,7 @@ def test_gait_at_1_2_mps_is_human_like(character):
     0.05-0.15 m, step length 0.55-0.80 m, cadence 95-130 steps/min, mean knee flexion 15-35 deg,
     stance slip < 1 cm per step (docs/ipm.md: the human band's lift-off and stance ankle)."""
     from mjchar.bvh.gait.analysis import analyse
-    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.bvh.reference.export import MotionRecorder
 
     rec = MotionRecorder()
     r = simulate(character, make_ipm(character, speed=1.2), duration=12.0, scenario="walk",
@@ -304,7 +304,7 @@ def test_stance_slip_under_1cm_off_1_2_mps(character, speed):
     and 1.71 cm before the stance ankle's toe-up limit below the band, the swing foot's toes-up
     lift-off and the feet's measures held above it; 0.63 and 0.95 cm after)."""
     from mjchar.bvh.gait.analysis import analyse
-    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.bvh.reference.export import MotionRecorder
 
     rec = MotionRecorder()
     r = simulate(character, make_ipm(character, speed=speed), duration=15.0, scenario="walk",

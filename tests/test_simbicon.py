@@ -302,7 +302,7 @@ def natural_stats(ch, speed, duration, seed=None, start=3.0):
     them: the walk scenario (from the standing pose; with ``seed``, from the terrain walks'
     seeded perturbation of it, as ``--seed``), analysed from ``start`` s on."""
     from mjchar.bvh.gait.analysis import analyse
-    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.bvh.reference.export import MotionRecorder
     from mjchar.controllers.core.scenarios import run_scenario
 
     rec = MotionRecorder()

@@ -23,21 +23,33 @@ precision of the written decimals.
 
 Resampling interpolates between recorded states on the configuration manifold with MuJoCo's
 ``mj_differentiatePos`` / ``mj_integratePos`` (quaternions of free and ball joints stay unit).
+
+:class:`MotionRecorder` records a simulated run for it: a frame callback (every scenario,
+:func:`~mjchar.controllers.sampling.trajectory.replay` and the push protocol take one) that
+keeps the simulated ``qpos`` at the start and after every control step; its
+:meth:`~MotionRecorder.save_bvh` resamples and writes it::
+
+    recorder = MotionRecorder()
+    result = RunSpec("simbicon", "walk").build(frame_callback=recorder).execute()
+    recorder.save_bvh("simbicon.bvh")                     # or recorder.to_motion(fps=30)
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import mujoco
 import numpy as np
 
 from mjchar.bvh.errors import MjcharError
+from mjchar.bvh.io import save
 from mjchar.bvh.io.motion import Motion
 from mjchar.bvh.rigs.layouts import undo_record
 from mjchar.bvh.rotations import quat_conj, quat_mul, quat_normalize
 
-__all__ = ["ExportError", "DEFAULT_FPS", "export_rate", "resample_qpos", "qpos_to_motion"]
+__all__ = ["ExportError", "DEFAULT_FPS", "MotionRecorder", "export_rate", "resample_qpos",
+           "qpos_to_motion"]
 
 #: frame rate used when neither the caller nor the model's source clip gives one
 DEFAULT_FPS = 60.0
@@ -156,3 +168,49 @@ def qpos_to_motion(model: mujoco.MjModel, times, qpos, *, fps: float | None = No
     local_positions[:, 0] = root_pos
     motion = Motion(skeleton, 1.0 / rate, local_positions, quat_normalize(rotations))
     return undo_record(motion, info.extra.get("rig"), info.original_skeleton())
+
+
+class MotionRecorder:
+    """Collects ``(time, qpos)`` of a run, one sample per call (a repeated time is skipped).
+
+    It reads only the character's ``model``, ``time`` and ``state.qpos``, and keeps the model
+    for the export: :func:`qpos_to_motion` maps qpos back to the skeleton with the model's joint
+    map.
+    """
+
+    def __init__(self) -> None:
+        self.model = None
+        self.times: list[float] = []
+        self.qpos: list[np.ndarray] = []
+
+    def __call__(self, character) -> None:
+        if self.model is None:
+            self.model = character.model
+        elif character.model is not self.model:
+            raise ExportError("one MotionRecorder records one character")
+        t = float(character.time)
+        if self.times and t <= self.times[-1] + 1e-12:
+            return
+        self.times.append(t)
+        self.qpos.append(np.array(character.state.qpos))
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def to_motion(self, fps: float | None = None):
+        """The recording as a :class:`bvh.Motion` on the model's source skeleton, at ``fps``
+        frames per second (default: the source clip's rate; see
+        :func:`mjchar.bvh.reference.export.export_rate`)."""
+        if len(self) < 1:
+            raise ExportError("nothing was recorded (was the recorder passed as the run's "
+                              "frame_callback?)")
+        return qpos_to_motion(self.model, np.array(self.times), np.array(self.qpos), fps=fps)
+
+    def save_bvh(self, path: str | os.PathLike, fps: float | None = None):
+        """Write :meth:`to_motion` to ``path``; returns the Motion written."""
+        motion = self.to_motion(fps)
+        try:
+            save(motion, path)
+        except OSError as e:
+            raise ExportError(f"cannot write {os.fspath(path)}: {e.strerror or e}") from None
+        return motion

@@ -21,8 +21,10 @@
   every entry point (CLI, bench, Python) uses.
 - :mod:`~mjchar.controllers.core.pd`: explicit, stable and native PD (registered as ``pd``,
   ``spd``, ``native_pd``).
-- :mod:`~mjchar.controllers.core.metrics` (:class:`Result`, fall detection) and
-  :mod:`~mjchar.controllers.core.recording` (a run's qpos, written as BVH).
+- :mod:`~mjchar.controllers.core.metrics` (:class:`Result`, fall detection).
+
+``MotionRecorder`` (a run's qpos, written as BVH) is the kinematic layer's
+(:mod:`mjchar.bvh.reference.export`), re-exported here beside the runs it records.
 """
 
 # the scenarios register before the controllers, which are checked against them
@@ -30,13 +32,14 @@
 from . import scenarios  # noqa: F401  (fills the scenario registry)
 from . import pd as pd  # registers pd, spd, native_pd
 # isort: on
+from mjchar.bvh.reference.export import MotionRecorder
+
 from .action import Action
 from .base import Controller, ControllerError, Gains, PoseTarget, ReferenceTarget, joint_error
 from .character import Character
 from .errors import CharacterError, SimulationDiverged
 from .metrics import Result
 from .pd import NativePDController, PDController, StablePDController
-from .recording import MotionRecorder
 from .registry import (
     ControllerSpec,
     RegistryError,

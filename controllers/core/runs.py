@@ -126,7 +126,7 @@ class RunSpec:
     def build(self, *, frame_callback: Callable | None = None, progress=None,
               info=None) -> Run:
         """The character, its clip and the controller, ready for the scenario's runner;
-        ``progress`` (a :class:`~mjchar.controllers.core.progress.Progress`) shows the clip's
+        ``progress`` (a :class:`~mjchar.progress.Progress`) shows the clip's
         preparation and then the run's simulated time; ``info``: the model's role map when it
         is an ``MjModel`` that does not carry one (default: read from the model)."""
         self.check()

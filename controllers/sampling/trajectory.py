@@ -502,7 +502,7 @@ def replay(trajectory: Trajectory | str | os.PathLike, *, model=None,
             a trajectory ends with its last control, a longer run is refused unless
             ``hold_last``).
         hold_last: hold the last target past the end (e.g. a jump that must land and stand).
-        progress: a :class:`~mjchar.controllers.core.progress.Progress` shown the simulated time
+        progress: a :class:`~mjchar.progress.Progress` shown the simulated time
             (``play`` only; ``None``: quiet).
         stop_on_fall: end the run at a fall (as the scenarios do).
         frame_callback: called after every control step (video capture).

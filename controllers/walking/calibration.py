@@ -51,6 +51,7 @@ import json
 import math
 import multiprocessing
 import os
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -325,9 +326,7 @@ def is_current(cal: Calibration) -> bool:
 
 
 def _stderr(line: str) -> None:
-    from ..core.progress import Progress
-
-    Progress(enabled=False)(line)
+    print(line, file=sys.stderr, flush=True)
 
 
 # -- the objective ---------------------------------------------------------------------------

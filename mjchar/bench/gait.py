@@ -43,7 +43,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
     (:func:`mjchar.gait_plot.plot_filmstrip`; ``filmstrip`` in the section names the file, or
     says why there is none)."""
     from mjchar.bvh.gait.analysis import GaitAnalysisError, analyse, clip_walk
-    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.bvh.reference.export import MotionRecorder
     from mjchar.controllers.core.runs import RunSpec, execute
 
     start = min(GAIT_START_S, 0.25 * config.walk_duration)

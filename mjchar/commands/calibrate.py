@@ -54,9 +54,9 @@ def run(args: argparse.Namespace) -> int:
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.io.files import check_output
     from mjchar.controllers.core.character import Character
-    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.runs import check_model_file
     from mjchar.controllers.walking import calibration as cal_mod
+    from mjchar.progress import Progress
 
     walkers = cal_mod.WALKERS if args.walker == "all" else (args.walker,)
     if args.output is not None:

@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     errors = None
     if args.verify:
         from mjchar.bvh.reference.reference_motion import replay_errors
-        from mjchar.controllers.core.progress import Progress
+        from mjchar.progress import Progress
 
         bar = Progress(enabled=False if args.json else None)
         try:

@@ -51,9 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _walker_stats(args, spec):
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.gait.analysis import analyse
-    from mjchar.controllers.core.progress import Progress
-    from mjchar.controllers.core.recording import MotionRecorder
+    from mjchar.bvh.reference.export import MotionRecorder
     from mjchar.controllers.core.runs import RunSpec, execute
+    from mjchar.progress import Progress
 
     options = {}
     for name, value in (("speed", args.speed), ("gait", args.gait)):

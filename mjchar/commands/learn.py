@@ -81,11 +81,11 @@ def run(args: argparse.Namespace) -> int:
     import os
 
     from mjchar.bvh.io.files import check_output
-    from mjchar.controllers.core.progress import Progress
     from mjchar.controllers.core.runs import check_model_file, motion_source
     from mjchar.learn.collect import LearnSetup
     from mjchar.learn.dagger import LearnOptions, learn
     from mjchar.learn.train import LearnError, import_torch
+    from mjchar.progress import Progress
 
     if args.ray_address is not None and args.executor != "ray":
         raise LearnError("--ray-address needs --executor ray")

@@ -224,9 +224,10 @@ def run(args: argparse.Namespace) -> int:
     if args.render:  # the OpenGL backend is chosen when MuJoCo is first imported
         os.environ.setdefault("MUJOCO_GL", "egl")
 
-    from mjchar.controllers.core.progress import Progress
-    from mjchar.controllers.core.recording import MotionRecorder, chain_callbacks
+    from mjchar.bvh.reference.export import MotionRecorder
     from mjchar.controllers.core.runs import execute
+    from mjchar.controllers.core.scenarios.shared import chain_callbacks
+    from mjchar.progress import Progress
 
     spec = describe(args)
     if args.view:

@@ -219,7 +219,7 @@ def learn(setup: LearnSetup, out, opts: LearnOptions | None = None, *, resume: b
         out: the policy file to write (``.npz``); the other outputs sit beside it.
         resume: continue from ``out``'s ``.learn.pt`` state (data set, network, curve; the
             PPO model ``.ppo.zip`` once fine-tuning has started).
-        progress: a :class:`~mjchar.controllers.core.progress.Progress` (a bar over the budget).
+        progress: a :class:`~mjchar.progress.Progress` (a bar over the budget).
         log: ``log(line)`` after each iteration (``None``: silent).
     """
     opts = opts or LearnOptions()

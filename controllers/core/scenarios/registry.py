@@ -237,7 +237,7 @@ class Run:
             control step (video, BVH export, probes).
         control_dt: seconds between control steps (``None``: every physics step).
         seed: the run's seed (scenarios that randomise take it as their ``seed`` option).
-        progress: a :class:`~mjchar.controllers.core.progress.Progress`: the simulation shows
+        progress: a :class:`~mjchar.progress.Progress`: the simulation shows
             its simulated time on it (a bar on a terminal) and long protocols write their
             lines through it (any callable of one line will do for those); ``None``: quiet.
     """

@@ -25,8 +25,6 @@ from ..errors import SimulationDiverged
 from ..geometry import heading_yaw
 from ..limits import duration_problem
 from ..metrics import STEP_DISTANCE, FallDetector, Recorder, Result
-from ..progress import Progress
-from ..recording import chain_callbacks
 from .registry import ScenarioError
 
 #: the four horizontal push directions (degrees in the heading frame)
@@ -51,7 +49,7 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
              control_dt: float | None = None, events: Callable[[Character], None] | None = None,
              seed: int | None = None, stop_on_fall: bool = True,
              fall_height: float | None = None, frame_callback=None,
-             progress: Progress | None = None) -> Result:
+             progress=None) -> Result:
     """Run ``controller`` on ``character`` from ``(qpos, qvel)`` for ``duration`` s.
 
     Args:
@@ -60,7 +58,7 @@ def simulate(character: Character, controller, *, duration: float, scenario: str
             whole number of physics steps.
         frame_callback: called as ``frame_callback(character)`` once after the reset (the
             start state) and after every control step (video capture, BVH export).
-        progress: a :class:`~mjchar.controllers.core.progress.Progress` shown the simulated
+        progress: a :class:`~mjchar.progress.Progress` shown the simulated
             time (a bar on a terminal), or ``None``.
     Returns:
         the :class:`Result` (a fall or a divergence ends the run when ``stop_on_fall``).
@@ -237,3 +235,19 @@ def pushed(r: Result, push: PushEvent | None) -> Result:
     if push is not None:
         r.push_N, r.push_direction_deg = float(push.force), float(push.direction)
     return r
+
+
+def chain_callbacks(*callbacks):
+    """One frame callback calling each of ``callbacks`` that is not ``None`` (``None`` if
+    there are none)."""
+    live = [c for c in callbacks if c is not None]
+    if not live:
+        return None
+    if len(live) == 1:
+        return live[0]
+
+    def call(character) -> None:
+        for c in live:
+            c(character)
+
+    return call

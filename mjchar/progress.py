@@ -1,9 +1,11 @@
-"""Progress of long work on a terminal: one mechanism for every long command.
+"""Progress of long work on a terminal: one mechanism for every long command (the
+application's; the layers below take any object with its methods, or a plain callback).
 
 A :class:`Progress` is handed to the run (``Run.progress``, :mod:`~mjchar.controllers.core.
 scenarios.registry`); :func:`~mjchar.controllers.core.scenarios.shared.simulate`, which every
-scenario and replay runs through, reports the simulated time to it, so ``mjchar run``, ``mjchar
-gait`` and anything else built by the run builder show the same bar::
+scenario and replay runs through, reports the simulated time to it (``start``, ``update``,
+``close``), so ``mjchar run``, ``mjchar gait`` and anything else built by the run builder show
+the same bar::
 
     MPC track:  42%|████▏     | 1.26/3.02 sim s [00:31<00:43]
 
