@@ -38,8 +38,8 @@ from mjchar.commands import COMMANDS
 from mjchar.controllers.core import registry
 from mjchar.controllers.core import scenarios as S
 from mjchar.controllers.core.action import Action
+from mjchar.controllers.core.builder import RunError, RunSpec
 from mjchar.controllers.core.registry import ControllerSpec, RegistryError
-from mjchar.controllers.core.runs import RunError, RunSpec
 from mjchar.controllers.core.scenarios import registry as scenario_registry
 from mjchar.controllers.core.scenarios.options import DURATION, SEED
 from mjchar.controllers.core.scenarios.registry import Option, ScenarioError, ScenarioSpec
@@ -289,15 +289,15 @@ def test_the_character_has_no_flat_forwarders_left():
 
 
 #: where a run is built and simulated: the run builder and the scenarios
-BUILDER = ("mjchar.controllers.core.runs", "mjchar.controllers.core.scenarios")
+BUILDER = ("mjchar.controllers.core.builder", "mjchar.controllers.core.scenarios")
 #: the scenarios' simulation entry points: a call of one outside the builder builds a run by hand
-RUNNERS = {"simulate", "run_scenario", "track", "walk", "stand", "push", "random_push",
+PROCEDURES = {"simulate", "run_scenario", "track", "walk", "stand", "push", "random_push",
            "slope_walk"}
 SCENARIOS_PACKAGE = "mjchar.controllers.core.scenarios"
 
 
 def _scenario_calls(name: str, path: Path) -> list[str]:
-    """Calls in module ``name`` of a scenario runner (:data:`RUNNERS`) imported from the
+    """Calls in module ``name`` of a scenario procedure (:data:`PROCEDURES`) imported from the
     scenarios (``from ...scenarios.shared import simulate``; ``scenarios as S`` then
     ``S.track(...)``)."""
     tree = ast.parse(path.read_text(), str(path))
@@ -309,7 +309,7 @@ def _scenario_calls(name: str, path: Path) -> list[str]:
             continue
         target = _from_target(node, package)
         for a in node.names:
-            if a.name in RUNNERS and (target.startswith(SCENARIOS_PACKAGE) or target in (
+            if a.name in PROCEDURES and (target.startswith(SCENARIOS_PACKAGE) or target in (
                     "mjchar.controllers", "mjchar.controllers.core")):
                 functions.add(a.asname or a.name)
             elif f"{target}.{a.name}".startswith(SCENARIOS_PACKAGE):
@@ -322,16 +322,16 @@ def _scenario_calls(name: str, path: Path) -> list[str]:
         f = node.func
         if isinstance(f, ast.Name) and f.id in functions:
             found.append(f"{where}:{node.lineno} {f.id}(...)")
-        elif (isinstance(f, ast.Attribute) and f.attr in RUNNERS
+        elif (isinstance(f, ast.Attribute) and f.attr in PROCEDURES
               and isinstance(f.value, ast.Name) and f.value.id in modules):
             found.append(f"{where}:{node.lineno} {f.value.id}.{f.attr}(...)")
     return found
 
 
 def test_every_run_is_built_by_the_builder():
-    """One way in: outside the run builder and the scenarios (controllers/core/runs.py,
+    """One way in: outside the run builder and the scenarios (controllers/core/builder.py,
     controllers/core/scenarios/), no module simulates a run by hand (``simulate``,
-    ``run_scenario`` or a scenario's runner function): the CLI, the Python API, the bench, perf
+    ``run_scenario`` or a scenario's procedure function): the CLI, the Python API, the bench, perf
     and the envs build every run with ``RunSpec``."""
     by_hand = [call for name, path in MODULES.items()
                if not name.startswith(BUILDER) for call in _scenario_calls(name, path)]
@@ -493,7 +493,7 @@ def _sway(run, *, duration: float = 2.0, seed: int = 0):
 @pytest.fixture
 def sway():
     spec = scenario_registry.register(ScenarioSpec(
-        name="sway", measures="stand from a perturbed pose (test)", runner=_sway,
+        name="sway", measures="stand from a perturbed pose (test)", procedure=_sway,
         needs=("stand",), options=(DURATION, SEED), default_duration=2.0))
     yield spec
     scenario_registry.unregister("sway")

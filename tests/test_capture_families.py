@@ -330,7 +330,7 @@ def test_conditioning_puts_floating_sliding_feet_on_the_floor(walk, walk_info):
 def test_trackers_take_the_conditioned_clip_and_report_both_errors(walk, tmp_path):
     """Hand-of-god on the floating clip that walks in place: the run follows the conditioned
     clip and reports its error against the raw one too."""
-    from mjchar.controllers.core.runs import run
+    from mjchar.controllers.core.builder import run
 
     m = walk.copy()
     m.local_positions[:, 0, 1] += 0.15

@@ -203,7 +203,7 @@ def _assert_row(label: str, measured: tuple) -> None:
 @pytest.mark.parametrize("label", ["SIMBICON natural", "IPM stepping"])
 def test_the_walkers_gait_figures_at_1_2_m_s(label):
     """As ``mjchar gait NAME --speed 1.2``: 20 s from the standing pose, analysed from 3 s."""
-    from mjchar.controllers.core.runs import execute
+    from mjchar.controllers.core.builder import execute
 
     name, extra = GAIT_ROWS[label]
     recorder = MotionRecorder()

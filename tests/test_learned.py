@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from mjchar.cli import main
+from mjchar.controllers.core.builder import RunSpec, load_reference
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.runs import RunSpec, load_reference
 from mjchar.controllers.learned import (
     MLP,
     PolicyError,

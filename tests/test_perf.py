@@ -115,7 +115,7 @@ def test_step_cost_and_raw_rate_report_positive_finite_numbers():
 def test_run_cost_reports_ratios_to_bare_mj_step_in_the_same_run():
     """What ``mjchar run`` costs per physics step over bare ``mj_step``: a ratio per repeat, the
     median of them, and the run's own facts (never a timing threshold)."""
-    from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.builder import RunSpec
 
     c = perf.run_cost(RunSpec("native_pd", scenario_options={"duration": 0.1}), repeats=2,
                       segment=10)

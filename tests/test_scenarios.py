@@ -177,7 +177,7 @@ def test_walk_seeds_perturb_a_walker_without_its_own_start_state():
 def test_track_with_a_seed_starts_from_the_clips_first_frame_perturbed():
     """``track --seed S`` is the run from ``perturbed_start`` of the clip's first frame (an
     independent run from that state gives the same errors); without a seed, the frame itself."""
-    from mjchar.controllers.core.runs import RunSpec, execute
+    from mjchar.controllers.core.builder import RunSpec, execute
 
     def built(seed):
         return RunSpec("pd", "track", seed=seed, scenario_options={"duration": 0.3}).build()

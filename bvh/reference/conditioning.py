@@ -31,7 +31,7 @@ conditioned kinematically first, in the file's own units and axes (the model's `
 
 The model's own grounding (:class:`~mjchar.bvh.reference.reference_motion.ReferenceMotion`,
 ``floor="contact"``) still puts the model's foot boxes on the floor afterwards. Trackers take
-the conditioned clip (:func:`mjchar.controllers.core.runs.load_reference`) and report their
+the conditioned clip (:func:`mjchar.controllers.core.builder.load_reference`) and report their
 error against it and against the raw clip.
 """
 

@@ -17,7 +17,7 @@
   :func:`register`, :func:`make_controller`).
 - :mod:`~mjchar.controllers.core.scenarios`: the scenario registry and the scenarios (stand,
   push, random-push, push-search, track, walk, slopes).
-- :mod:`~mjchar.controllers.core.runs`: the run builder (:class:`RunSpec`, :func:`run`), which
+- :mod:`~mjchar.controllers.core.builder`: the run builder (:class:`RunSpec`, :func:`run`), which
   every entry point (CLI, bench, Python) uses.
 - :mod:`~mjchar.controllers.core.pd`: explicit, stable and native PD (registered as ``pd``,
   ``spd``, ``native_pd``).
@@ -36,6 +36,7 @@ from mjchar.bvh.reference.export import MotionRecorder
 
 from .action import Action
 from .base import Controller, ControllerError, Gains, PoseTarget, ReferenceTarget, joint_error
+from .builder import RunError, RunSpec, run
 from .character import Character
 from .errors import CharacterError, SimulationDiverged
 from .metrics import Result
@@ -47,7 +48,6 @@ from .registry import (
     make_controller,
     register,
 )
-from .runs import RunError, RunSpec, run
 from .scenarios import ScenarioSpec, run_scenario
 
 __all__ = ["Action", "Character", "CharacterError", "Controller", "ControllerError",

@@ -4,7 +4,7 @@ A :class:`ControllerSpec` says how to build a controller and what it can do: its
 ``abilities`` (which decide the scenarios it runs, :mod:`~mjchar.controllers.core.scenarios`),
 the options its factory takes, its default physics time step, and the cells of ``mjchar bench``
 it runs (and which of them it must survive). :func:`make_controller`, the run builder
-(:mod:`~mjchar.controllers.core.runs`), the CLI's choices and help, the bench matrix and the
+(:mod:`~mjchar.controllers.core.builder`), the CLI's choices and help, the bench matrix and the
 environments read this registry, so adding a controller touches no list anywhere else::
 
     from mjchar.controllers.core.registry import ControllerSpec, register

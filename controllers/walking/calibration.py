@@ -391,7 +391,7 @@ def walk_once(model: mujoco.MjModel, info, walker: str, overrides: dict, speed: 
     seeded start state, or with ``seed=None`` from the standing pose at rest as ``mjchar run``
     walks it (at the walker's own speed: the very run of ``mjchar run simbicon``):
     ``{speed, seed, fell, fall_time_s, steady_speed_mps, own_speed_mps}``."""
-    from ..core.runs import RunSpec, execute
+    from ..core.builder import RunSpec, execute
 
     cpu = time.process_time()
     opts = dict(overrides, calibration=NO_CALIBRATION)

@@ -44,7 +44,7 @@ def run_gait(config: BenchConfig, controllers: Sequence[str], progress=None,
     says why there is none)."""
     from mjchar.bvh.gait.analysis import GaitAnalysisError, analyse, clip_walk
     from mjchar.bvh.reference.export import MotionRecorder
-    from mjchar.controllers.core.runs import RunSpec, execute
+    from mjchar.controllers.core.builder import RunSpec, execute
 
     start = min(GAIT_START_S, 0.25 * config.walk_duration)
     walks, falls, skipped = [], {}, {}

@@ -4,7 +4,7 @@ The rows, their scenarios and the runs that must not fall come from the controll
 (:mod:`mjchar.controllers.core.registry`: each spec's ``bench`` and ``expected``), so a newly
 registered controller appears here with no other edit; any other cell a controller runs (a
 newly registered scenario) can be selected. Every run is described as a
-:class:`~mjchar.controllers.core.runs.RunSpec` and built by the run builder, and each cell's runs
+:class:`~mjchar.controllers.core.builder.RunSpec` and built by the run builder, and each cell's runs
 (seeds, slopes, durations) come from its scenario's ``bench`` settings, so each number is
 measured the way the tests and ``mjchar run`` measure it.
 
@@ -50,8 +50,8 @@ import numpy as np
 from mjchar.bvh.bundled.assets import TRAJECTORIES, find_trajectory
 from mjchar.bvh.errors import MjcharError
 from mjchar.controllers import registry
+from mjchar.controllers.core.builder import RunSpec, execute
 from mjchar.controllers.core.registry import ControllerSpec
-from mjchar.controllers.core.runs import RunSpec, execute
 from mjchar.controllers.core.scenarios import registry as scenario_registry
 from mjchar.controllers.core.scenarios.push_search import (
     PushTask,

@@ -148,7 +148,7 @@ def _convert(rig, folder: Path) -> dict:
 def _spec(rec: dict, controller: str, scenario: str, **kw):
     """The run of ``controller`` on the rig's model, as ``mjchar run CONTROLLER SCENARIO
     --model RIG.xml`` builds it (``kw``: further :class:`RunSpec` fields)."""
-    from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.builder import RunSpec
 
     return RunSpec(controller, scenario, model=rec["_paths"][1], **kw)
 

@@ -65,7 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--skeletons-only", action="store_true",
                    help="run the skeletons section alone (no matrix, performance or gait)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 #: the machine the stated run times are for (mjchar.bench.config.REFERENCE_STEPS_PER_S)
@@ -84,7 +84,7 @@ def _trajectory_dest(name: str) -> str:
     return _trajectory_option(name).replace("-", "_")
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     """Run the bench; print the table and where the outputs are; return the exit status."""
     import math
     import os

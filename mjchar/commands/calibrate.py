@@ -43,18 +43,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="calibrate again even if the cache has a calibration for this body")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object per walker (no progress)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     """Calibrate each walker asked for; print what it changed."""
     import json
     import time
 
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.io.files import check_output
+    from mjchar.controllers.core.builder import check_model_file
     from mjchar.controllers.core.character import Character
-    from mjchar.controllers.core.runs import check_model_file
     from mjchar.controllers.walking import calibration as cal_mod
     from mjchar.progress import Progress
 

@@ -42,7 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "end-effector position errors (mm)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (errors with --verify, mass, sizes, dropped)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 def _split(value: str | None) -> list[str] | None:
@@ -51,7 +51,7 @@ def _split(value: str | None) -> list[str] | None:
     return [v.strip() for v in value.split(",") if v.strip()]
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     import json
     import os
 

@@ -45,14 +45,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="write side views over one stride of every walk (the source, then each "
                         "reference) as a PNG (needs matplotlib and OpenGL: MUJOCO_GL=egl)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 def _walker_stats(args, spec):
     from mjchar.bvh.errors import MjcharError
     from mjchar.bvh.gait.analysis import analyse
     from mjchar.bvh.reference.export import MotionRecorder
-    from mjchar.controllers.core.runs import RunSpec, execute
+    from mjchar.controllers.core.builder import RunSpec, execute
     from mjchar.progress import Progress
 
     options = {}
@@ -81,7 +81,7 @@ def _walker_stats(args, spec):
     return (stats, character.model, recorder.times, recorder.qpos), result
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     import json
     import os
 

@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--up", choices=["x", "y", "z", "-x", "-y", "-z"],
                    help="up axis of the file, -y when +Y points down (default: guessed)")
     p.add_argument("--roles", metavar="FILE.toml", help="role map, as for mjchar convert")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 def _role_lines(rec) -> list[str]:
@@ -55,7 +55,7 @@ def _bounds(motion, block: int = 2048):
     return lo, hi
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
 
     import numpy as np
 

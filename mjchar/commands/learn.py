@@ -73,15 +73,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue from POLICY's learn state (its data set, network, curve)")
     p.add_argument("--json", action="store_true", help="print one JSON object, no progress")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     import json
     import os
 
     from mjchar.bvh.io.files import check_output
-    from mjchar.controllers.core.runs import check_model_file, motion_source
+    from mjchar.controllers.core.builder import check_model_file, motion_source
     from mjchar.learn.collect import LearnSetup
     from mjchar.learn.dagger import LearnOptions, learn
     from mjchar.learn.train import LearnError, import_torch

@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true",
                    help="print one JSON object: {controller, tunables: [{name, type, unit, "
                         "range, default, meaning}]}")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 def _shown(value) -> str:
@@ -48,7 +48,7 @@ def _shown(value) -> str:
     return str(value)
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     """Print the table (or one JSON object)."""
     import json
 

@@ -1,6 +1,6 @@
 """``mjchar run CONTROLLER``: run a controller in a scenario and report its metrics.
 
-The command line is turned into a :class:`~mjchar.controllers.core.runs.RunSpec` and built by
+The command line is turned into a :class:`~mjchar.controllers.core.builder.RunSpec` and built by
 the run builder, as the bench and the Python API build theirs: the same run gives the same
 numbers from every entry point. Scenario flags come from the scenario registry.
 """
@@ -67,7 +67,7 @@ def _add_factory_option(p: argparse.ArgumentParser, o, registry) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``run`` subcommand to ``mjchar``'s subparsers."""
     from mjchar.controllers import registry
-    from mjchar.controllers.core.runs import scenarios_of
+    from mjchar.controllers.core.builder import scenarios_of
     from mjchar.controllers.core.scenarios import registry as scenarios
 
     intro = textwrap.fill(
@@ -130,7 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "model converted from a bare skeleton)")
     p.epilog = ("An option the chosen controller and scenario do not use is an error (exit 2), "
                 "as is a value outside what the controller supports.")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
 def _controller_options(spec, args: argparse.Namespace) -> dict:
@@ -176,11 +176,11 @@ def _policy_clip(args: argparse.Namespace) -> None:
 
 
 def describe(args: argparse.Namespace):
-    """The :class:`~mjchar.controllers.core.runs.RunSpec` of a ``mjchar run`` command line,
+    """The :class:`~mjchar.controllers.core.builder.RunSpec` of a ``mjchar run`` command line,
     with every typed option checked against the controller and scenario."""
     from mjchar.bvh.errors import MjcharError
     from mjchar.controllers import registry
-    from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.builder import RunSpec
     from mjchar.controllers.core.scenarios import registry as scenarios
 
     cspec = registry.get(args.controller)
@@ -216,7 +216,7 @@ def describe(args: argparse.Namespace):
                    scenario_options=scenario_options).check()
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     """Describe, build and execute the run; print the result."""
     import json
     import os
@@ -225,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
         os.environ.setdefault("MUJOCO_GL", "egl")
 
     from mjchar.bvh.reference.export import MotionRecorder
-    from mjchar.controllers.core.runs import execute
+    from mjchar.controllers.core.builder import execute
     from mjchar.controllers.core.scenarios.shared import chain_callbacks
     from mjchar.progress import Progress
 

@@ -46,7 +46,7 @@ class CliOption:
         flag: as typed (``--speed``).
         applies: ``applies(controller_spec, scenario_spec)``: the option is used there.
         where: where it is used, for the error message.
-        scenario: the option is a scenario's (passed to its runner).
+        scenario: the option is a scenario's (passed to its procedure).
     """
 
     dest: str
@@ -62,7 +62,7 @@ def _controller_option(name: str, moving_only: bool = False) -> Applies:
 
 
 def _follows_clip(c, s) -> bool:
-    from mjchar.controllers.core.runs import follows_clip
+    from mjchar.controllers.core.builder import follows_clip
 
     return follows_clip(c, s)
 
@@ -241,7 +241,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     """``--render`` and ``--export-bvh``: writable paths of the right kind that are none of the
     run's inputs (the clip, the model, the trajectory), checked before the run."""
     from mjchar.bvh.io.files import check_output
-    from mjchar.controllers.core.runs import motion_source
+    from mjchar.controllers.core.builder import motion_source
 
     inputs = [args.model, getattr(args, "trajectory", None)]
     if args.motion is not None:

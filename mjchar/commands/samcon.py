@@ -63,8 +63,8 @@ def load_reference(path: str, model, floor: str = "contact"):
     cannot follow raises an ``MjcharError`` with the reason."""
     from mjchar import bvh
     from mjchar.bvh.reference.reference_motion import ReferenceMotion, ReferenceMotionError
+    from mjchar.controllers.core.builder import check_model_file
     from mjchar.controllers.core.character import Character
-    from mjchar.controllers.core.runs import check_model_file
 
     check_model_file(model)
     ch = Character(model)
@@ -124,10 +124,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "com, joints, velocity, com_horizon), e.g. --weight root=20 for sharp "
                         "turns")
     add_optimiser_arguments(p, "SAMCON statistics")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     import json
     import sys
 

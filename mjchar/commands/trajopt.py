@@ -54,10 +54,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    metavar="M", help="jump: required foot clearance in metres (default 0.10)")
     p.add_argument("--seed", type=integer("seed"), default=0, metavar="N")
     add_optimiser_arguments(p, "optimiser statistics")
-    p.set_defaults(func=run)
+    p.set_defaults(func=main)
 
 
-def run(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:
     import json
     import sys
 
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if task == "track":
         _, ref = load_reference(args.motion, args.model, args.floor)
     else:
-        from mjchar.controllers.core.runs import check_model_file
+        from mjchar.controllers.core.builder import check_model_file
 
         check_model_file(args.model)
     o = TrajoptOptions(seed=args.seed, start=args.start)

@@ -119,7 +119,7 @@ def make_env(setup: LearnSetup, **env_options):
     """The ``mjchar/Imitation-v0`` environment of ``setup``: the clip prepared as ``mjchar run``
     prepares it for a tracker (placed on the floor, looped with ``loop``); ``env_options``:
     further :class:`~mjchar.envs.imitation.ImitationEnv` options (default: no time limit)."""
-    from mjchar.controllers.core.runs import RunSpec, load_reference
+    from mjchar.controllers.core.builder import RunSpec, load_reference
     from mjchar.envs.imitation import ImitationEnv
 
     env_options.setdefault("episode_seconds", 1e6)

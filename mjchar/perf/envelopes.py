@@ -60,8 +60,8 @@ def walk_run(job: tuple) -> dict:
 def push_run(job: tuple) -> dict:
     """One chest push while walking: ``(body, xml, walker, speed, force, phase, direction,
     after)``."""
+    from mjchar.controllers.core.builder import RunSpec
     from mjchar.controllers.core.character import Character
-    from mjchar.controllers.core.runs import RunSpec
     from mjchar.controllers.core.scenarios.terrain import push_walk
 
     body, xml, walker, speed, force, phase, direction, after = job

@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mjchar.controllers.core.builder import RunSpec, execute
 from mjchar.controllers.core.character import Character
 from mjchar.controllers.core.geometry import heading_yaw
-from mjchar.controllers.core.runs import RunSpec, execute
 from mjchar.controllers.core.scenarios import standing_pose
 from mjchar.controllers.walking.ipm import make_ipm
 

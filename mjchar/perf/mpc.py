@@ -47,8 +47,8 @@ from mjchar.bvh.bundled.assets import TRAJECTORIES
 from mjchar.bvh.editing.clips import make_cyclic
 from mjchar.bvh.reference.reference_motion import ReferenceMotion
 from mjchar.controllers.core import scenarios as S
+from mjchar.controllers.core.builder import RunSpec, execute
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.runs import RunSpec, execute
 from mjchar.controllers.core.workers import process_pool
 from mjchar.controllers.sampling.mpc import MpcOptions, plan_timestep
 from mjchar.controllers.sampling.trajectory import (

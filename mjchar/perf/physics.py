@@ -215,7 +215,7 @@ def run_cost(spec, *, repeats: int = 3, segment: int = 20) -> RunCost:
     """What a run costs per physics step over bare ``mj_step``, in one process.
 
     The run is built and executed as ``mjchar run`` does (the run builder,
-    :class:`~mjchar.controllers.core.runs.RunSpec`), with a frame callback that reads the
+    :class:`~mjchar.controllers.core.builder.RunSpec`), with a frame callback that reads the
     process CPU clock after the reset and after every control step
     (:class:`~mjchar.perf.timing.Laps`): the time between the first and the last read is the
     scenario loop, the controller's ``act``, ``Character.step`` and the loop's bookkeeping
@@ -228,13 +228,13 @@ def run_cost(spec, *, repeats: int = 3, segment: int = 20) -> RunCost:
     clock, so that load from other processes affects both alike.
 
     Args:
-        spec: a :class:`~mjchar.controllers.core.runs.RunSpec` whose scenario returns one
+        spec: a :class:`~mjchar.controllers.core.builder.RunSpec` whose scenario returns one
             :class:`~mjchar.controllers.core.metrics.Result` (not a protocol of many runs).
         repeats: timed runs (and bare loops); the median ratio is reported.
         segment: physics steps between saved states.
     """
+    from mjchar.controllers.core.builder import execute
     from mjchar.controllers.core.metrics import Result
-    from mjchar.controllers.core.runs import execute
 
     repeats, segment = positive_int(repeats, "repeats"), positive_int(segment, "segment")
     if spec.scenario_spec.protocol:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from mjchar.controllers.core.runs import RunSpec, execute
+from mjchar.controllers.core.builder import RunSpec, execute
 from mjchar.controllers.learned import find_policy
 
 from .timing import load_average, timed

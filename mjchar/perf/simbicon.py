@@ -22,8 +22,8 @@ import sys
 
 import numpy as np
 
+from mjchar.controllers.core.builder import RunSpec
 from mjchar.controllers.core.character import Character
-from mjchar.controllers.core.runs import RunSpec
 from mjchar.controllers.core.scenarios.push_search import PushProtocol, survival_rates
 from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
 

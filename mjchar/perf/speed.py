@@ -46,7 +46,7 @@ def controller_run_costs(names: Sequence[str] | None = None, *, repeats: int = 3
     the controller ``samcon_replay`` and ``cmaes_replay`` run on their bundled ones), each on
     its default run (:func:`~mjchar.perf.physics.run_cost`)."""
     from mjchar.controllers.core import registry
-    from mjchar.controllers.core.runs import RunSpec
+    from mjchar.controllers.core.builder import RunSpec
 
     if not names:
         names = [s.name for s in registry.specs()

@@ -1,7 +1,7 @@
 """Scenarios: what happens to a controller, and what is measured.
 
 Every scenario is one module plus one registration (:mod:`.registry`); the CLI, the bench, the
-run builder (:mod:`~mjchar.controllers.core.runs`) and :func:`run_scenario` read the registry.
+run builder (:mod:`~mjchar.controllers.core.builder`) and :func:`run_scenario` read the registry.
 
 - :mod:`.shared`: the loop every scenario runs (:func:`simulate`), start states, pushes.
 - :mod:`.standing`: ``stand``, ``push``, ``random-push``.

@@ -268,16 +268,16 @@ def _bench_slopes(settings, controller) -> list[BenchRun]:
 
 register(ScenarioSpec(
     name="track", measures="follow the reference clip from its first frame (tracking errors)",
-    runner=_track, needs=("track", "replay"), options=(DURATION, *PUSH_WHILE_MOVING, SEED),
+    procedure=_track, needs=("track", "replay"), options=(DURATION, *PUSH_WHILE_MOVING, SEED),
     reference="required", moving=True, bench=_bench_track))
 register(ScenarioSpec(
     name="walk", measures="locomotion: distance and speed (trackers follow the clip; walkers "
                           "walk from the standing pose, or from their own seeded start)",
-    runner=_walk, needs=("walk", "track"),
+    procedure=_walk, needs=("walk", "track"),
     options=(DURATION, *PUSH_WHILE_MOVING, SEED, STEADY_WINDOW), reference="trackers",
     moving=True, default_duration=WALK_DURATION,
     bench=_bench_walk))
 register(ScenarioSpec(
     name="slopes", measures="walk up or down a slope: the distance covered along it",
-    runner=_slopes, needs=("walk",), options=(DURATION, SLOPE, DISTANCE, SEED), moving=True,
+    procedure=_slopes, needs=("walk",), options=(DURATION, SLOPE, DISTANCE, SEED), moving=True,
     bench=_bench_slopes))

@@ -1,6 +1,6 @@
 """The options the built-in scenarios share, declared once (name, flag, kind, help).
 
-A scenario lists the ones its runner takes (:attr:`ScenarioSpec.options`); ``mjchar run`` gets
+A scenario lists the ones its procedure takes (:attr:`ScenarioSpec.options`); ``mjchar run`` gets
 one flag per option, refuses a flag the chosen scenario does not take, and parses and
 range-checks the value by its kind. A new scenario may declare its own :class:`Option`.
 """

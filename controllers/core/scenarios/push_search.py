@@ -38,7 +38,7 @@ al. 2022; SIMBICON's 350 N x 0.2 s):
 
 Runs are independent and deterministic; ``processes > 1`` spreads them over worker processes,
 or ``mapper`` hands them to a pool of the caller's (identical results). Each run rebuilds the
-controller from the run's description (:class:`~mjchar.controllers.core.runs.RunSpec`), in
+controller from the run's description (:class:`~mjchar.controllers.core.builder.RunSpec`), in
 whichever process it runs.
 """
 
@@ -169,7 +169,7 @@ class PushProtocol:
 @dataclass(frozen=True)
 class PushTask:
     """One run of the protocol (picklable: the worker rebuilds the character and controller
-    from ``run``, a :class:`~mjchar.controllers.core.runs.RunSpec`, or a registered
+    from ``run``, a :class:`~mjchar.controllers.core.builder.RunSpec`, or a registered
     controller's name on the bundled humanoid)."""
 
     run: object
@@ -181,7 +181,7 @@ class PushTask:
 
     def __post_init__(self) -> None:
         if isinstance(self.run, str):
-            from ..runs import RunSpec
+            from ..builder import RunSpec
 
             object.__setattr__(self, "run", RunSpec(self.run, "push-search"))
 
@@ -291,7 +291,7 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
     per direction over the force grid, and the figures.
 
     Args:
-        run: the run described (a :class:`~mjchar.controllers.core.runs.RunSpec`; its scenario
+        run: the run described (a :class:`~mjchar.controllers.core.builder.RunSpec`; its scenario
             does not matter), or a registered controller's name, built on ``model`` (``None``:
             the bundled humanoid; an MJCF path or an ``MjModel``) with the factory ``options``.
         processes: worker processes (``0``: one per core); results do not depend on it.
@@ -299,7 +299,7 @@ def survival_rates(run, protocol: PushProtocol, *, model=None, options: dict | N
             bench's job pool); ``processes`` is then ignored.
         progress: called with one line per finished force level.
     """
-    from ..runs import RunSpec
+    from ..builder import RunSpec
 
     protocol.check()
     if isinstance(run, str):
@@ -374,5 +374,5 @@ def _push_search(run, *, max_force: float = 500.0, tolerance: float = 25.0, phas
 register(ScenarioSpec(
     name="push-search",
     measures="push survival rates per direction over stride phases, seeds and a force grid",
-    runner=_push_search, needs=("stand", "walk"),
+    procedure=_push_search, needs=("stand", "walk"),
     options=(MAX_FORCE, TOLERANCE, PHASES, SEEDS, PUSH_DURATION), protocol=True))

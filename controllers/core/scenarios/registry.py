@@ -1,10 +1,10 @@
 """The scenario registry: every scenario is one module plus one :func:`register` call.
 
 A :class:`ScenarioSpec` says what a scenario measures, which controllers it suits (by what they
-can do: their ``abilities``), the options its runner takes (each with its command-line flag),
+can do: their ``abilities``), the options its procedure takes (each with its command-line flag),
 its default duration, whether it follows a reference clip, and how ``mjchar bench`` runs it.
 ``mjchar run`` (its ``--scenario`` choices, flags and help), ``mjchar bench`` (its columns),
-:func:`run_scenario` and the run builder (:mod:`mjchar.controllers.core.runs`) all read this
+:func:`run_scenario` and the run builder (:mod:`mjchar.controllers.core.builder`) all read this
 registry, so a new scenario touches no list anywhere else::
 
     from mjchar.controllers.core.scenarios.registry import ScenarioSpec, register
@@ -15,14 +15,14 @@ registry, so a new scenario touches no list anywhere else::
         return simulate(run.character, run.controller, duration=duration, scenario="sway",
                         qpos=standing_pose(run.character), **run.simulate_options())
 
-    register(ScenarioSpec(name="sway", measures="stand for a while", runner=sway,
+    register(ScenarioSpec(name="sway", measures="stand for a while", procedure=sway,
                           needs=("stand",), options=(DURATION,), default_duration=5.0))
 
-A runner is ``runner(run, **options) -> Result`` (or, for a protocol of many runs such as
+A procedure is ``procedure(run, **options) -> Result`` (or, for a protocol of many runs such as
 ``push-search``, a result with ``to_dict()`` and ``summary()``), where ``run`` is a :class:`Run`:
 the character, the controller, the reference clip (or ``None``), the frame callback and
 control step, and, when the run was described with a
-:class:`~mjchar.controllers.core.runs.RunSpec`, that description (a protocol rebuilds the run
+:class:`~mjchar.controllers.core.builder.RunSpec`, that description (a protocol rebuilds the run
 from it for every trial).
 """
 
@@ -54,10 +54,10 @@ class ScenarioError(MjcharError):
 
 @dataclass(frozen=True)
 class Option:
-    """One option of a scenario: a keyword of its runner and the flag ``mjchar run`` gives it.
+    """One option of a scenario: a keyword of its procedure and the flag ``mjchar run`` gives it.
 
     Attributes:
-        name: the runner's keyword (``force``).
+        name: the procedure's keyword (``force``).
         flag: the command-line flag (``--push``).
         kind: one of :data:`OPTION_KINDS` (how the flag parses its value and which values it
             accepts: ``seconds`` > 0, ``newtons`` and ``metres`` >= 0, ``degrees`` finite or a
@@ -85,7 +85,7 @@ class Option:
 
 @dataclass(frozen=True)
 class BenchRun:
-    """One run of a bench cell: its label, its seed (``None``: none) and the runner's options."""
+    """One run of a bench cell: its label, its seed (``None``: none) and the procedure's options."""
 
     label: str
     seed: int | None = None
@@ -104,16 +104,16 @@ class ScenarioSpec:
     Attributes:
         name: the registry key (``mjchar run --scenario NAME``, a bench column).
         measures: one line: what it does and measures (help texts, docs).
-        runner: ``runner(run, **options)``, see the module docstring.
+        procedure: ``procedure(run, **options)``, see the module docstring.
         needs: the abilities (:data:`ABILITIES`) a controller must have one of to run it.
-        options: the :class:`Option` keywords the runner takes.
+        options: the :class:`Option` keywords the procedure takes.
         default_duration: simulated s when no ``duration`` is given (``None``: the clip's, or
-            the runner's own protocol).
+            the procedure's own protocol).
         reference: what it does with a clip (:data:`REFERENCE_MODES`).
         moving: the controller moves (walks, tracks); elsewhere a walker that can also stand
             stands still (its speed command is 0).
         protocol: it runs the controller many times, rebuilding it from the run's description
-            (so it needs a :class:`~mjchar.controllers.core.runs.RunSpec`).
+            (so it needs a :class:`~mjchar.controllers.core.builder.RunSpec`).
         bench: ``bench(settings, controller_spec) -> [BenchRun]``: the runs of one bench cell,
             from the bench's settings (a mapping of its configuration: durations, seeds, forces).
         excludes: controller names it does not suit although their abilities would (with the
@@ -122,7 +122,7 @@ class ScenarioSpec:
 
     name: str
     measures: str
-    runner: Callable[..., Any]
+    procedure: Callable[..., Any]
     needs: tuple[str, ...]
     options: tuple[Option, ...] = ()
     default_duration: float | None = None
@@ -138,8 +138,8 @@ class ScenarioSpec:
 
         if not self.name or not self.name.replace("-", "").replace("_", "").isalnum():
             raise bad("the name must be letters, digits, '-' and '_'")
-        if not callable(self.runner) or not callable(self.bench):
-            raise bad("the runner and bench must be callable")
+        if not callable(self.procedure) or not callable(self.bench):
+            raise bad("the procedure and bench must be callable")
         if not self.needs or any(a not in ABILITIES for a in self.needs):
             raise bad(f"needs must be among {', '.join(ABILITIES)}, got {self.needs}")
         if self.reference not in REFERENCE_MODES:
@@ -224,14 +224,14 @@ def options() -> tuple[Option, ...]:
 
 @dataclass
 class Run:
-    """One run being executed: what a scenario's runner works on.
+    """One run being executed: what a scenario's procedure works on.
 
     Attributes:
         character: the :class:`~mjchar.controllers.core.character.Character` (its time step
             already what the controller needs).
         controller: the controller (``reset``/``act``).
         reference: the reference clip (a ReferenceMotion) or ``None``.
-        spec: the run's description (a :class:`~mjchar.controllers.core.runs.RunSpec`), when it
+        spec: the run's description (a :class:`~mjchar.controllers.core.builder.RunSpec`), when it
             was described rather than built by hand; protocols rebuild the run from it.
         frame_callback: called as ``frame_callback(character)`` after the reset and after every
             control step (video, BVH export, probes).
@@ -252,7 +252,7 @@ class Run:
     progress: Callable[[str], None] | None = None
 
     def execute(self):
-        """Run it through its scenario's runner (the scenario and its options are the
+        """Run it through its scenario's procedure (the scenario and its options are the
         description's, ``spec``): the scenario's result (a Result, or a protocol's rates)."""
         if self.spec is None:
             raise ScenarioError("a run built by hand has no scenario to execute: use "
@@ -261,7 +261,7 @@ class Run:
         options = dict(self.spec.scenario_options)
         if self.spec.seed is not None and sspec.option("seed") is not None:
             options["seed"] = self.spec.seed
-        return sspec.runner(self, **options)
+        return sspec.procedure(self, **options)
 
     def simulate_options(self) -> dict:
         """The keywords of :func:`~mjchar.controllers.core.scenarios.shared.simulate` this
@@ -282,7 +282,7 @@ def run_scenario(name: str, character, controller, *, reference=None, frame_call
             ``force``); an unknown one lists the valid ones.
 
     A protocol of many runs (``push-search``) rebuilds the controller for every trial and needs
-    the run described: use :func:`mjchar.controllers.core.runs.run` for it.
+    the run described: use :func:`mjchar.controllers.core.builder.run` for it.
     """
     spec = get(name)
     check_options(spec, options)
@@ -291,7 +291,7 @@ def run_scenario(name: str, character, controller, *, reference=None, frame_call
                             "run: describe the run with mjchar.controllers.run(...) (or "
                             "RunSpec) instead of a built controller")
     run = Run(character, controller, reference, None, frame_callback, control_dt)
-    return spec.runner(run, **options)
+    return spec.procedure(run, **options)
 
 
 def check_options(spec: ScenarioSpec, options: Mapping[str, Any]) -> None:

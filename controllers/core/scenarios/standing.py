@@ -99,12 +99,12 @@ def _random_push(run, **options) -> Result:
 
 
 register(ScenarioSpec(
-    name="stand", measures="stand from the standing pose, no disturbance", runner=_stand,
+    name="stand", measures="stand from the standing pose, no disturbance", procedure=_stand,
     needs=("stand",), options=(DURATION,), default_duration=STAND_DURATION,
     bench=lambda s, c: [BenchRun("stand", None, {"duration": s["stand_duration"]})]))
 register(ScenarioSpec(
     name="push", measures="one horizontal push while standing: survived or not",
-    runner=_push, needs=("stand",),
+    procedure=_push, needs=("stand",),
     options=(DURATION, FORCE, DIRECTION, PUSH_TIME, PUSH_DURATION, ALLOW_STEPS),
     default_duration=PUSH_RUN_DURATION,
     bench=lambda s, c: [BenchRun(f"{s.get('push_force', 100.0):g} N", None,
@@ -112,7 +112,7 @@ register(ScenarioSpec(
 register(ScenarioSpec(
     name="random-push",
     measures="10 N on the pelvis in a new random direction every second (PKU MoCCA)",
-    runner=_random_push, needs=("stand",), options=(DURATION, FORCE, SEED),
+    procedure=_random_push, needs=("stand",), options=(DURATION, FORCE, SEED),
     default_duration=RANDOM_PUSH_DURATION,
     bench=lambda s, c: [BenchRun(f"seed {k}", int(k), {
         "seed": int(k), "force": s["random_push_force"], "duration": s["random_push_duration"]})

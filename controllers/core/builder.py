@@ -65,7 +65,7 @@ class RunSpec:
         control_dt: seconds between control steps (``None``: every physics step).
         seed: the run's seed, passed to scenarios that randomise (``None``: their default).
         options: the controller factory's options (``speed``, ``gait``, ``params``...).
-        scenario_options: the scenario runner's options (``duration``, ``force``...).
+        scenario_options: the scenario procedure's options (``duration``, ``force``...).
     """
 
     controller: str
@@ -125,7 +125,7 @@ class RunSpec:
 
     def build(self, *, frame_callback: Callable | None = None, progress=None,
               info=None) -> Run:
-        """The character, its clip and the controller, ready for the scenario's runner;
+        """The character, its clip and the controller, ready for the scenario's procedure;
         ``progress`` (a :class:`~mjchar.progress.Progress`) shows the clip's
         preparation and then the run's simulated time; ``info``: the model's role map when it
         is an ``MjModel`` that does not carry one (default: read from the model)."""
@@ -164,7 +164,7 @@ class RunSpec:
 
 
 def execute(run: Run):
-    """Run a built :class:`Run` through its scenario's runner (:meth:`Run.execute`)."""
+    """Run a built :class:`Run` through its scenario's procedure (:meth:`Run.execute`)."""
     return run.execute()
 
 
