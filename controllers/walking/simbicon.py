@@ -49,7 +49,7 @@ from .frames import (
     world_torque,
 )
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
-from .simbicon_model import (
+from .rig_map import (
     HINGE_FIX,
     Hinge,
     SimbiconModelError,

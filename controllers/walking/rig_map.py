@@ -2,7 +2,8 @@
 what the walk needs, a joint's hinges keyed by their rest axes, which way a hinge turns a limb,
 the knee's flexion hinge and its yaw, and a rest pose's offset angles
 (:mod:`mjchar.controllers.walking.simbicon` uses them when it maps a body at reset:
-``Simbicon._map``, ``_map_leg``, ``_map_upper_body``, ``_set_gains``)."""
+``Simbicon._map``, ``_map_leg``, ``_map_upper_body``, ``_set_gains``). This module grows into
+the one map of a rig the walkers read."""
 
 from __future__ import annotations
 
