@@ -166,7 +166,7 @@ def test_a_knee_hinge_tilted_towards_the_shank_bends_the_leg_by_the_gaits_angle(
                                  rKnee_y="0 0.64279 0.76604"), timestep=DEFAULT_TIMESTEP)
     c = make_simbicon(ch)
     c.reset(ch)
-    across = c._legs[0]["knee_across"]
+    across = c._legs[0].knee_across
     assert across == pytest.approx(1 - 0.76604 ** 2, abs=1e-4)
     shank = np.array([0.0, 0.0, -1.0])
     for bend in (0.05, 0.6, 1.1):

@@ -126,13 +126,13 @@ def test_hinge_signs_match_the_models_geometry(ch):
             mujoco.mj_kinematics(m, d)
             return d.xpos[ch.body_id(body)] - before
 
-        side = leg["side"]
+        side = leg.side
         ankle, toe = ch.role(f"{side}_ankle"), ch.role(f"{side}_toe")
-        assert moved(leg["hip"]["y"], 0.3 * leg["hip_flex"], ankle)[0] > 0.05  # foot forward
-        assert moved(leg["knee"], 0.3 * leg["knee_flex"], ankle)[0] < -0.05  # foot back
-        assert moved(leg["ankle"]["y"], 0.3 * leg["ankle_dorsi"], toe)[2] > 0.01  # toes up
+        assert moved(leg.hip["y"], 0.3 * leg.hip_flex, ankle)[0] > 0.05  # foot forward
+        assert moved(leg.knee, 0.3 * leg.knee_flex, ankle)[0] < -0.05  # foot back
+        assert moved(leg.ankle["y"], 0.3 * leg.ankle_dorsi, toe)[2] > 0.01  # toes up
     # the bundled humanoid: hip flexion is a negative y rotation, knee flexion positive
-    assert c._legs[0]["hip_flex"] == -1.0 and c._legs[0]["knee_flex"] == 1.0
+    assert c._legs[0].hip_flex == -1.0 and c._legs[0].knee_flex == 1.0
 
 
 # -- the controller ----------------------------------------------------------------------------
@@ -364,16 +364,16 @@ def test_stance_ankle_roll_and_twist_have_their_own_gains(ch):
     st, sw = c._legs[c._stance_leg(c.state)], c._legs[1 - c._stance_leg(c.state)]
     d = ch.data
     for leg in (st, sw):
-        d.qpos[leg["ankle"]["x"].qadr] = 0.1
-        d.qpos[leg["ankle"]["z"].qadr] = 0.2
+        d.qpos[leg.ankle["x"].qadr] = 0.1
+        d.qpos[leg.ankle["z"].qadr] = 0.2
     d.qvel[:] = 0.0
     mujoco.mj_forward(ch.model, d)
     tau = c.torques(ch, 0.0)
     target = c._targets[c.state]
-    x, z = st["ankle"]["x"].act, st["ankle"]["z"].act
+    x, z = st.ankle["x"].act, st.ankle["z"].act
     assert tau[x] == pytest.approx(40.0 * (target[x] - 0.1))
     assert tau[z] == 0.0
-    assert tau[sw["ankle"]["z"].act] == pytest.approx(300.0 * (target[sw["ankle"]["z"].act] - 0.2))
+    assert tau[sw.ankle["z"].act] == pytest.approx(300.0 * (target[sw.ankle["z"].act] - 0.2))
 
 
 def test_swing_ankle_level_rolls_the_swing_foot_level_in_the_swing_state(ch):
@@ -384,7 +384,7 @@ def test_swing_ankle_level_rolls_the_swing_foot_level_in_the_swing_state(ch):
     c.reset(ch)
     d = ch.data
     sw = c._legs[1 - c._stance_leg(c.state)]
-    h = sw["ankle"]["x"]
+    h = sw.ankle["x"]
     d.qpos[:] = ch.model.qpos0
     d.qpos[h.qadr] = 0.2  # the foot rolled about its forward axis (the rest pose's x)
     d.qvel[:] = 0.0

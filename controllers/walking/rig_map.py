@@ -8,10 +8,12 @@ the one map of a rig the walkers read."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.base import ControllerError
+from ..core.character import Character, Kinematics
 
 #: the rest pose's axes a hinge is keyed by (the canonical rest: x forward, y left, z up)
 AXIS_NAMES = {"x": "forward", "y": "lateral", "z": "vertical"}
@@ -135,3 +137,189 @@ def hinge_sign(axis: np.ndarray, lever: np.ndarray, towards: np.ndarray, joint: 
             "length); convert the BVH again so the rest pose stands with legs down "
             "(mjchar convert), or map the role to a joint with a bone (--roles)")
     return 1.0 if s > 0 else -1.0
+
+
+# -- the facts of one leg both walkers read --------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LegJoints:
+    """One leg of a Character by its roles: the joints playing ``{side}_hip``, ``_knee``,
+    ``_ankle`` and (if the rig has one) ``_toe``, the bodies they move (thigh, shank, foot) and
+    their dofs (indices into qvel; the toe's empty without one). SIMBICON's leg map
+    (:func:`map_leg`) and IPM's :class:`~mjchar.controllers.walking.leg.Leg` both read a leg
+    from here."""
+
+    side: str
+    hip: str
+    knee: str
+    ankle: str
+    toe: str | None
+    thigh: int
+    shank: int
+    foot: int
+    hip_dofs: np.ndarray
+    knee_dofs: np.ndarray
+    ankle_dofs: np.ndarray
+    toe_dofs: np.ndarray
+
+    def site(self, ch: Character) -> int:
+        """The id of the leg's sole site, ``{side}_foot`` (on the foot: the model contract's)."""
+        return ch.site_id(f"{self.side}_foot")
+
+
+def leg_joints(ch: Character, side: str) -> LegJoints:
+    """The :class:`LegJoints` of the ``side`` (``"left"`` or ``"right"``) leg of ``ch``."""
+    hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
+    toe = ch.role(f"{side}_toe", required=False)
+    return LegJoints(
+        side=side, hip=hip, knee=knee, ankle=ankle, toe=toe,
+        thigh=ch.body_id(hip), shank=ch.body_id(knee), foot=ch.body_id(ankle),
+        hip_dofs=ch.joint_dofs(hip), knee_dofs=ch.joint_dofs(knee),
+        ankle_dofs=ch.joint_dofs(ankle),
+        toe_dofs=ch.joint_dofs(toe) if toe else np.zeros(0, int))
+
+
+# -- SIMBICON's map of a body at rest --------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class RestBody:
+    """A Character at rest as SIMBICON's maps read it: the rest pose's kinematics ``kin``
+    (every joint at zero), the actuator of each dof ``dof2act`` ``(nv,)`` (-1: none) and the
+    pelvis's axes at rest ``fwd``, ``left``, ``up`` ``(3,)`` (the canonical rest's x, y, z)."""
+
+    ch: Character
+    kin: Kinematics
+    dof2act: np.ndarray
+    fwd: np.ndarray
+    left: np.ndarray
+    up: np.ndarray
+
+    def hinges(self, joint: str) -> dict[str, Hinge]:
+        """``joint``'s hinges keyed by the world axis they are closest to at rest (``x y z``)."""
+        return joint_hinges(self.ch, self.kin.joint_axes, self.dof2act, joint)
+
+    def position(self, joint: str) -> np.ndarray:
+        """``(3,)`` world position (m) at rest of the body ``joint`` moves."""
+        return self.kin.body_positions[self.ch.body_id(joint)]
+
+    def axis(self, h: Hinge) -> np.ndarray:
+        """``(3,)`` world axis at rest of hinge ``h``."""
+        return self.kin.joint_axes[h.jnt]
+
+
+def rest_body(ch: Character, pelvis: int, dof2act: np.ndarray) -> RestBody:
+    """The :class:`RestBody` of ``ch`` (``pelvis``: the pelvis body's id)."""
+    kin = ch.poses.kinematics(ch.poses.rest())
+    Rp = kin.body_rotations[pelvis]
+    return RestBody(ch, kin, dof2act, Rp[:, 0], Rp[:, 1], Rp[:, 2])
+
+
+@dataclass(eq=False)
+class SimbiconLeg:
+    """One leg as SIMBICON drives it (:func:`map_leg`): its hinges keyed by rest axis, bodies,
+    actuators, and the signs measured on the model at rest (anatomical ``+`` = this many times
+    hinge ``+``; heading-frame rotations of the thigh: flexion about left, abduction about
+    forward).
+
+    Attributes:
+        side: ``"left"`` or ``"right"``.
+        hip, ankle: the joint's hinges keyed by rest axis (``x y z``); knee: its flexion hinge.
+        hip_body, ankle_body: the thigh's and the foot's body ids.
+        hip_joints, hip_dofs, hip_acts: the hip hinges' MuJoCo joints, dofs, actuators.
+        ankle_joints, ankle_acts: the ankle hinges' MuJoCo joints and actuators.
+        knee_flex, ankle_dorsi, hip_flex: the hinge signs of knee flexion, ankle dorsiflexion,
+            hip flexion.
+        knee_across: a knee tilted off lateral: how much a turn bends the leg
+            (:func:`knee_hinge`, :func:`knee_angle`); ``None`` about lateral.
+        flex_sign, abd_sign: the signs of the thigh's flexion and abduction in the heading frame.
+        out: ``(3,)`` the side's outward axis at rest (``left`` or ``-left``).
+        thigh_dir: ``(3,)`` the thigh's unit direction (hip to knee) at rest.
+        foot_pitch_sign: + rotation about the heading frame's lateral axis lifts the toes?
+        foot_axes: ``(3, 2)`` the foot's forward and left axes in its own frame (at rest).
+        twist_sign: +1 if a positive turn of the hip's twist hinge yaws the thigh to the left
+            (about up), else -1; 1 without a twist hinge.
+        knee_yaw: yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
+            the hip twists the thigh by minus this so the knee flexes in the sagittal plane, and
+            the ankle twists the foot back (0 for a knee about lateral).
+        leg_acts, leg_dofs: actuators and dofs of the leg's hinges (hip, knee, ankle, toe).
+        leg_mass: mass (kg) of the thigh's subtree.
+        support_joints, support_acts: the stance leg's chain for virtual forces (foot fixed):
+            the ankle hinges and the knee.
+        hip_limits: the hip actuators' torque clamps ``(low, high)``, set by the controller at
+            reset.
+    """
+
+    side: str
+    hip: dict[str, Hinge]
+    knee: Hinge
+    ankle: dict[str, Hinge]
+    hip_body: int
+    ankle_body: int
+    hip_joints: np.ndarray
+    hip_dofs: np.ndarray
+    hip_acts: np.ndarray
+    ankle_joints: np.ndarray
+    ankle_acts: np.ndarray
+    knee_flex: float
+    knee_across: float | None
+    ankle_dorsi: float
+    hip_flex: float
+    flex_sign: float
+    abd_sign: float
+    out: np.ndarray
+    thigh_dir: np.ndarray
+    foot_pitch_sign: float
+    foot_axes: np.ndarray
+    twist_sign: float
+    knee_yaw: float
+    leg_acts: np.ndarray
+    leg_dofs: np.ndarray
+    leg_mass: float
+    support_joints: np.ndarray
+    support_acts: np.ndarray
+    hip_limits: tuple[np.ndarray, np.ndarray] | None = None
+
+
+def map_leg(body: RestBody, side: str) -> SimbiconLeg:
+    """The ``side`` leg of ``body`` as SIMBICON drives it (:class:`SimbiconLeg`); a
+    :class:`SimbiconModelError` naming the joint when it lacks a hinge the walk needs."""
+    ch, rest, fwd, left, up = body.ch, body.kin, body.fwd, body.left, body.up
+    j = leg_joints(ch, side)
+    H, K, A = body.hinges(j.hip), body.hinges(j.knee), body.hinges(j.ankle)
+    require_hinge(H, "y", j.hip, "flexion")
+    require_hinge(A, "y", j.ankle, "dorsiflexion")
+    out = left if side == "left" else -left
+    at = rest.body_positions
+    thigh = at[j.shank] - at[j.thigh]
+    shank = at[j.foot] - at[j.shank]
+    kh, across = knee_hinge(K, rest.joint_axes, shank, left, j.knee)
+    # the sole: the toe joint, else the sole site
+    sole = body.position(j.toe) if j.toe else rest.site_positions[j.site(ch)]
+    foot = sole - at[j.foot]
+    knee_flex = -hinge_sign(body.axis(kh), shank, fwd, j.knee)
+    signs = {
+        "ankle_dorsi": hinge_sign(body.axis(A["y"]), foot, up, j.ankle),
+        "hip_flex": hinge_sign(body.axis(H["y"]), thigh + shank, fwd, j.hip),
+        "flex_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, j.hip),
+        "abd_sign": hinge_sign(np.array([1.0, 0.0, 0.0]), thigh, out, j.hip),
+        "foot_pitch_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), foot, up, j.ankle),
+        "twist_sign": (hinge_sign(body.axis(H["z"]), fwd, left, j.hip) if "z" in H else 1.0),
+    }
+    leg_hinges = [*H.values(), kh, *A.values()]
+    if j.toe:
+        leg_hinges += list(body.hinges(j.toe).values())
+    support = [*A.values(), kh]
+    return SimbiconLeg(
+        side=side, hip=H, knee=kh, ankle=A, hip_body=j.thigh, ankle_body=j.foot,
+        hip_joints=np.array([h.jnt for h in H.values()]),
+        hip_dofs=np.array([h.dof for h in H.values()]),
+        hip_acts=np.array([h.act for h in H.values()]),
+        ankle_joints=np.array([h.jnt for h in A.values()]),
+        ankle_acts=np.array([h.act for h in A.values()]),
+        knee_flex=knee_flex, knee_across=across, **signs,
+        out=out, thigh_dir=thigh / np.linalg.norm(thigh),
+        foot_axes=rest.body_rotations[j.foot].T @ np.stack([fwd, left], axis=1),
+        knee_yaw=knee_yaw(knee_flex * body.axis(kh), fwd, left),
+        leg_acts=np.array([h.act for h in leg_hinges]),
+        leg_dofs=np.array([h.dof for h in leg_hinges]),
+        leg_mass=ch.dynamics.subtree_mass(j.thigh),
+        support_joints=np.array([h.jnt for h in support]),
+        support_acts=np.array([h.act for h in support]))

@@ -30,7 +30,6 @@ flexion is a negative rotation about the lateral axis and knee flexion a positiv
 from __future__ import annotations
 
 import math
-from functools import partial
 
 import mujoco
 import numpy as np
@@ -51,15 +50,13 @@ from .frames import (
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .rig_map import (
     HINGE_FIX,
-    Hinge,
+    SimbiconLeg,
     SimbiconModelError,
     hinge_sign,
-    joint_hinges,
     knee_angle,
-    knee_hinge,
-    knee_yaw,
-    require_hinge,
+    map_leg,
     rest_angle,
+    rest_body,
 )
 
 #: default physics time step for SIMBICON (explicit PD torques from Python), s
@@ -176,13 +173,9 @@ class Simbicon:
         lim = self._limits
         self._neg_limits = -lim
         for leg in self._legs:
-            leg["hip_limits"] = (-lim[leg["hip_acts"]], lim[leg["hip_acts"]])
+            leg.hip_limits = (-lim[leg.hip_acts], lim[leg.hip_acts])
         self._pelvis_limits = [(-lim[a], lim[a]) for _, a in self._pelvis_children]
         self._ready = True
-
-    def _hinges(self, character: Character, joint: str) -> dict[str, Hinge]:
-        """The joint's hinges keyed by the world axis they are closest to at rest (``x y z``)."""
-        return joint_hinges(character, self._rest.joint_axes, self._dof2act, joint)
 
     def _body_gait(self, ch: Character) -> Gait:
         """The gait for this body (see the class docstring); with a speed command, the gait at
@@ -236,22 +229,18 @@ class Simbicon:
         self._act_qpos_sel = _selector(self._act_qpos)
         self._dof2act = np.full(ch.nv, -1)
         self._dof2act[self._act_dof] = np.arange(ch.nu)
-        # rest-pose kinematics: hinge axes and body positions with every joint at zero
-        rest = ch.poses.kinematics(ch.poses.rest())
-        self._rest = rest
         self.gait = self._body_gait(ch)
-        pelvis = ch.role("pelvis")
-        self._pelvis = ch.body_id(pelvis)
-        Rp = rest.body_rotations[self._pelvis]
-        fwd, left, up = Rp[:, 0], Rp[:, 1], Rp[:, 2]
-        self._legs = [self._map_leg(ch, side, fwd, left, up) for side in _SIDES]
+        self._pelvis = ch.body_id(ch.role("pelvis"))
+        # the body at rest: hinge axes and body positions with every joint at zero
+        self._body = rest_body(ch, self._pelvis, self._dof2act)
+        self._legs = [map_leg(self._body, side) for side in _SIDES]
         self._jac = np.zeros((3, ch.nv))
-        base, group = self._map_upper_body(ch, fwd, left, up)
+        base, group = self._map_upper_body(ch)
         self._set_gains(ch, group)
         self._base = base
         # hinges (other than the hips') of bodies attached to the pelvis: their torques react on
         # it; per body, (MuJoCo joints, actuators)
-        hip_bodies = {leg["hip_body"] for leg in self._legs}
+        hip_bodies = {leg.hip_body for leg in self._legs}
         by_body: dict[int, list[int]] = {}
         for dof in np.flatnonzero(ch.hinge_dofs):
             b = int(ch.dof_body[dof])
@@ -261,92 +250,25 @@ class Simbicon:
                                  for dofs in map(np.array, by_body.values())]
         self._targets = [self._state_targets(s) for s in range(4)]
 
-    def _rest_position(self, ch: Character, joint: str) -> np.ndarray:
-        return self._rest.body_positions[ch.body_id(joint)]
-
-    def _map_leg(self, ch: Character, side: str, fwd: np.ndarray, left: np.ndarray,
-                 up: np.ndarray) -> dict:
-        """One leg's hinges, bodies, actuators and the signs measured on the model at rest
-        (anatomical + = this many times hinge +)."""
-        rest, pos = self._rest, partial(self._rest_position, ch)
-        hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
-        toe = ch.role(f"{side}_toe", required=False)
-        H, K, A = self._hinges(ch, hip), self._hinges(ch, knee), self._hinges(ch, ankle)
-        require_hinge(H, "y", hip, "flexion")
-        require_hinge(A, "y", ankle, "dorsiflexion")
-        out = left if side == "left" else -left
-        thigh = pos(knee) - pos(hip)
-        shank = pos(ankle) - pos(knee)
-        kh, across = knee_hinge(K, rest.joint_axes, shank, left, knee)
-        K = {"y": kh}
-        sole = pos(toe) if toe else rest.site_positions[ch.site_id(f"{side}_foot")]
-        foot = sole - pos(ankle)
-        knee_flex = -hinge_sign(rest.joint_axes[K["y"].jnt], shank, fwd, knee)
-        leg = {
-            "side": side,
-            "hip": H,
-            "knee": K["y"],
-            "ankle": A,
-            "hip_body": ch.body_id(hip),
-            "ankle_body": ch.body_id(ankle),
-            "hip_joints": np.array([h.jnt for h in H.values()]),
-            "hip_dofs": np.array([h.dof for h in H.values()]),
-            "hip_acts": np.array([h.act for h in H.values()]),
-            "ankle_joints": np.array([h.jnt for h in A.values()]),
-            "ankle_acts": np.array([h.act for h in A.values()]),
-            # hinge signs measured on the model (anatomical + = this many times hinge +)
-            "knee_flex": knee_flex,
-            "knee_across": across,  # a knee tilted off lateral: see knee_angle
-            "ankle_dorsi": hinge_sign(rest.joint_axes[A["y"].jnt], foot, up, ankle),
-            "hip_flex": hinge_sign(rest.joint_axes[H["y"].jnt], thigh + shank, fwd, hip),
-            # heading-frame rotations of the thigh: flexion about left, abduction about fwd
-            "flex_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), thigh, fwd, hip),
-            "abd_sign": hinge_sign(np.array([1.0, 0.0, 0.0]), thigh, out, hip),
-            "out": out,
-            "thigh_dir": thigh / np.linalg.norm(thigh),
-            # + rotation about the heading frame's lateral axis lifts the toes?
-            "foot_pitch_sign": hinge_sign(np.array([0.0, 1.0, 0.0]), foot, up, ankle),
-            # the foot's forward and left axes in its own frame (from the rest pose)
-            "foot_axes": rest.body_rotations[ch.body_id(ankle)].T
-            @ np.stack([fwd, left], axis=1),
-            "twist_sign": (hinge_sign(rest.joint_axes[H["z"].jnt], fwd, left, hip) if "z" in H
-                           else 1.0),
-            # yaw (rad, about up) of the knee's flexion axis from the lateral axis at rest:
-            # the hip twists the thigh by minus this so the knee flexes in the sagittal
-            # plane, and the ankle twists the foot back (0 for a knee about lateral)
-            "knee_yaw": knee_yaw(knee_flex * rest.joint_axes[K["y"].jnt], fwd, left),
-        }
-        leg_hinges = [*H.values(), K["y"], *A.values()]
-        if toe:
-            leg_hinges += list(self._hinges(ch, toe).values())
-        leg["leg_acts"] = np.array([h.act for h in leg_hinges])
-        leg["leg_dofs"] = np.array([h.dof for h in leg_hinges])
-        leg["leg_mass"] = ch.dynamics.subtree_mass(leg["hip_body"])
-        # the stance leg's chain for virtual forces (foot fixed): ankle hinges and knee
-        support = [*A.values(), K["y"]]
-        leg["support_joints"] = np.array([h.jnt for h in support])
-        leg["support_acts"] = np.array([h.act for h in support])
-        return leg
-
-    def _map_upper_body(self, ch: Character, fwd: np.ndarray, left: np.ndarray,
-                        up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _map_upper_body(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
         """``(base, group)`` per actuator: the base PD target (arms lowered from a T-pose,
         elbows flexed, a tilted knee's twist undone at hip and ankle) and the gain group; the
         spine's pitch hinges and the shoulders' swing hinges with their signs."""
-        g, rest, pos = self.gait, self._rest, partial(self._rest_position, ch)
+        g, body = self.gait, self._body
+        rest, pos, fwd, left, up = body.kin, body.position, body.fwd, body.left, body.up
         self._arm_swing: dict[str, tuple[int, float]] = {}
         base = np.zeros(ch.nu)
         group = np.array(["other"] * ch.nu, dtype=object)
         for leg in self._legs:
-            for h in leg["hip"].values():
+            for h in leg.hip.values():
                 group[h.act] = "hip"
-            group[leg["knee"].act] = "knee"
-            for h in leg["ankle"].values():
+            group[leg.knee.act] = "knee"
+            for h in leg.ankle.values():
                 group[h.act] = "ankle"
         # (actuator, sign) of the spine's pitch hinges: their targets follow the gait in use
         self._spine_pitch: list[tuple[int, float]] = []
         for j in ch.roles("spine"):
-            hs = self._hinges(ch, j)
+            hs = body.hinges(j)
             for h in hs.values():
                 group[h.act] = "spine"
             if "y" in hs:
@@ -354,22 +276,22 @@ class Simbicon:
                     (hs["y"].act, hinge_sign(rest.joint_axes[hs["y"].jnt], up, fwd, j)))
         head = ch.role("head", required=False)
         if head:
-            for h in self._hinges(ch, head).values():
+            for h in body.hinges(head).values():
                 group[h.act] = "head"
         for side in _SIDES:
             toe = ch.role(f"{side}_toe", required=False)
             if toe:
-                for h in self._hinges(ch, toe).values():
+                for h in body.hinges(toe).values():
                     group[h.act] = "toe"
             for part in ("clavicle", "shoulder", "elbow", "wrist"):
                 j = ch.role(f"{side}_{part}", required=False)
                 if j:
-                    for h in self._hinges(ch, j).values():
+                    for h in body.hinges(j).values():
                         group[h.act] = "arm"
             sh = ch.role(f"{side}_shoulder", required=False)
             el = ch.role(f"{side}_elbow", required=False)
             if sh and el:
-                hs = self._hinges(ch, sh)
+                hs = body.hinges(sh)
                 arm = pos(el) - pos(sh)
                 if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
                     # less what the rest pose already lowers it (an A-pose rig's arm hangs
@@ -386,7 +308,7 @@ class Simbicon:
                     if ahead:
                         base[hs["y"].act] = -ahead * s_y
                 wr = ch.role(f"{side}_wrist", required=False)
-                he = self._hinges(ch, el)
+                he = body.hinges(el)
                 if wr and he:
                     h = next(iter(he.values()))
                     fore = pos(wr) - pos(el)
@@ -398,11 +320,11 @@ class Simbicon:
                     base[h.act] = (g.elbow_flexion - rest_angle(math.sin(bent))) * s_e
         for leg in self._legs:
             # the foot turned back by what the hip turns the thigh (see "knee_yaw")
-            if leg["knee_yaw"] and "z" in leg["ankle"] and "z" in leg["hip"]:
-                hz = leg["ankle"]["z"]
-                base[hz.act] = leg["knee_yaw"] * hinge_sign(rest.joint_axes[hz.jnt], fwd, left,
-                                                            ch.role(f"{leg['side']}_ankle"))
-                base[leg["hip"]["z"].act] = -leg["knee_yaw"] * leg["twist_sign"]
+            if leg.knee_yaw and "z" in leg.ankle and "z" in leg.hip:
+                hz = leg.ankle["z"]
+                base[hz.act] = leg.knee_yaw * hinge_sign(rest.joint_axes[hz.jnt], fwd, left,
+                                                            ch.role(f"{leg.side}_ankle"))
+                base[leg.hip["z"].act] = -leg.knee_yaw * leg.twist_sign
         return base, group
 
     def _set_gains(self, ch: Character, group: np.ndarray) -> None:
@@ -441,16 +363,16 @@ class Simbicon:
         q = self._base.copy()
         st = self._legs[self._stance_leg(state)]
         sw = self._legs[1 - self._stance_leg(state)]
-        q[st["knee"].act] = st["knee_flex"] * knee_angle(p.stance_knee, st["knee_across"])
-        q[sw["knee"].act] = sw["knee_flex"] * knee_angle(p.swing_knee, sw["knee_across"])
-        q[st["ankle"]["y"].act] = st["ankle_dorsi"] * p.stance_ankle
-        q[sw["ankle"]["y"].act] = sw["ankle_dorsi"] * p.swing_ankle
+        q[st.knee.act] = st.knee_flex * knee_angle(p.stance_knee, st.knee_across)
+        q[sw.knee.act] = sw.knee_flex * knee_angle(p.swing_knee, sw.knee_across)
+        q[st.ankle["y"].act] = st.ankle_dorsi * p.stance_ankle
+        q[sw.ankle["y"].act] = sw.ankle_dorsi * p.swing_ankle
         for a, s in self._spine_pitch:  # a speed command may move it (ANCHOR_FIELDS)
             q[a] = self.gait.spine_pitch * s
         # arms swing against the legs: the stance side's arm forward, the swing side's back
         for leg, sgn in ((st, 1.0), (sw, -1.0)):
-            if leg["side"] in self._arm_swing:
-                a, s = self._arm_swing[leg["side"]]
+            if leg.side in self._arm_swing:
+                a, s = self._arm_swing[leg.side]
                 q[a] = self._base[a] + s * sgn * self.gait.arm_swing
         return q
 
@@ -525,35 +447,35 @@ class Simbicon:
         tau_sw = self._swing_hip(character, st, sw, H, heading, com, com_vel, q, qd, tau)
         self._stance_hip(character, st, Rp, tau_sw, q, qd, tau)
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
-            tau[st["support_acts"]] += self._virtual_force(character, st, H, com, com_vel)
+            tau[st.support_acts] += self._virtual_force(character, st, H, com, com_vel)
         if g.swing_ankle_world:
             self._swing_foot(character, sw, tau)
         return np.minimum(np.maximum(tau, self._neg_limits), self._limits)
 
-    def _joint_pd(self, character: Character, st: dict, sw: dict, q: np.ndarray,
+    def _joint_pd(self, character: Character, st: SimbiconLeg, sw: SimbiconLeg, q: np.ndarray,
                   qd: np.ndarray) -> np.ndarray:
         """``(nu,)`` local PD towards the state's pose on every joint, the stance ankle's roll
         and twist with their own gains, the swing sole levelled in the world in a swing state."""
         s = character.state
         tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
         for axis, (kpa, kda) in self._stance_ankle_gains.items():
-            h = st["ankle"].get(axis)
+            h = st.ankle.get(axis)
             if h is not None:
                 a = h.act
                 tau[a] = kpa * (self._targets[self.state][a] - q[a]) - kda * qd[a]
-        if self._swing_level_gains and self.state % 2 == 1 and "x" in sw["ankle"]:
+        if self._swing_level_gains and self.state % 2 == 1 and "x" in sw.ankle:
             # swing state: the swing foot's roll levels its sole in the world (its left axis
             # horizontal), so the heel lands on its whole width rather than on one corner
             kpl, kdl = self._swing_level_gains
-            f, lat = (s.body_rotations[sw["ankle_body"]] @ sw["foot_axes"]).T
+            f, lat = (s.body_rotations[sw.ankle_body] @ sw.foot_axes).T
             f = f / np.linalg.norm(f)
-            w = s.body_angular_velocities[sw["ankle_body"]] @ f
+            w = s.body_angular_velocities[sw.ankle_body] @ f
             tau_l = (-kpl * lat[2] / np.linalg.norm(lat) - kdl * w) * f
-            h = sw["ankle"]["x"]
+            h = sw.ankle["x"]
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
         return tau
 
-    def _swing_hip(self, character: Character, st: dict, sw: dict, H: np.ndarray,
+    def _swing_hip(self, character: Character, st: SimbiconLeg, sw: SimbiconLeg, H: np.ndarray,
                    heading: float, com: np.ndarray, com_vel: np.ndarray, q: np.ndarray,
                    qd: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """The swing hip towards the balance feedback's target, ``theta_d = theta_d0 + cd d +
@@ -568,32 +490,32 @@ class Simbicon:
         self.last_swing_target = np.array([sag, cor])
 
         # the thigh's direction u -> u_d
-        u_d = H @ (rot_x(sw["abd_sign"] * cor) @ (rot_y(sw["flex_sign"] * sag) @ sw["thigh_dir"]))
-        u = s.body_rotations[sw["hip_body"]] @ sw["thigh_dir"]
-        w = s.body_angular_velocities[sw["hip_body"]]
+        u_d = H @ (rot_x(sw.abd_sign * cor) @ (rot_y(sw.flex_sign * sag) @ sw.thigh_dir))
+        u = s.body_rotations[sw.hip_body] @ sw.thigh_dir
+        w = s.body_angular_velocities[sw.hip_body]
         kps, kds = self._swing_gains
         tau_w = kps * angle_between(u, u_d) - kds * (w - (w @ u) * u)
-        acts = sw["hip_acts"]
-        axes_sw = s.joint_axes[sw["hip_joints"]]
+        acts = sw.hip_acts
+        axes_sw = s.joint_axes[sw.hip_joints]
         tau[acts] = axes_sw @ tau_w
-        if "z" in sw["hip"]:
+        if "z" in sw.hip:
             # its twist stays local, towards the twist that points the foot at the desired
             # heading (thigh yaw = pelvis yaw + s q_twist)
-            hz = sw["hip"]["z"]
+            hz = sw.hip["z"]
             err = math.remainder(self.desired_heading - heading, 2 * math.pi)
-            want = sw["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - sw["knee_yaw"])
+            want = sw.twist_sign * (min(max(err, -g.max_twist), g.max_twist) - sw.knee_yaw)
             tau[hz.act] = self._kp[hz.act] * (want - q[hz.act]) - self._kd[hz.act] * qd[hz.act]
         if g.swing_gravity:
             # the swing leg's weight by Jacobian transpose (Coros et al. 2010)
-            character.dynamics.com_jacobian(sw["hip_body"], out=self._jac)
-            tau[sw["leg_acts"]] += (g.swing_gravity * GRAVITY * sw["leg_mass"]
-                                    * self._jac[2, sw["leg_dofs"]])
-        lo, hi = sw["hip_limits"]
+            character.dynamics.com_jacobian(sw.hip_body, out=self._jac)
+            tau[sw.leg_acts] += (g.swing_gravity * GRAVITY * sw.leg_mass
+                                    * self._jac[2, sw.leg_dofs])
+        lo, hi = sw.hip_limits
         clamped = np.minimum(np.maximum(tau[acts], lo), hi)
         tau[acts] = clamped
         return world_torque(axes_sw, clamped)
 
-    def _stance_hip(self, character: Character, st: dict, Rp: np.ndarray, tau_sw: np.ndarray,
+    def _stance_hip(self, character: Character, st: SimbiconLeg, Rp: np.ndarray, tau_sw: np.ndarray,
                     q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> None:
         """The torso (pelvis) towards the desired heading and forward lean in the world frame,
         through the stance hip: whatever makes the net torque of the joints on the pelvis the
@@ -609,32 +531,32 @@ class Simbicon:
             tau[a] = clamped
             react += world_torque(s.joint_axes[js], clamped)
         tau_st = -tau_torso - tau_sw - react
-        acts = st["hip_acts"]
-        if "z" in st["hip"]:
+        acts = st.hip_acts
+        if "z" in st.hip:
             # Its vertical part turns the pelvis only as far as the stance foot's friction holds
             # (and spins a lightly loaded leg), so the heading is a local PD on the hip twist
             # towards the twist that points the pelvis at the desired heading.
             tau_st[2] = 0.0
-            hz = st["hip"]["z"]
-            tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
-            thigh_yaw = heading_yaw(s.body_rotations[st["hip_body"]])
-            err = math.remainder(thigh_yaw + st["knee_yaw"] - self.desired_heading, 2 * math.pi)
-            want = st["twist_sign"] * (min(max(err, -g.max_twist), g.max_twist) - st["knee_yaw"])
+            hz = st.hip["z"]
+            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
+            thigh_yaw = heading_yaw(s.body_rotations[st.hip_body])
+            err = math.remainder(thigh_yaw + st.knee_yaw - self.desired_heading, 2 * math.pi)
+            want = st.twist_sign * (min(max(err, -g.max_twist), g.max_twist) - st.knee_yaw)
             tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
         else:
-            tau[acts] = s.joint_axes[st["hip_joints"]] @ tau_st
+            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
 
-    def _swing_foot(self, character: Character, sw: dict, tau: np.ndarray) -> None:
+    def _swing_foot(self, character: Character, sw: SimbiconLeg, tau: np.ndarray) -> None:
         """The swing foot pitched by ``swing_ankle`` (toes up) in the desired-heading frame,
         PD in the world frame."""
         s = character.state
         p = self.gait.states[self.state % 2]
         Rfd = self._world_target("foot", self.desired_heading,
-                                 sw["foot_pitch_sign"] * p.swing_ankle)
-        Rf = s.body_rotations[sw["ankle_body"]]
+                                 sw.foot_pitch_sign * p.swing_ankle)
+        Rf = s.body_rotations[sw.ankle_body]
         kpa, kda = self._ankle_world_gains
-        tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw["ankle_body"]]
-        tau[sw["ankle_acts"]] = s.joint_axes[sw["ankle_joints"]] @ tau_f
+        tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw.ankle_body]
+        tau[sw.ankle_acts] = s.joint_axes[sw.ankle_joints] @ tau_f
 
     def _world_target(self, key: str, yaw: float, pitch: float) -> np.ndarray:
         """``(3, 3)`` ``R_z(yaw) R_y(pitch)``: a world target orientation (torso, swing foot),
@@ -646,7 +568,7 @@ class Simbicon:
             cache[key] = hit
         return hit[2]
 
-    def _virtual_force(self, character: Character, st: dict, H: np.ndarray,
+    def _virtual_force(self, character: Character, st: SimbiconLeg, H: np.ndarray,
                        com: np.ndarray | None = None, com_vel: np.ndarray | None = None
                        ) -> np.ndarray:
         """Torques of the stance ankle and knee that put a virtual force on the centre of mass
@@ -656,23 +578,23 @@ class Simbicon:
         weight = self._mass * GRAVITY
         unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
         v = s.com_velocity() if com_vel is None else com_vel
-        lat = -st["out"][1] * H[:, 1]
+        lat = -st.out[1] * H[:, 1]
         F = np.array([0.0, 0.0, g.stance_support * weight])
         if g.velocity_force and g.speed_target is not None:
             F += g.velocity_force * weight * (g.speed_target - v @ H[:, 0]) / unit * H[:, 0]
         if g.velocity_force_coronal:
             F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
-        js = st["support_joints"]
+        js = st.support_joints
         r = (s.com() if com is None else com) - s.joint_anchors[js]
         return -np.einsum("ij,ij->i", s.joint_axes[js], cross_rows(r, F))
 
     def _feedback_terms(
-        self, character: Character, st: dict, H: np.ndarray,
+        self, character: Character, st: SimbiconLeg, H: np.ndarray,
         com: np.ndarray | None = None, com_vel: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         s = character.state
-        fwd, lat = H[:, 0], -st["out"][1] * H[:, 1]  # lateral: towards the swing leg's side
-        off = (s.com() if com is None else com) - s.body_positions[st["ankle_body"]]
+        fwd, lat = H[:, 0], -st.out[1] * H[:, 1]  # lateral: towards the swing leg's side
+        off = (s.com() if com is None else com) - s.body_positions[st.ankle_body]
         v = s.com_velocity() if com_vel is None else com_vel
         return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
@@ -704,9 +626,9 @@ class Simbicon:
         targets = self._state_targets(3)  # both legs nearly straight, stance-knee flexion
         q[self._act_qpos] = targets
         for leg in self._legs:
-            q[leg["knee"].qadr] = leg["knee_flex"] * knee_angle(
-                self.gait.states[1].stance_knee, leg["knee_across"])
-            q[leg["ankle"]["y"].qadr] = leg["ankle_dorsi"] * self.gait.states[1].stance_ankle
+            q[leg.knee.qadr] = leg.knee_flex * knee_angle(
+                self.gait.states[1].stance_knee, leg.knee_across)
+            q[leg.ankle["y"].qadr] = leg.ankle_dorsi * self.gait.states[1].stance_ankle
         if self.gait.torso_pitch:
             # lean the pelvis and give it back at the hips so the legs stay vertical
             qw = math.cos(0.5 * self.gait.torso_pitch)
@@ -714,8 +636,8 @@ class Simbicon:
             root_quat = character.root_qpos[3:7]
             q[root_quat] = [qw, 0.0, qy, 0.0]
             for leg in self._legs:
-                h = leg["hip"]["y"]
-                q[h.qadr] = leg["hip_flex"] * self.gait.torso_pitch
+                h = leg.hip["y"]
+                q[h.qadr] = leg.hip_flex * self.gait.torso_pitch
         qv = np.zeros(character.nv)
         if rng is not None:
             q[self._act_qpos] += rng.normal(0.0, joint_noise, size=len(self._act_qpos))
