@@ -157,8 +157,8 @@ def test_a_knee_hinge_tilted_towards_the_shank_bends_the_leg_by_the_gaits_angle(
 
     from mjchar.controllers.core.character import Character
     from mjchar.controllers.core.scenarios import walk
-    from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
     from mjchar.controllers.walking.rig_map import knee_angle
+    from mjchar.controllers.walking.simbicon import DEFAULT_TIMESTEP, make_simbicon
 
     axis = np.array([0.0, 0.64279, 0.76604])
     axis /= np.linalg.norm(axis)

@@ -115,7 +115,8 @@ from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .ipm_torques import GravityCompensation, damped, limit_stance_ankle, limit_stance_yaw
-from .leg import Leg, child_hinges, inverse3, rotation_error, wrap_angle
+from .leg import Leg, inverse3, rotation_error, wrap_angle
+from .rig_map import child_hinges
 from .swing import (
     SwingTrajectory,
     frame_from_axes,

@@ -1,8 +1,8 @@
 """A walker's legs and the small rotation algebra the walking controllers share: :class:`Leg`
 (the dofs, bodies, sole site and segment lengths of one leg, read through the Character), the
-hinges of the bodies on the pelvis (:func:`child_hinges`), the rotation error between two
-orientations, a 3 x 3 inverse and angle wrapping (a body's heading:
-:func:`~mjchar.controllers.core.geometry.heading_yaw`)."""
+rotation error between two orientations, a 3 x 3 inverse and angle wrapping (a body's heading:
+:func:`~mjchar.controllers.core.geometry.heading_yaw`; the hinges of the bodies on the pelvis:
+:func:`~mjchar.controllers.walking.rig_map.child_hinges`)."""
 
 from __future__ import annotations
 
@@ -47,18 +47,6 @@ def inverse3(A: np.ndarray) -> np.ndarray:
     return np.array([[co[0] / det, (c * h - b * i) / det, (b * f - c * e) / det],
                      [co[1] / det, (a * i - c * g) / det, (c * d - a * f) / det],
                      [co[2] / det, (b * g - a * h) / det, (a * e - b * d) / det]])
-
-
-def child_hinges(ch: Character, parent: int, skip: set[int]) -> list[np.ndarray]:
-    """Hinge dofs of each body attached to body ``parent`` (id) but those in ``skip`` (ids):
-    one ``(k,)`` array per body, in dof order (on the pelvis with the thighs skipped: the
-    spine's hinges, whose torques react on the pelvis)."""
-    by_body: dict[int, list[int]] = {}
-    for dof in np.flatnonzero(ch.hinge_dofs):
-        b = int(ch.dof_body[dof])
-        if ch.body_parent[b] == parent and b not in skip:
-            by_body.setdefault(b, []).append(int(dof))
-    return [np.array(dofs) for dofs in by_body.values()]
 
 
 class Leg:

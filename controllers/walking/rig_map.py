@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from ..core.base import ControllerError
@@ -221,6 +222,7 @@ class SimbiconLeg:
 
     Attributes:
         side: ``"left"`` or ``"right"``.
+        joints: the leg's joints, bodies and dofs by role (:class:`LegJoints`).
         hip, ankle: the joint's hinges keyed by rest axis (``x y z``); knee: its flexion hinge.
         hip_body, ankle_body: the thigh's and the foot's body ids.
         hip_joints, hip_dofs, hip_acts: the hip hinges' MuJoCo joints, dofs, actuators.
@@ -248,6 +250,7 @@ class SimbiconLeg:
     """
 
     side: str
+    joints: LegJoints
     hip: dict[str, Hinge]
     knee: Hinge
     ankle: dict[str, Hinge]
@@ -308,7 +311,7 @@ def map_leg(body: RestBody, side: str) -> SimbiconLeg:
         leg_hinges += list(body.hinges(j.toe).values())
     support = [*A.values(), kh]
     return SimbiconLeg(
-        side=side, hip=H, knee=kh, ankle=A, hip_body=j.thigh, ankle_body=j.foot,
+        side=side, joints=j, hip=H, knee=kh, ankle=A, hip_body=j.thigh, ankle_body=j.foot,
         hip_joints=np.array([h.jnt for h in H.values()]),
         hip_dofs=np.array([h.dof for h in H.values()]),
         hip_acts=np.array([h.act for h in H.values()]),
@@ -323,3 +326,148 @@ def map_leg(body: RestBody, side: str) -> SimbiconLeg:
         leg_mass=ch.dynamics.subtree_mass(j.thigh),
         support_joints=np.array([h.jnt for h in support]),
         support_acts=np.array([h.act for h in support]))
+
+
+@dataclass(eq=False)
+class UpperBody:
+    """What SIMBICON holds beyond the legs' hips, knees and ankles (:func:`map_upper_body`).
+
+    Attributes:
+        base: ``(nu,)`` base PD target (rad) per actuator: the arms lowered from a T-pose, the
+            elbows flexed, a tilted knee's twist undone at hip and ankle; 0 elsewhere.
+        group: ``(nu,)`` gain group per actuator (``hip``, ``knee``, ``ankle``, ``spine``,
+            ``head``, ``toe``, ``arm``, ``other``): the gait's gains by group.
+        spine_pitch: ``(actuator, sign)`` of the spine's pitch hinges (anatomical forward lean =
+            sign x hinge +): their targets follow the gait in use.
+        arm_swing: per side, ``(actuator, sign)`` of the shoulder's swing hinge (the lowered arm
+            forward = sign x hinge +).
+    """
+
+    base: np.ndarray
+    group: np.ndarray
+    spine_pitch: list[tuple[int, float]]
+    arm_swing: dict[str, tuple[int, float]]
+
+
+def map_upper_body(body: RestBody, legs: list[SimbiconLeg], shoulder_down: float,
+                   elbow_flexion: float) -> UpperBody:
+    """The :class:`UpperBody` of ``body`` walking on ``legs`` (:func:`map_leg`), its arms
+    lowered by ``shoulder_down`` rad from a T-pose and its elbows flexed by ``elbow_flexion``
+    rad (a gait's)."""
+    ch, nu = body.ch, body.ch.nu
+    ub = UpperBody(np.zeros(nu), np.array(["other"] * nu, dtype=object), [], {})
+    group = ub.group
+    for leg in legs:
+        for h in leg.hip.values():
+            group[h.act] = "hip"
+        group[leg.knee.act] = "knee"
+        for h in leg.ankle.values():
+            group[h.act] = "ankle"
+    for j in ch.roles("spine"):
+        hs = body.hinges(j)
+        for h in hs.values():
+            group[h.act] = "spine"
+        if "y" in hs:
+            ub.spine_pitch.append((hs["y"].act, hinge_sign(body.axis(hs["y"]), body.up,
+                                                           body.fwd, j)))
+    head = ch.role("head", required=False)
+    if head:
+        for h in body.hinges(head).values():
+            group[h.act] = "head"
+    for leg in legs:
+        if leg.joints.toe:
+            for h in body.hinges(leg.joints.toe).values():
+                group[h.act] = "toe"
+        for part in ("clavicle", "shoulder", "elbow", "wrist"):
+            j = ch.role(f"{leg.side}_{part}", required=False)
+            if j:
+                for h in body.hinges(j).values():
+                    group[h.act] = "arm"
+        _map_arm(body, leg.side, shoulder_down, elbow_flexion, ub)
+    for leg in legs:
+        # the foot turned back by what the hip turns the thigh (see SimbiconLeg.knee_yaw)
+        if leg.knee_yaw and "z" in leg.ankle and "z" in leg.hip:
+            hz = leg.ankle["z"]
+            ub.base[hz.act] = leg.knee_yaw * hinge_sign(body.axis(hz), body.fwd, body.left,
+                                                        leg.joints.ankle)
+            ub.base[leg.hip["z"].act] = -leg.knee_yaw * leg.twist_sign
+    return ub
+
+
+def _map_arm(body: RestBody, side: str, shoulder_down: float, elbow_flexion: float,
+             ub: UpperBody) -> None:
+    """The ``side`` arm's base targets and swing hinge into ``ub`` (:func:`map_upper_body`):
+    the shoulder lowers the arm from the T-pose, the elbow flexes, each less what the rest
+    pose already does; an arm without shoulder and elbow roles is left as it is."""
+    ch, fwd, left, up = body.ch, body.fwd, body.left, body.up
+    sh = ch.role(f"{side}_shoulder", required=False)
+    el = ch.role(f"{side}_elbow", required=False)
+    if not (sh and el):
+        return
+    hs = body.hinges(sh)
+    arm = body.position(el) - body.position(sh)
+    if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
+        # less what the rest pose already lowers it (an A-pose rig's arm hangs
+        # part of the way down at rest; a T-pose's drop is 0)
+        drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
+        ub.base[hs["x"].act] = (shoulder_down - drop) * hinge_sign(
+            body.axis(hs["x"]), arm, -up, sh, needed=False)
+    if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
+        s_y = hinge_sign(body.axis(hs["y"]), -up, fwd, sh, needed=False)
+        ub.arm_swing[side] = (hs["y"].act, s_y)
+        # the swing is about the arm hanging in the coronal plane: a rest arm
+        # that points forward or back is brought back to it first
+        ahead = rest_angle(float(arm @ fwd) / float(np.linalg.norm(arm)))
+        if ahead:
+            ub.base[hs["y"].act] = -ahead * s_y
+    wr = ch.role(f"{side}_wrist", required=False)
+    he = body.hinges(el)
+    if wr and he:
+        h = next(iter(he.values()))
+        fore = body.position(wr) - body.position(el)
+        # flexion brings the forearm forward once the arm hangs down
+        s_e = hinge_sign(body.axis(h), fore, fwd, el, needed=False)
+        # less the rest pose's own flexion (a rig whose elbow is bent at rest)
+        ax = body.axis(h)
+        bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
+        ub.base[h.act] = (elbow_flexion - rest_angle(math.sin(bent))) * s_e
+
+
+# -- the actuators and the pelvis ------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Actuators:
+    """SIMBICON's actuators, one hinge actuator per dof: ``act_dof`` and ``act_qpos``
+    ``(nu,)`` (each actuator's dof and qpos address), ``dof2act`` ``(nv,)`` (each dof's
+    actuator, -1 for none: the root's)."""
+
+    act_dof: np.ndarray
+    act_qpos: np.ndarray
+    dof2act: np.ndarray
+
+
+def map_actuators(ch: Character) -> Actuators:
+    """The :class:`Actuators` of ``ch``; a :class:`SimbiconModelError` naming the joint of an
+    actuator that is not one hinge's."""
+    if not np.all(ch.actuator_qpos >= 0):
+        a = int(np.flatnonzero(ch.actuator_qpos < 0)[0])
+        j = mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_JOINT,
+                              int(ch.model.actuator_trnid[a, 0]))
+        raise SimbiconModelError(
+            f"{j}: SIMBICON needs one hinge actuator per dof and this joint's actuator is "
+            f"not one: {HINGE_FIX}")
+    act_dof = ch.actuator_dof.copy()
+    dof2act = np.full(ch.nv, -1)
+    dof2act[act_dof] = np.arange(ch.nu)
+    return Actuators(act_dof, ch.actuator_qpos.copy(), dof2act)
+
+
+def child_hinges(ch: Character, parent: int, skip: set[int]) -> list[np.ndarray]:
+    """Hinge dofs of each body attached to body ``parent`` (id) but those in ``skip`` (ids):
+    one ``(k,)`` array per body, in dof order (on the pelvis with the thighs skipped: the
+    spine's hinges, whose torques react on the pelvis; both walkers' stance hip takes them)."""
+    by_body: dict[int, list[int]] = {}
+    for dof in np.flatnonzero(ch.hinge_dofs):
+        b = int(ch.dof_body[dof])
+        if ch.body_parent[b] == parent and b not in skip:
+            by_body.setdefault(b, []).append(int(dof))
+    return [np.array(dofs) for dofs in by_body.values()]

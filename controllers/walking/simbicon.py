@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 
 from ..core.base import Action, ControllerError
@@ -49,13 +48,13 @@ from .frames import (
 )
 from .gaits import BUNDLED_LEG_LENGTH, GAITS, GRAVITY, Gait, GaitError, gait_tunables, get_gait
 from .rig_map import (
-    HINGE_FIX,
     SimbiconLeg,
-    SimbiconModelError,
-    hinge_sign,
+    SimbiconModelError,  # noqa: F401  (public: the error reset raises; walking imports it here)
+    child_hinges,
     knee_angle,
+    map_actuators,
     map_leg,
-    rest_angle,
+    map_upper_body,
     rest_body,
 )
 
@@ -211,121 +210,32 @@ class Simbicon:
             self._targets = [self._state_targets(s) for s in range(4)]
 
     def _map(self, ch: Character) -> None:
-        """Read the body at rest: an actuator per dof, the legs' hinges and signs
-        (:meth:`_map_leg`), the upper body's base targets and gain groups
-        (:meth:`_map_upper_body`), the gains (:meth:`_set_gains`) and the pelvis's other
-        children, whose torques react on it."""
-        if not np.all(ch.actuator_qpos >= 0):
-            a = int(np.flatnonzero(ch.actuator_qpos < 0)[0])
-            j = mujoco.mj_id2name(ch.model, mujoco.mjtObj.mjOBJ_JOINT,
-                                  int(ch.model.actuator_trnid[a, 0]))
-            raise SimbiconModelError(
-                f"{j}: SIMBICON needs one hinge actuator per dof and this joint's actuator is "
-                f"not one: {HINGE_FIX}")
-        self._act_dof = ch.actuator_dof.copy()
-        self._act_qpos = ch.actuator_qpos.copy()
+        """Read the body at rest (:mod:`~mjchar.controllers.walking.rig_map`): an actuator per
+        dof, the legs' hinges and signs (:func:`~mjchar.controllers.walking.rig_map.map_leg`),
+        the upper body's base targets and gain groups
+        (:func:`~mjchar.controllers.walking.rig_map.map_upper_body`), the gains
+        (:meth:`_set_gains`) and the pelvis's other children, whose torques react on it."""
+        acts = map_actuators(ch)
+        self._act_dof, self._act_qpos = acts.act_dof, acts.act_qpos
         # the same as slices when contiguous (a view to read per step, not a gathered copy)
         self._act_dof_sel = _selector(self._act_dof)
         self._act_qpos_sel = _selector(self._act_qpos)
-        self._dof2act = np.full(ch.nv, -1)
-        self._dof2act[self._act_dof] = np.arange(ch.nu)
         self.gait = self._body_gait(ch)
         self._pelvis = ch.body_id(ch.role("pelvis"))
         # the body at rest: hinge axes and body positions with every joint at zero
-        self._body = rest_body(ch, self._pelvis, self._dof2act)
-        self._legs = [map_leg(self._body, side) for side in _SIDES]
+        body = rest_body(ch, self._pelvis, acts.dof2act)
+        self._legs = [map_leg(body, side) for side in _SIDES]
         self._jac = np.zeros((3, ch.nv))
-        base, group = self._map_upper_body(ch)
-        self._set_gains(ch, group)
-        self._base = base
+        upper = map_upper_body(body, self._legs, self.gait.shoulder_down, self.gait.elbow_flexion)
+        self._set_gains(ch, upper.group)
+        self._base, self._spine_pitch, self._arm_swing = (upper.base, upper.spine_pitch,
+                                                          upper.arm_swing)
         # hinges (other than the hips') of bodies attached to the pelvis: their torques react on
         # it; per body, (MuJoCo joints, actuators)
         hip_bodies = {leg.hip_body for leg in self._legs}
-        by_body: dict[int, list[int]] = {}
-        for dof in np.flatnonzero(ch.hinge_dofs):
-            b = int(ch.dof_body[dof])
-            if ch.body_parent[b] == self._pelvis and b not in hip_bodies:
-                by_body.setdefault(b, []).append(int(dof))
-        self._pelvis_children = [(ch.dof_joint[dofs], self._dof2act[dofs])
-                                 for dofs in map(np.array, by_body.values())]
+        self._pelvis_children = [(ch.dof_joint[dofs], acts.dof2act[dofs])
+                                 for dofs in child_hinges(ch, self._pelvis, hip_bodies)]
         self._targets = [self._state_targets(s) for s in range(4)]
-
-    def _map_upper_body(self, ch: Character) -> tuple[np.ndarray, np.ndarray]:
-        """``(base, group)`` per actuator: the base PD target (arms lowered from a T-pose,
-        elbows flexed, a tilted knee's twist undone at hip and ankle) and the gain group; the
-        spine's pitch hinges and the shoulders' swing hinges with their signs."""
-        g, body = self.gait, self._body
-        rest, pos, fwd, left, up = body.kin, body.position, body.fwd, body.left, body.up
-        self._arm_swing: dict[str, tuple[int, float]] = {}
-        base = np.zeros(ch.nu)
-        group = np.array(["other"] * ch.nu, dtype=object)
-        for leg in self._legs:
-            for h in leg.hip.values():
-                group[h.act] = "hip"
-            group[leg.knee.act] = "knee"
-            for h in leg.ankle.values():
-                group[h.act] = "ankle"
-        # (actuator, sign) of the spine's pitch hinges: their targets follow the gait in use
-        self._spine_pitch: list[tuple[int, float]] = []
-        for j in ch.roles("spine"):
-            hs = body.hinges(j)
-            for h in hs.values():
-                group[h.act] = "spine"
-            if "y" in hs:
-                self._spine_pitch.append(
-                    (hs["y"].act, hinge_sign(rest.joint_axes[hs["y"].jnt], up, fwd, j)))
-        head = ch.role("head", required=False)
-        if head:
-            for h in body.hinges(head).values():
-                group[h.act] = "head"
-        for side in _SIDES:
-            toe = ch.role(f"{side}_toe", required=False)
-            if toe:
-                for h in body.hinges(toe).values():
-                    group[h.act] = "toe"
-            for part in ("clavicle", "shoulder", "elbow", "wrist"):
-                j = ch.role(f"{side}_{part}", required=False)
-                if j:
-                    for h in body.hinges(j).values():
-                        group[h.act] = "arm"
-            sh = ch.role(f"{side}_shoulder", required=False)
-            el = ch.role(f"{side}_elbow", required=False)
-            if sh and el:
-                hs = body.hinges(sh)
-                arm = pos(el) - pos(sh)
-                if "x" in hs:  # lowering the arm from the T-pose: rotation about forward
-                    # less what the rest pose already lowers it (an A-pose rig's arm hangs
-                    # part of the way down at rest; a T-pose's drop is 0)
-                    drop = math.atan2(-float(arm @ up), abs(float(arm @ left)))
-                    base[hs["x"].act] = (g.shoulder_down - drop) * hinge_sign(
-                        rest.joint_axes[hs["x"].jnt], arm, -up, sh, needed=False)
-                if "y" in hs:  # swinging the lowered arm forward: rotation about lateral
-                    s_y = hinge_sign(rest.joint_axes[hs["y"].jnt], -up, fwd, sh, needed=False)
-                    self._arm_swing[side] = (hs["y"].act, s_y)
-                    # the swing is about the arm hanging in the coronal plane: a rest arm
-                    # that points forward or back is brought back to it first
-                    ahead = rest_angle(float(arm @ fwd) / float(np.linalg.norm(arm)))
-                    if ahead:
-                        base[hs["y"].act] = -ahead * s_y
-                wr = ch.role(f"{side}_wrist", required=False)
-                he = body.hinges(el)
-                if wr and he:
-                    h = next(iter(he.values()))
-                    fore = pos(wr) - pos(el)
-                    # flexion brings the forearm forward once the arm hangs down
-                    s_e = hinge_sign(rest.joint_axes[h.jnt], fore, fwd, el, needed=False)
-                    # less the rest pose's own flexion (a rig whose elbow is bent at rest)
-                    ax = rest.joint_axes[h.jnt]
-                    bent = s_e * math.atan2(float(np.cross(arm, fore) @ ax), float(arm @ fore))
-                    base[h.act] = (g.elbow_flexion - rest_angle(math.sin(bent))) * s_e
-        for leg in self._legs:
-            # the foot turned back by what the hip turns the thigh (see "knee_yaw")
-            if leg.knee_yaw and "z" in leg.ankle and "z" in leg.hip:
-                hz = leg.ankle["z"]
-                base[hz.act] = leg.knee_yaw * hinge_sign(rest.joint_axes[hz.jnt], fwd, left,
-                                                            ch.role(f"{leg.side}_ankle"))
-                base[leg.hip["z"].act] = -leg.knee_yaw * leg.twist_sign
-        return base, group
 
     def _set_gains(self, ch: Character, group: np.ndarray) -> None:
         """The joint-space gains per actuator (the model's defaults, the gait's per group) and
