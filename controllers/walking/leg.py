@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.character import Character, Kinematics
 from .ipm_params import IPMError
+from .rig_map import leg_joints
 from .swing import frame_from_axes, rotation_about
 
 
@@ -50,7 +51,11 @@ def inverse3(A: np.ndarray) -> np.ndarray:
 
 
 class Leg:
-    """Indices and rest geometry of one leg (hip, knee, ankle, toe) of a Character.
+    """Indices and rest geometry of one leg (hip, knee, ankle, toe) of a Character as IPM
+    drives it: the joints, bodies and dofs the walkers share
+    (:func:`~mjchar.controllers.walking.rig_map.leg_joints`, ``joints``; here also as
+    ``hip_name`` .. ``toe_name``, ``hip`` .. ``toe`` and ``thigh``, ``shank``, ``foot``),
+    checked for IPM's hinges, with the sole site and the bones' geometry.
 
     ``rest``: the kinematics of the character's rest pose
     (``ch.poses.kinematics(ch.poses.rest())``; computed when ``None``).
@@ -58,14 +63,12 @@ class Leg:
 
     def __init__(self, ch: Character, side: str, rest: Kinematics | None = None):
         self.side = side
-        self.hip_name = ch.role(f"{side}_hip")
-        self.knee_name = ch.role(f"{side}_knee")
-        self.ankle_name = ch.role(f"{side}_ankle")
-        self.toe_name = ch.role(f"{side}_toe", required=False)
-        self.hip = ch.joint_dofs(self.hip_name)
-        self.knee = ch.joint_dofs(self.knee_name)
-        self.ankle = ch.joint_dofs(self.ankle_name)
-        self.toe = ch.joint_dofs(self.toe_name) if self.toe_name else np.zeros(0, int)
+        # the leg's joints by role, their bodies and dofs: what SIMBICON's leg map reads too
+        self.joints = j = leg_joints(ch, side)
+        self.hip_name, self.knee_name, self.ankle_name, self.toe_name = (j.hip, j.knee, j.ankle,
+                                                                         j.toe)
+        self.hip, self.knee, self.ankle, self.toe = (j.hip_dofs, j.knee_dofs, j.ankle_dofs,
+                                                     j.toe_dofs)
         self.leg = np.concatenate([self.hip, self.knee, self.ankle])
         self.all = np.concatenate([self.leg, self.toe])
         for role, name, dofs, n in (("hip", self.hip_name, self.hip, 3),
@@ -78,15 +81,13 @@ class Leg:
                 raise IPMError(f"IPM needs {want} at the {side} {role} (joint "
                                f"{name} {kind}): convert with --joint-model hinge "
                                "(joint_model='hinge')")
-        self.thigh = ch.body_id(self.hip_name)
-        self.shank = ch.body_id(self.knee_name)
-        self.foot = ch.body_id(self.ankle_name)
+        self.thigh, self.shank, self.foot = j.thigh, j.shank, j.foot
         # the bodies named as the ankle and toe joints: those whose floor contacts hold the foot
         # (its yaw moment, ipm_torques.yaw_capacity)
         ids = (mujoco.mj_name2id(ch.model, mujoco.mjtObj.mjOBJ_BODY, n)
                for n in (self.ankle_name, self.toe_name) if n)
         self.sole_bodies = tuple(b for b in ids if b >= 0)
-        self.site = ch.site_id(f"{side}_foot")
+        self.site = j.site(ch)
         site_body, self.site_offset = ch.poses.site_offset(self.site)  # in the foot frame
         if site_body != self.foot:
             raise IPMError(f"site {side}_foot is not on the {side} ankle body")

@@ -171,12 +171,10 @@ def leg_joints(ch: Character, side: str) -> LegJoints:
     """The :class:`LegJoints` of the ``side`` (``"left"`` or ``"right"``) leg of ``ch``."""
     hip, knee, ankle = (ch.role(f"{side}_{p}") for p in ("hip", "knee", "ankle"))
     toe = ch.role(f"{side}_toe", required=False)
-    return LegJoints(
-        side=side, hip=hip, knee=knee, ankle=ankle, toe=toe,
-        thigh=ch.body_id(hip), shank=ch.body_id(knee), foot=ch.body_id(ankle),
-        hip_dofs=ch.joint_dofs(hip), knee_dofs=ch.joint_dofs(knee),
-        ankle_dofs=ch.joint_dofs(ankle),
-        toe_dofs=ch.joint_dofs(toe) if toe else np.zeros(0, int))
+    dofs = [ch.joint_dofs(n) for n in (hip, knee, ankle)]  # (an unknown joint raises here)
+    toe_dofs = ch.joint_dofs(toe) if toe else np.zeros(0, int)
+    return LegJoints(side, hip, knee, ankle, toe, ch.body_id(hip), ch.body_id(knee),
+                     ch.body_id(ankle), *dofs, toe_dofs)
 
 
 # -- SIMBICON's map of a body at rest --------------------------------------------------------
