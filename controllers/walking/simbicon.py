@@ -338,8 +338,10 @@ class Simbicon:
     # -- control --------------------------------------------------------------------------------
     def torques(self, character: Character, t: float) -> np.ndarray:
         """``(nu,)`` actuator torques (N m) for this control step (advances the FSM first): local
-        PD on every joint, the swing hip in the world frame with balance feedback, the torso
-        through the stance hip, the virtual forces and the swing foot in the world frame."""
+        PD on every joint (the upper body's own control; the legs' base), the stance foot's and
+        the swing sole's own terms, the torso in the world frame, the swing hip in the world frame
+        with balance feedback, the torso through the stance hip, the virtual forces and the swing
+        foot in the world frame."""
         if not self._ready:
             raise ControllerError("simbicon: act() called before reset()")
         self._advance(character, t)
@@ -350,32 +352,110 @@ class Simbicon:
         com, com_vel = s.com(), s.com_velocity()  # (read once per step)
         si = self._stance_leg(self.state)
         st, sw = self._legs[si], self._legs[1 - si]
-        tau = self._joint_pd(character, st, sw, q, qd)
+        tau = self._joint_pd(q, qd)
+        self._stance_ankle(st, q, qd, tau)
+        self._swing_sole_level(character, sw, tau)
         Rp = s.body_rotations[self._pelvis]
         heading = heading_yaw(Rp)
         H = rot_z(heading)
+        tau_torso = self._torso(character, Rp)
         tau_sw = self._swing_hip(character, st, sw, H, heading, com, com_vel, q, qd, tau)
-        self._stance_hip(character, st, Rp, tau_sw, q, qd, tau)
+        self._stance_hip(character, st, tau_torso, tau_sw, q, qd, tau)
         if g.stance_support or g.velocity_force or g.velocity_force_coronal:
             tau[st.support_acts] += self._virtual_force(character, st, H, com, com_vel)
         if g.swing_ankle_world:
             self._swing_foot(character, sw, tau)
         return np.minimum(np.maximum(tau, self._neg_limits), self._limits)
 
-    def _joint_pd(self, character: Character, st: SimbiconLeg, sw: SimbiconLeg, q: np.ndarray,
-                  qd: np.ndarray) -> np.ndarray:
-        """``(nu,)`` local PD towards the state's pose on every joint, the stance ankle's roll
-        and twist with their own gains, the swing sole levelled in the world in a swing state."""
-        s = character.state
-        tau = self._kp * (self._targets[self.state] - q) - self._kd * qd
+    def act(self, character: Character, t: float) -> Action:
+        """The :class:`~mjchar.controllers.core.base.Action` for simulated time ``t``: joint torques
+        only (the root rows are zero: no hand of god)."""
+        full = np.zeros(character.nv)
+        full[self._act_dof_sel] = self.torques(character, t)
+        return Action(torque=full)
+
+    # -- upper body -----------------------------------------------------------------------------
+    def _joint_pd(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """``(nu,)`` local PD towards the state's pose (:meth:`_state_targets`) on every joint:
+        the whole control of the spine, head and arms (the arms swinging against the legs), and
+        the legs' base that the stance and swing terms then overwrite."""
+        return self._kp * (self._targets[self.state] - q) - self._kd * qd
+
+    def _torso(self, character: Character, Rp: np.ndarray) -> np.ndarray:
+        """``(3,)`` world torque that drives the torso (pelvis, rotation ``Rp``) towards the
+        desired heading and the gait's forward lean: ``kp log(R_d R^T) - kd omega``; the stance
+        hip applies it (:meth:`_stance_hip`)."""
+        Rpd = self._world_target("torso", self.desired_heading, self.gait.torso_pitch)
+        return (self._torso_kp * log(Rpd @ Rp.T)
+                - self._torso_kd * character.state.body_angular_velocities[self._pelvis])
+
+    # -- stance leg -----------------------------------------------------------------------------
+    def _stance_ankle(self, st: SimbiconLeg, q: np.ndarray, qd: np.ndarray,
+                      tau: np.ndarray) -> None:
+        """The stance ankle's roll and twist hinges in ``tau`` with their own gains, if the gait
+        has them (the swing ankle keeps ``ankle``'s)."""
         for axis, (kpa, kda) in self._stance_ankle_gains.items():
             h = st.ankle.get(axis)
             if h is not None:
                 a = h.act
                 tau[a] = kpa * (self._targets[self.state][a] - q[a]) - kda * qd[a]
+
+    def _stance_hip(self, character: Character, st: SimbiconLeg, tau_torso: np.ndarray,
+                    tau_sw: np.ndarray, q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> None:
+        """The torso's world torque ``tau_torso`` (:meth:`_torso`) through the stance hip:
+        whatever makes the net torque of the joints on the pelvis the torso's (SIMBICON's rule,
+        less the swing hip's ``tau_sw`` and the spine's clamped torques in ``tau``); its twist a
+        local PD towards the desired heading."""
+        s = character.state
+        g = self.gait
+        react = np.zeros(3)
+        for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
+            clamped = np.minimum(np.maximum(tau[a], lo), hi)
+            tau[a] = clamped
+            react += world_torque(s.joint_axes[js], clamped)
+        tau_st = -tau_torso - tau_sw - react
+        acts = st.hip_acts
+        if "z" in st.hip:
+            # Its vertical part turns the pelvis only as far as the stance foot's friction holds
+            # (and spins a lightly loaded leg), so the heading is a local PD on the hip twist
+            # towards the twist that points the pelvis at the desired heading.
+            tau_st[2] = 0.0
+            hz = st.hip["z"]
+            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
+            thigh_yaw = heading_yaw(s.body_rotations[st.hip_body])
+            err = math.remainder(thigh_yaw + st.knee_yaw - self.desired_heading, 2 * math.pi)
+            want = st.twist_sign * (min(max(err, -g.max_twist), g.max_twist) - st.knee_yaw)
+            tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
+        else:
+            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
+
+    def _virtual_force(self, character: Character, st: SimbiconLeg, H: np.ndarray,
+                       com: np.ndarray | None = None, com_vel: np.ndarray | None = None
+                       ) -> np.ndarray:
+        """Torques of the stance ankle and knee that put a virtual force on the centre of mass
+        with the stance foot fixed (``tau_j = -a_j . ((c - x_j) x F)``): a share of the weight
+        (``stance_support``) and Coros 2010's velocity tuning (``velocity_force``)."""
+        g, s = self.gait, character.state
+        weight = self._mass * GRAVITY
+        unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
+        v = s.com_velocity() if com_vel is None else com_vel
+        lat = -st.out[1] * H[:, 1]
+        F = np.array([0.0, 0.0, g.stance_support * weight])
+        if g.velocity_force and g.speed_target is not None:
+            F += g.velocity_force * weight * (g.speed_target - v @ H[:, 0]) / unit * H[:, 0]
+        if g.velocity_force_coronal:
+            F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
+        js = st.support_joints
+        r = (s.com() if com is None else com) - s.joint_anchors[js]
+        return -np.einsum("ij,ij->i", s.joint_axes[js], cross_rows(r, F))
+
+    # -- swing leg ------------------------------------------------------------------------------
+    def _swing_sole_level(self, character: Character, sw: SimbiconLeg, tau: np.ndarray) -> None:
+        """In a swing state, with the gait's ``swing_ankle_level`` gains: the swing foot's roll
+        in ``tau`` levels its sole in the world (its left axis horizontal), so the heel lands on
+        its whole width rather than on one corner."""
         if self._swing_level_gains and self.state % 2 == 1 and "x" in sw.ankle:
-            # swing state: the swing foot's roll levels its sole in the world (its left axis
-            # horizontal), so the heel lands on its whole width rather than on one corner
+            s = character.state
             kpl, kdl = self._swing_level_gains
             f, lat = (s.body_rotations[sw.ankle_body] @ sw.foot_axes).T
             f = f / np.linalg.norm(f)
@@ -383,7 +463,6 @@ class Simbicon:
             tau_l = (-kpl * lat[2] / np.linalg.norm(lat) - kdl * w) * f
             h = sw.ankle["x"]
             tau[h.act] = s.joint_axes[h.jnt] @ tau_l
-        return tau
 
     def _swing_hip(self, character: Character, st: SimbiconLeg, sw: SimbiconLeg, H: np.ndarray,
                    heading: float, com: np.ndarray, com_vel: np.ndarray, q: np.ndarray,
@@ -425,36 +504,18 @@ class Simbicon:
         tau[acts] = clamped
         return world_torque(axes_sw, clamped)
 
-    def _stance_hip(self, character: Character, st: SimbiconLeg, Rp: np.ndarray, tau_sw: np.ndarray,
-                    q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> None:
-        """The torso (pelvis) towards the desired heading and forward lean in the world frame,
-        through the stance hip: whatever makes the net torque of the joints on the pelvis the
-        torso's (SIMBICON's rule); its twist a local PD towards the desired heading."""
+    def _feedback_terms(
+        self, character: Character, st: SimbiconLeg, H: np.ndarray,
+        com: np.ndarray | None = None, com_vel: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The balance feedback's ``(d, v)``, each ``(2,)`` (sagittal, coronal) in the heading
+        frame ``H``: the centre of mass's offset from the stance ankle (m) and its velocity
+        (m/s); coronal: towards the swing leg's side."""
         s = character.state
-        g = self.gait
-        Rpd = self._world_target("torso", self.desired_heading, g.torso_pitch)
-        tau_torso = (self._torso_kp * log(Rpd @ Rp.T)
-                     - self._torso_kd * s.body_angular_velocities[self._pelvis])
-        react = np.zeros(3)
-        for (js, a), (lo, hi) in zip(self._pelvis_children, self._pelvis_limits, strict=True):
-            clamped = np.minimum(np.maximum(tau[a], lo), hi)
-            tau[a] = clamped
-            react += world_torque(s.joint_axes[js], clamped)
-        tau_st = -tau_torso - tau_sw - react
-        acts = st.hip_acts
-        if "z" in st.hip:
-            # Its vertical part turns the pelvis only as far as the stance foot's friction holds
-            # (and spins a lightly loaded leg), so the heading is a local PD on the hip twist
-            # towards the twist that points the pelvis at the desired heading.
-            tau_st[2] = 0.0
-            hz = st.hip["z"]
-            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
-            thigh_yaw = heading_yaw(s.body_rotations[st.hip_body])
-            err = math.remainder(thigh_yaw + st.knee_yaw - self.desired_heading, 2 * math.pi)
-            want = st.twist_sign * (min(max(err, -g.max_twist), g.max_twist) - st.knee_yaw)
-            tau[hz.act] = self._twist_kp * (want - q[hz.act]) - self._twist_kd * qd[hz.act]
-        else:
-            tau[acts] = s.joint_axes[st.hip_joints] @ tau_st
+        fwd, lat = H[:, 0], -st.out[1] * H[:, 1]  # lateral: towards the swing leg's side
+        off = (s.com() if com is None else com) - s.body_positions[st.ankle_body]
+        v = s.com_velocity() if com_vel is None else com_vel
+        return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
 
     def _swing_foot(self, character: Character, sw: SimbiconLeg, tau: np.ndarray) -> None:
         """The swing foot pitched by ``swing_ankle`` (toes up) in the desired-heading frame,
@@ -468,6 +529,7 @@ class Simbicon:
         tau_f = kpa * log(Rfd @ Rf.T) - kda * s.body_angular_velocities[sw.ankle_body]
         tau[sw.ankle_acts] = s.joint_axes[sw.ankle_joints] @ tau_f
 
+    # -- world-frame targets --------------------------------------------------------------------
     def _world_target(self, key: str, yaw: float, pitch: float) -> np.ndarray:
         """``(3, 3)`` ``R_z(yaw) R_y(pitch)``: a world target orientation (torso, swing foot),
         kept while its angles stay the same (they change at a new heading or gait)."""
@@ -477,43 +539,6 @@ class Simbicon:
             hit = (yaw, pitch, rot_z(yaw) @ rot_y(pitch))
             cache[key] = hit
         return hit[2]
-
-    def _virtual_force(self, character: Character, st: SimbiconLeg, H: np.ndarray,
-                       com: np.ndarray | None = None, com_vel: np.ndarray | None = None
-                       ) -> np.ndarray:
-        """Torques of the stance ankle and knee that put a virtual force on the centre of mass
-        with the stance foot fixed (``tau_j = -a_j . ((c - x_j) x F)``): a share of the weight
-        (``stance_support``) and Coros 2010's velocity tuning (``velocity_force``)."""
-        g, s = self.gait, character.state
-        weight = self._mass * GRAVITY
-        unit = math.sqrt(GRAVITY * self.leg_length)  # m/s per Froude unit
-        v = s.com_velocity() if com_vel is None else com_vel
-        lat = -st.out[1] * H[:, 1]
-        F = np.array([0.0, 0.0, g.stance_support * weight])
-        if g.velocity_force and g.speed_target is not None:
-            F += g.velocity_force * weight * (g.speed_target - v @ H[:, 0]) / unit * H[:, 0]
-        if g.velocity_force_coronal:
-            F -= g.velocity_force_coronal * weight * (v @ lat) / unit * lat
-        js = st.support_joints
-        r = (s.com() if com is None else com) - s.joint_anchors[js]
-        return -np.einsum("ij,ij->i", s.joint_axes[js], cross_rows(r, F))
-
-    def _feedback_terms(
-        self, character: Character, st: SimbiconLeg, H: np.ndarray,
-        com: np.ndarray | None = None, com_vel: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        s = character.state
-        fwd, lat = H[:, 0], -st.out[1] * H[:, 1]  # lateral: towards the swing leg's side
-        off = (s.com() if com is None else com) - s.body_positions[st.ankle_body]
-        v = s.com_velocity() if com_vel is None else com_vel
-        return (np.array([off @ fwd, off @ lat]), np.array([v @ fwd, v @ lat]))
-
-    def act(self, character: Character, t: float) -> Action:
-        """The :class:`~mjchar.controllers.core.base.Action` for simulated time ``t``: joint torques
-        only (the root rows are zero: no hand of god)."""
-        full = np.zeros(character.nv)
-        full[self._act_dof_sel] = self.torques(character, t)
-        return Action(torque=full)
 
     # -- start states --------------------------------------------------------------------------
     def start_state(
