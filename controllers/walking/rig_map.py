@@ -1,9 +1,27 @@
-"""What SIMBICON reads from a model's hinges at rest: the error it raises when a body lacks
-what the walk needs, a joint's hinges keyed by their rest axes, which way a hinge turns a limb,
-the knee's flexion hinge and its yaw, and a rest pose's offset angles
-(:mod:`mjchar.controllers.walking.simbicon` uses them when it maps a body at reset:
-``Simbicon._map``, ``_map_leg``, ``_map_upper_body``, ``_set_gains``). This module grows into
-the one map of a rig the walkers read."""
+"""A rig read at rest for the walkers: the one place SIMBICON
+(:mod:`mjchar.controllers.walking.simbicon`) and IPM (:mod:`mjchar.controllers.walking.ipm`)
+learn which joints, bodies, dofs and hinges of a Character they drive, so their controllers hold
+only control.
+
+- Both walkers: :func:`leg_joints` (a leg's hip, knee, ankle and toe joints by role, their
+  bodies and dofs, its sole site: :class:`LegJoints`; IPM's
+  :class:`~mjchar.controllers.walking.leg.Leg` builds its IPM-specific geometry on it) and
+  :func:`child_hinges` (the hinges on the pelvis other than the hips': the spine, whose torques
+  the stance hip answers).
+- SIMBICON's map, read at reset from the rest pose (:class:`RestBody`): one hinge actuator per
+  dof (:func:`map_actuators`); each leg's hinges keyed by their rest axes, bodies, actuators
+  and the signs measured at rest (:func:`map_leg`, :class:`SimbiconLeg`); the upper body's base
+  targets, gain groups, spine-pitch and arm-swing hinges (:func:`map_upper_body`,
+  :class:`UpperBody`); and the hinge algebra they use: a joint's hinges keyed by rest axis,
+  which way a hinge turns a limb, the knee's flexion hinge and its yaw, a rest pose's offset
+  angles, and the error (:class:`SimbiconModelError`) naming the joint that lacks what the walk
+  needs.
+
+One module rather than a leg module and a SIMBICON one: every function here answers the same
+question (what does this rig's rest pose say a walker drives?) from the same inputs (the
+Character and its rest-pose kinematics), and the hinge helpers exist only for the maps. It grew
+from the module of SIMBICON's hinge helpers, whose readers were the maps that now live beside
+them."""
 
 from __future__ import annotations
 
