@@ -21,3 +21,9 @@ COMMANDS = {
     "learn": "learn a tracking policy from the MPC (DAgger; needs the rl extra)",
     "bench": "benchmark every controller in every scenario; table, JSON, plots",
 }
+
+
+def command_parser(sub, name: str, description: str | None = None):
+    """The subcommand ``name``'s parser in ``mjchar``'s subparsers ``sub``, with its line of
+    help from :data:`COMMANDS` (what every module's ``register`` starts with)."""
+    return sub.add_parser(name, help=COMMANDS[name], description=description)

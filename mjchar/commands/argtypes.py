@@ -25,6 +25,11 @@ def non_negative(what: str):
     return _number(what, lambda v: v >= 0, "zero or positive")
 
 
+def fraction(what: str):
+    """A parser of numbers from 0 to 1."""
+    return _number(what, lambda v: 0 <= v <= 1, "in [0, 1]")
+
+
 def integer(what: str, minimum: int = 0):
     """A parser of whole numbers >= ``minimum``."""
     def parse(text: str) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .argtypes import integer
 
 
@@ -17,8 +17,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     from ..bench.matrix import bench_specs, matrix
 
     controllers = tuple(matrix())
-    p = sub.add_parser(
-        "bench", help=COMMANDS["bench"],
+    p = command_parser(
+        sub, "bench",
         description="Run the controllers (rows) in the scenarios that make sense for them, print "
                     "a table (survival, push survival per direction, distance, speed, tracking "
                     "error, root force, step cost over mj_step) and write results.json, "

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .argtypes import integer, non_negative
 
 
@@ -14,8 +14,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``calibrate`` subcommand to ``mjchar``'s subparsers."""
     from mjchar.controllers.walking.calibration import BUDGET_S, CHECK_DURATION, WALKERS
 
-    p = sub.add_parser(
-        "calibrate", help=COMMANDS["calibrate"],
+    p = command_parser(
+        sub, "calibrate",
         description="Fit the walkers' body-dependent parameters to a converted body: the "
                     "defaults are checked on short walks at three speeds; a body that passes "
                     "keeps them, one that fails gets a CMA-ES search (at most --budget seconds "

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .dropped import dropped_lines
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "convert", help=COMMANDS["convert"],
+    p = command_parser(
+        sub, "convert",
         description="Convert a BVH skeleton into a MuJoCo humanoid (MJCF). Units and the up axis "
                     "are detected unless given; fingers and end markers are dropped and "
                     "zero-length helper joints fused by default (see docs/converter.md).")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .argtypes import integer, non_negative, number, positive
 
 
@@ -15,8 +15,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers.core.limits import MAX_DURATION_S
 
     walkers = registry.names("walker")
-    p = sub.add_parser(
-        "gait", help=COMMANDS["gait"],
+    p = command_parser(
+        sub, "gait",
         description="Measure speed, cadence, step length and width, stance and double support, "
                     "trunk lean, pelvis rotation, knee and hip flexion, foot clearance, stance "
                     "slip and COM excursion of a simulated walk or a BVH clip (see "

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .dropped import dropped_lines
 
 #: the order roles are listed in
@@ -14,8 +14,7 @@ ROLE_ORDER = ("pelvis", "spine", "neck", "head") + tuple(
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "info", help=COMMANDS["info"])
+    p = command_parser(sub, "info")
     p.add_argument("file", help="BVH file")
     p.add_argument("--unit", help="file unit, as for mjchar convert (default: guessed)")
     p.add_argument("--up", choices=["x", "y", "z", "-x", "-y", "-z"],

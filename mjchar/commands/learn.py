@@ -5,26 +5,13 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
-from .argtypes import integer, positive
-
-
-def _fraction(name: str):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not 0.0 <= v <= 1.0:
-            raise argparse.ArgumentTypeError(f"{name} must be in [0, 1], got {text!r}")
-        return v
-
-    return parse
+from . import command_parser
+from .argtypes import fraction, integer, positive
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "learn", help=COMMANDS["learn"],
+    p = command_parser(
+        sub, "learn",
         description="Distil the closed-loop sampling MPC into a network that tracks the clip "
                     "faster than real time: roll out the learner mixed with the MPC, with action "
                     "noise, perturbed starts and pushes; label the visited states with the MPC; "
@@ -62,12 +49,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    metavar="S", help="simulated seconds per DAgger episode (default 4)")
     p.add_argument("--episodes", type=integer("episodes", 1), metavar="N",
                    help="episodes per iteration (default: one per worker)")
-    p.add_argument("--noise", type=_fraction("noise"), default=0.1, metavar="SD",
+    p.add_argument("--noise", type=fraction("noise"), default=0.1, metavar="SD",
                    help="DART action noise, in scaled action units (default 0.1)")
     p.add_argument("--future-steps", type=integer("future steps", 0), default=1, metavar="K",
                    help="reference poses 1..K control steps ahead in the observation "
                         "(default 1)")
-    p.add_argument("--rl-share", type=_fraction("rl share"), default=0.5, metavar="F",
+    p.add_argument("--rl-share", type=fraction("rl share"), default=0.5, metavar="F",
                    help="share of the budget spent fine-tuning the distilled network with PPO "
                         "after DAgger (default 0.5; 0: DAgger only; needs stable-baselines3)")
     p.add_argument("--resume", action="store_true",

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -14,8 +14,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     from mjchar.controllers import registry
 
     with_params = [s.name for s in registry.specs() if s.tunables is not None]
-    p = sub.add_parser(
-        "params", help=COMMANDS["params"],
+    p = command_parser(
+        sub, "params",
         description="List every tunable of a controller that mjchar run takes as --param "
                     "NAME=VALUE: its type, unit, accepted range, default and meaning. "
                     f"Controllers with tunables: {', '.join(with_params)}. Ranges of "

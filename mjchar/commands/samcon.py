@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from . import COMMANDS
+from . import command_parser
 from .argtypes import add_floor_argument, integer, non_negative, positive
 
 
@@ -35,6 +35,12 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     from mjchar.controllers.sampling.executors import add_executor_arguments as add
 
     add(p)
+
+
+def add_output_argument(p: argparse.ArgumentParser) -> None:
+    """``-o/--output OUTPUT``: the trajectory file an optimiser's command writes."""
+    p.add_argument("-o", "--output", required=True, metavar="OUTPUT",
+                   help="trajectory file to write (.npz)")
 
 
 def add_optimiser_arguments(p: argparse.ArgumentParser, statistics: str) -> None:
@@ -88,14 +94,13 @@ def check_output(args: argparse.Namespace) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "samcon", help=COMMANDS["samcon"],
+    p = command_parser(
+        sub, "samcon",
         description="SAMCON (Liu et al. 2010/2015): sample PD-target offsets slice by slice, "
                     "simulate them in batches, keep the best states and save the lowest-cost "
                     "path as a trajectory file that `mjchar run replay FILE` plays back.")
     p.add_argument("motion", metavar="MOTION.bvh", help="the clip to reconstruct")
-    p.add_argument("-o", "--output", required=True, metavar="OUTPUT",
-                   help="trajectory file to write (.npz)")
+    add_output_argument(p)
     p.add_argument("--model", metavar="FILE.xml", help="converted model (default: bundled)")
     p.add_argument("--samples", type=integer("samples", 1), default=1000, metavar="N",
                    help="samples per slice (default 1000)")

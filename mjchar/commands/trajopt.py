@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import argparse
 
-from . import COMMANDS
+from . import command_parser
 from .argtypes import integer, non_negative, positive
 from .samcon import (
     add_optimiser_arguments,
+    add_output_argument,
     check_output,
     load_reference,
     set_given,
@@ -22,15 +23,14 @@ TASKS = ("track", "jump")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "trajopt", help=COMMANDS["trajopt"],
+    p = command_parser(
+        sub, "trajopt",
         description="Optimise PD-target offsets at spline knots with CMA-ES over overlapping "
                     "windows (each generation simulated as one batch) and save the trajectory "
                     "for `mjchar run replay FILE`. Give a clip to track it, or --task jump.")
     p.add_argument("motion", nargs="?", metavar="MOTION.bvh",
                    help="clip to track (not with --task jump)")
-    p.add_argument("-o", "--output", required=True, metavar="OUTPUT",
-                   help="trajectory file to write (.npz)")
+    add_output_argument(p)
     p.add_argument("--task", choices=TASKS, default=None,
                    help="track (default with a motion) or jump (no motion)")
     p.add_argument("--model", metavar="FILE.xml", help="converted model (default: bundled)")
