@@ -112,25 +112,29 @@ def _text(text: str) -> Callable[[], str]:
 
 _CLIP = _text("runs with a reference clip: track, and walk for the trackers (not walkers, "
               "replays)")
+
+
+def _keeps_own(step: str) -> Callable[[], str]:
+    """Where an option that a trajectory brings itself applies (its ``step``: time, control)."""
+    return _text(f"every run but push-search and replays (a trajectory keeps its own {step} step)")
+
+
+def _one_run(verb: str = "") -> Callable[[], str]:
+    """Where an option about one run's picture applies (``verb``: how to get it for one push)."""
+    hint = f": {verb} one with --scenario push" if verb else ""
+    return _text(f"every scenario but push-search (hundreds of runs{hint})")
+
+
 #: the run's own options (neither a controller's nor a scenario's)
 RUN_OPTIONS: tuple[CliOption, ...] = (
     CliOption("motion", "--motion", _follows_clip, _CLIP),
     CliOption("loop", "--loop", _follows_clip, _CLIP),
     CliOption("floor", "--floor", _follows_clip, _CLIP),
-    CliOption("timestep", "--timestep", _not_protocol_or_replay,
-              _text("every run but push-search and replays (a trajectory keeps its own time "
-                    "step)")),
-    CliOption("control_dt", "--control-dt", _not_protocol_or_replay,
-              _text("every run but push-search and replays (a trajectory keeps its own control "
-                    "step)")),
-    CliOption("render", "--render", _not_protocol,
-              _text("every scenario but push-search (hundreds of runs: film one with "
-                    "--scenario push)")),
-    CliOption("view", "--view", _not_protocol,
-              _text("every scenario but push-search (hundreds of runs: watch one with "
-                    "--scenario push)")),
-    CliOption("export_bvh", "--export-bvh", _not_protocol,
-              _text("every scenario but push-search (hundreds of runs)")),
+    CliOption("timestep", "--timestep", _not_protocol_or_replay, _keeps_own("time")),
+    CliOption("control_dt", "--control-dt", _not_protocol_or_replay, _keeps_own("control")),
+    CliOption("render", "--render", _not_protocol, _one_run("film")),
+    CliOption("view", "--view", _not_protocol, _one_run("watch")),
+    CliOption("export_bvh", "--export-bvh", _not_protocol, _one_run()),
 )
 #: options that only refine another one: (dest, needs, flag of needs)
 REFINES = (("fps", "render", "--render"), ("export_fps", "export_bvh", "--export-bvh"))
