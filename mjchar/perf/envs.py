@@ -32,7 +32,7 @@ import mujoco
 import numpy as np
 
 from .errors import PerfUnavailable, positive_int
-from .report import DOCS, entry_parser, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, markdown_table, spread, write_block
 from .timing import PhysicsClock, Timing, timed
 
 __all__ = ["ENV_IDS", "random_actions", "random_env_steps", "visited_states", "bare_step_time",
@@ -405,70 +405,58 @@ def table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of docs/envs.md from ``env_throughput(..., bare=True)``."""
     import gymnasium as gym
 
-    lines = [
-        f"Measured by `{command}` on {machine_line(Gymnasium=gym.__version__)}"
-        f"; random actions drawn before the timed loop, {res['steps']} env steps per round, "
-        f"median of {res['repeats']} interleaved rounds, one process; shares on the process CPU "
-        f"clock (spread: smallest and largest round).",
-        "",
-        "| env | obs / act | nv | physics dt | physics steps per env step | env steps/s | "
-        "physics steps/s | time in mj_step | spread | bare-equivalent share | "
-        "episodes per round |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for eid, r in res["envs"].items():
-        lines.append(
-            f"| {eid} | {r['obs_dim']} / {r['act_dim']} | {r['nv']} | "
-            f"{r['timestep_s'] * 1000:.2f} ms | {r['physics_steps_per_env_step']} | "
-            f"{r['env_steps_per_s']:.0f} | {r['physics_steps_per_s']:.0f} | "
-            f"{r['time_in_mj_step']:.0%} | {min(r['times_in_mj_step']):.0%}-"
-            f"{max(r['times_in_mj_step']):.0%} | {r['physics_share']:.0%} | "
-            f"{r['episodes_per_round']} |")
+    intro = (f"Measured by `{command}` on {machine_line(Gymnasium=gym.__version__)}"
+             f"; random actions drawn before the timed loop, {res['steps']} env steps per round, "
+             f"median of {res['repeats']} interleaved rounds, one process; shares on the process "
+             f"CPU clock (spread: smallest and largest round).")
+    header = ("env", "obs / act", "nv", "physics dt", "physics steps per env step", "env steps/s",
+              "physics steps/s", "time in mj_step", "spread", "bare-equivalent share",
+              "episodes per round")
+    rows = [(eid, f"{r['obs_dim']} / {r['act_dim']}", r["nv"], f"{r['timestep_s'] * 1000:.2f} ms",
+             r["physics_steps_per_env_step"], f"{r['env_steps_per_s']:.0f}",
+             f"{r['physics_steps_per_s']:.0f}", f"{r['time_in_mj_step']:.0%}",
+             spread(r["times_in_mj_step"], ".0%"), f"{r['physics_share']:.0%}",
+             r["episodes_per_round"]) for eid, r in res["envs"].items()]
     first, ref = res["envs"][ENV_IDS[0]], res["envs"][res["reference"]]
     ratio = res["ratios"][ENV_IDS[0]]
-    lines += ["", f"{ENV_IDS[0].split('/')[-1]} / {res['reference']}: "
+    ratios = (f"{ENV_IDS[0].split('/')[-1]} / {res['reference']}: "
               f"{ratio['physics_steps']:.2f}x the physics steps per second, "
               f"{ratio['env_steps']:.2f}x the env steps per second (it simulates "
               f"{first['physics_steps_per_env_step']} steps per action against "
-              f"{ref['physics_steps_per_env_step']})."]
-    return "\n".join(lines)
+              f"{ref['physics_steps_per_env_step']}).")
+    return "\n".join([intro, "", markdown_table(header, rows), "", ratios])
 
 
 def vector_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of :func:`vector_throughput`."""
     n = res["num_envs"]
-    lines = [f"Measured by `{command}` on {machine_line()}; random actions, "
+    intro = (f"Measured by `{command}` on {machine_line()}; random actions, "
              f"{res['steps']} env steps per case and round, median of {res['repeats']} "
-             f"interleaved rounds (wall clock; spread: slowest and fastest round).", "",
-             f"| env | env steps/s, one process | spread | env steps/s, AsyncVectorEnv x {n} "
-             f"(shared memory, {res['cores']} cores) | spread | speed-up |",
-             "|---|---|---|---|---|---|"]
-    for eid, r in res["envs"].items():
-        lines.append(f"| {eid} | {r['single_steps_per_s']:.0f} | "
-                     f"{min(r['single_rounds']):.0f}-{max(r['single_rounds']):.0f} | "
-                     f"{r['vector_steps_per_s']:.0f} | {min(r['vector_rounds']):.0f}-"
-                     f"{max(r['vector_rounds']):.0f} | {r['speedup']:.2f} |")
-    return "\n".join(lines)
+             f"interleaved rounds (wall clock; spread: slowest and fastest round).")
+    header = ("env", "env steps/s, one process", "spread",
+              f"env steps/s, AsyncVectorEnv x {n} (shared memory, {res['cores']} cores)",
+              "spread", "speed-up")
+    rows = [(eid, f"{r['single_steps_per_s']:.0f}", spread(r["single_rounds"], ".0f"),
+             f"{r['vector_steps_per_s']:.0f}", spread(r["vector_rounds"], ".0f"),
+             f"{r['speedup']:.2f}") for eid, r in res["envs"].items()]
+    return f"{intro}\n\n{markdown_table(header, rows)}"
 
 
 def threaded_table(res: dict, command: str = "python -m mjchar.perf.envs") -> str:
     """The Markdown table of :func:`threaded_throughput`."""
-    lines = [f"Measured by `{command}` on {machine_line()}; {res['env']}, random actions, "
+    intro = (f"Measured by `{command}` on {machine_line()}; {res['env']}, random actions, "
              f"{res['steps']} env steps per case and round, median of {res['repeats']} "
              f"interleaved rounds (wall clock; spread: slowest and fastest round); speed-up over "
              f"one env in one process in the same rounds: "
-             f"{res['single_steps_per_s']:.0f} env steps/s ({min(res['single_rounds']):.0f}-"
-             f"{max(res['single_rounds']):.0f}).", "",
-             "| sub-envs N | threads | env steps/s | spread | speed-up over one env | "
-             "bare mj_step in as many threads (ceiling) | cores busy | "
-             "CPU per env step over one env's |",
-             "|---|---|---|---|---|---|---|---|"]
-    for c in res["cases"]:
-        lines.append(f"| {c['num_envs']} | {c['num_threads']} | {c['steps_per_s']:.0f} | "
-                     f"{min(c['rounds']):.0f}-{max(c['rounds']):.0f} | {c['speedup']:.2f} | "
-                     f"{c['physics_ceiling']:.2f} | {c['cores_busy']:.2f} | "
-                     f"{c['cpu_per_step_vs_one']:.2f} |")
-    return "\n".join(lines)
+             f"{res['single_steps_per_s']:.0f} env steps/s "
+             f"({spread(res['single_rounds'], '.0f')}).")
+    header = ("sub-envs N", "threads", "env steps/s", "spread", "speed-up over one env",
+              "bare mj_step in as many threads (ceiling)", "cores busy",
+              "CPU per env step over one env's")
+    rows = [(c["num_envs"], c["num_threads"], f"{c['steps_per_s']:.0f}", spread(c["rounds"], ".0f"),
+             f"{c['speedup']:.2f}", f"{c['physics_ceiling']:.2f}", f"{c['cores_busy']:.2f}",
+             f"{c['cpu_per_step_vs_one']:.2f}") for c in res["cases"]]
+    return f"{intro}\n\n{markdown_table(header, rows)}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,6 @@
 """What the measurement entry points share besides timing: where the project's docs and the
-shared clips are, a line describing the machine, and writing a table into a marked block of a
-docs page.
+shared clips are, a line describing the machine, Markdown tables and writing a table into a
+marked block of a docs page.
 
 A docs page holds each generated table between two HTML comments, ``<!-- perf:NAME -->`` and
 ``<!-- /perf:NAME -->`` (:func:`write_block`); an entry point run with ``--write`` rewrites only
@@ -16,13 +16,14 @@ import os
 import platform
 import re
 import time
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from .errors import PerfError
 from .timing import load_average
 
-__all__ = ["ROOT", "DOCS", "SHARED_BVH", "machine_line", "write_block", "write_json",
-           "shared_clip", "entry_parser"]
+__all__ = ["ROOT", "DOCS", "SHARED_BVH", "machine_line", "markdown_table", "spread",
+           "write_block", "write_json", "shared_clip", "entry_parser"]
 
 #: the project root of a source checkout (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,6 +62,21 @@ def machine_line(**versions: str) -> str:
         parts.append(f"load average {load:.2f}")
     parts.append(time.strftime("%Y-%m-%d"))
     return ", ".join(parts)
+
+
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
+    """A Markdown table: a line of the column names ``header``, the separator line and a line
+    per row of ``rows`` (its cells as text)."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def spread(values: Iterable[float], spec: str) -> str:
+    """``"smallest-largest"`` of ``values``, each formatted by ``spec`` (``".0f"``): the spread
+    column of a measured table."""
+    values = list(values)
+    return f"{min(values):{spec}}-{max(values):{spec}}"
 
 
 def write_block(page: str | os.PathLike, name: str, body: str) -> Path:

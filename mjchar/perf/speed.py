@@ -31,7 +31,7 @@ from collections.abc import Callable, Sequence
 
 from .errors import PerfUnavailable
 from .physics import run_cost
-from .report import DOCS, entry_parser, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, markdown_table, spread, write_block
 
 __all__ = ["MPC_DURATION", "controller_run_costs", "controllers_table", "main"]
 
@@ -63,17 +63,16 @@ def controller_run_costs(names: Sequence[str] | None = None, *, repeats: int = 3
 
 def controllers_table(costs: dict, repeats: int) -> str:
     """Markdown table of :func:`controller_run_costs`."""
-    lines = [f"Measured by `python -m mjchar.perf.speed --only controllers` on {machine_line()}; "
+    intro = (f"Measured by `python -m mjchar.perf.speed --only controllers` on {machine_line()}; "
              f"process CPU time, median of {repeats} timed runs each interleaved with bare "
-             f"`mj_step` from the states the run visited (spread: smallest and largest ratio).",
-             "", "| controller | scenario | physics dt | control dt | steps | cost / mj_step "
-             "| spread | us per step | mj_step us |", "|---|---|---|---|---|---|---|---|---|"]
-    for name, c in costs.items():
-        lines.append(f"| {name} | {c['scenario']} | {c['timestep_s'] * 1000:g} ms | "
-                     f"{c['control_dt_s'] * 1000:.3g} ms | {c['steps']} | {c['ratio']:.2f} | "
-                     f"{min(c['ratios']):.2f}-{max(c['ratios']):.2f} | {c['run_us']:.1f} | "
-                     f"{c['bare_us']:.1f} |")
-    return "\n".join(lines)
+             f"`mj_step` from the states the run visited (spread: smallest and largest ratio).")
+    header = ("controller", "scenario", "physics dt", "control dt", "steps", "cost / mj_step",
+              "spread", "us per step", "mj_step us")
+    rows = [(name, c["scenario"], f"{c['timestep_s'] * 1000:g} ms",
+             f"{c['control_dt_s'] * 1000:.3g} ms", c["steps"], f"{c['ratio']:.2f}",
+             spread(c["ratios"], ".2f"), f"{c['run_us']:.1f}", f"{c['bare_us']:.1f}")
+            for name, c in costs.items()]
+    return f"{intro}\n\n{markdown_table(header, rows)}"
 
 
 def main(argv: list[str] | None = None) -> int:
