@@ -8,7 +8,7 @@ import pytest
 
 from mjchar import bvh
 from mjchar.bvh.bundled.humanoid_skeleton import humanoid_rest_motion, humanoid_skeleton
-from mjchar.bvh.bundled.zoo import CONVENTIONS, _names, rename
+from mjchar.bvh.bundled.zoo import _UPLEG_LIMB, CONVENTIONS, _names, rename
 from mjchar.bvh.io.skeleton import Skeleton
 from mjchar.bvh.mjcf import ConversionError, ModelInfo, convert
 from mjchar.bvh.mjcf.roles import load_roles
@@ -31,21 +31,13 @@ REAL_CONVENTIONS = {
     "xsens-bvh": _names(("Hips", "Chest", "Chest4", "Head"),
                         ("{s}Hip", "{s}Knee", "{s}Ankle", "{s}Toe", "{s}Collar",
                          "{s}Shoulder", "{s}Elbow", "{s}Wrist"), "Left", "Right"),
-    "neuron": _names(("Hips", "Spine", "Spine3", "Head"),
-                     ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
-                      "{s}Arm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
+    "neuron": _names(("Hips", "Spine", "Spine3", "Head"), _UPLEG_LIMB, "Left", "Right"),
     "asf": _names(("root", "lowerback", "thorax", "head"),
                   ("{s}femur", "{s}tibia", "{s}foot", "{s}toes", "{s}clavicle",
                    "{s}humerus", "{s}radius", "{s}wrist"), "l", "r"),
-    "mixamo7": _names(tuple(f"mixamorig7:{n}" for n in ("Hips", "Spine", "Spine2", "Head")),
-                      tuple("mixamorig7:" + p for p in (
-                          "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder",
-                          "{s}Arm", "{s}ForeArm", "{s}Hand")), "Left", "Right"),
-    "armature": _names(tuple(f"Armature|{n}" for n in ("Hips", "Spine", "Chest", "Head")),
-                       tuple("Armature|" + p for p in (
-                           "UpperLeg_{s}", "LowerLeg_{s}", "Foot_{s}", "Toes_{s}",
-                           "Shoulder_{s}", "UpperArm_{s}", "LowerArm_{s}", "Hand_{s}")),
-                       "L", "R"),
+    "mixamo7": _names(("Hips", "Spine", "Spine2", "Head"), _UPLEG_LIMB, "Left", "Right",
+                      prefix="mixamorig7:"),
+    "armature": {g: f"Armature|{n}" for g, n in CONVENTIONS["gamestudio"].items()},
 }
 
 

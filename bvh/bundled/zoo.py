@@ -40,25 +40,28 @@ _G = ("RootJoint", "pelvis_lowerback", "lowerback_torso", "torso_head")
 _LIMB = ("Hip", "Knee", "Ankle", "ToeJoint", "Torso_Clavicle", "Shoulder", "Elbow", "Wrist")
 
 
-def _names(trunk: tuple[str, str, str, str], limb, left: str, right: str) -> dict[str, str]:
-    """GAMES-105 name -> convention name; ``limb`` has 8 patterns with ``{s}`` for the side."""
+#: the limb names of Mixamo, CMU and Perception Neuron exports (``_names``'s ``limb``)
+_UPLEG_LIMB = ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder", "{s}Arm",
+               "{s}ForeArm", "{s}Hand")
+
+
+def _names(trunk: tuple[str, str, str, str], limb, left: str, right: str,
+           prefix: str = "") -> dict[str, str]:
+    """GAMES-105 name -> convention name; ``limb`` has 8 patterns with ``{s}`` for the side;
+    every name after ``prefix`` (an exporter's namespace, ``mixamorig:``)."""
     out = dict(zip(_G, trunk, strict=True))
     for g, pat in zip(_LIMB, limb, strict=True):
         out[f"l{g}"] = pat.format(s=left)
         out[f"r{g}"] = pat.format(s=right)
-    return out
+    return {g: prefix + n for g, n in out.items()}
 
 
 #: naming conventions: GAMES-105 joint name -> the convention's name
 CONVENTIONS: dict[str, dict[str, str]] = {
     "games": {n: n for n in _G} | {f"{s}{g}": f"{s}{g}" for s in "lr" for g in _LIMB},
-    "cmu": _names(("Hips", "LowerBack", "Spine1", "Head"),
-                  ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder", "{s}Arm",
-                   "{s}ForeArm", "{s}Hand"), "Left", "Right"),
-    "mixamo": _names(("mixamorig:Hips", "mixamorig:Spine", "mixamorig:Spine1", "mixamorig:Head"),
-                     tuple("mixamorig:" + p for p in (
-                         "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder", "{s}Arm",
-                         "{s}ForeArm", "{s}Hand")), "Left", "Right"),
+    "cmu": _names(("Hips", "LowerBack", "Spine1", "Head"), _UPLEG_LIMB, "Left", "Right"),
+    "mixamo": _names(("Hips", "Spine", "Spine1", "Head"), _UPLEG_LIMB, "Left", "Right",
+                     prefix="mixamorig:"),
     "lafan1": _names(("Hips", "Spine", "Spine1", "Head"),
                      ("{s}UpLeg", "{s}Leg", "{s}Foot", "{s}Toe", "{s}Shoulder", "{s}Arm",
                       "{s}ForeArm", "{s}Hand"), "Left", "Right"),
@@ -77,11 +80,8 @@ CONVENTIONS: dict[str, dict[str, str]] = {
     "daz": _names(("hip", "abdomen", "chest", "head"),
                   ("{s}Thigh", "{s}Shin", "{s}Foot", "{s}Toe", "{s}Collar", "{s}Shldr",
                    "{s}ForeArm", "{s}Hand"), "l", "r"),
-    "mixamo7": _names(("mixamorig7:Hips", "mixamorig7:Spine", "mixamorig7:Spine1",
-                       "mixamorig7:Head"),
-                      tuple("mixamorig7:" + p for p in (
-                          "{s}UpLeg", "{s}Leg", "{s}Foot", "{s}ToeBase", "{s}Shoulder", "{s}Arm",
-                          "{s}ForeArm", "{s}Hand")), "Left", "Right"),
+    "mixamo7": _names(("Hips", "Spine", "Spine1", "Head"), _UPLEG_LIMB, "Left", "Right",
+                      prefix="mixamorig7:"),
     "xsens": _names(("Pelvis", "L5", "T8", "Head"),
                     ("{s}UpperLeg", "{s}LowerLeg", "{s}Foot", "{s}Toe", "{s}Shoulder",
                      "{s}UpperArm", "{s}ForeArm", "{s}Hand"), "Left", "Right"),
