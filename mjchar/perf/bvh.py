@@ -35,7 +35,7 @@ import numpy as np
 from mjchar import bvh
 
 from .errors import PerfError, PerfUnavailable, positive_int
-from .report import DOCS, SHARED_BVH, entry_parser, machine_line, write_block
+from .report import SHARED_BVH, entry_parser, machine_line, publish
 from .timing import rounds, timed
 
 __all__ = ["SHARED_CLIPS", "bvh_parse_speed", "long_cmu_style_motion", "bvhio_fk",
@@ -219,9 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(compare_file(big, f"CMU-style, bundled walk repeated "
                                       f"({big.stat().st_size / 1e6:.1f} MB)", args.quick, log))
     text = table(rows)
-    print(text)
-    if args.write:
-        log(f"[bvh] table written to {write_block(DOCS / 'bvh.md', 'bvh', text)}")
+    publish(text, "bvh.md", "bvh", args.write, said="[bvh] table written to")
     return 0
 
 

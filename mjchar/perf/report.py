@@ -15,6 +15,7 @@ import math
 import os
 import platform
 import re
+import sys
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -23,7 +24,7 @@ from .errors import PerfError
 from .timing import load_average
 
 __all__ = ["ROOT", "DOCS", "SHARED_BVH", "machine_line", "markdown_table", "spread",
-           "write_block", "write_json", "shared_clip", "entry_parser"]
+           "write_block", "publish", "write_json", "shared_clip", "entry_parser"]
 
 #: the project root of a source checkout (holds ``docs/`` and, beside it, ``../shared``)
 ROOT = Path(__file__).resolve().parents[2]
@@ -99,6 +100,15 @@ def write_block(page: str | os.PathLike, name: str, body: str) -> Path:
     tmp.write_text(text)
     os.replace(tmp, path)
     return path
+
+
+def publish(text: str, page: str, name: str, write: bool, said: str = "updated") -> None:
+    """Print the table ``text``; with ``write`` (an entry point's ``--write``) also put it in
+    the block ``name`` of the docs page ``DOCS / page`` (:func:`write_block`) and say so on
+    stderr: ``said`` and the page's path."""
+    print(text)
+    if write:
+        print(f"{said} {write_block(DOCS / page, name, text)}", file=sys.stderr, flush=True)
 
 
 def _plain(v):

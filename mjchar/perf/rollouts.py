@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import positive_int
 from .physics import hold_ctrl
-from .report import DOCS, entry_parser, machine_line, write_block
+from .report import entry_parser, machine_line, publish
 from .timing import rounds
 
 __all__ = ["python_rollout_loop", "compare_cases", "rollout_throughput", "main"]
@@ -192,9 +192,7 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"| {r['case']} | {rate:,.0f} | {rate / k:,.0f} | "
                      f"{r['speedup_vs_python_loop']:.2f}x | {cpu_cols[0]} | {cpu_cols[1]} |")
     table = "\n".join(lines)
-    print(table)
-    if args.write:
-        print(f"\nwrote {write_block(DOCS / 'rollouts.md', 'rollouts', table)}", file=sys.stderr)
+    publish(table, "rollouts.md", "rollouts", args.write, said="\nwrote")
     return 0
 
 

@@ -47,7 +47,7 @@ from mjchar.controllers.sampling.trajopt import (
     trajectory_cost,
 )
 
-from .report import DOCS, entry_parser, machine_line, write_block, write_json
+from .report import entry_parser, machine_line, publish, write_json
 from .report import shared_clip as clip
 from .timing import load_average, rounds, timed
 
@@ -295,9 +295,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(results["jump"], indent=1), flush=True)
     write_json(results_path, results)
     text = table(results)
-    print(text)
-    if args.write:
-        print(f"updated {write_block(DOCS / 'sampling.md', 'samcon', text)}", file=sys.stderr)
+    publish(text, "sampling.md", "samcon", args.write)
     return 0
 
 
