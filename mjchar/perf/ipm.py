@@ -38,6 +38,8 @@ from .physics import step_cost
 from .report import entry_parser, write_json
 
 SECTIONS = ("walk", "stop", "turn", "push", "cost")
+#: the commanded speeds (m/s) of the walk, stop and turn sections: a row each
+SPEEDS = (0.5, 1.0)
 DIRECTIONS = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
 
 
@@ -74,57 +76,50 @@ def mean_speed(times, com, t0: float) -> float:
     return float(np.linalg.norm(com[-1] - com[i]) / (times[-1] - times[i]))
 
 
-def bench_walk(duration: float) -> list[dict]:
-    out = []
-    for speed in (0.5, 1.0):
-        r, ctrl, times, com, _ = run(duration, speed=speed)
-        steps = np.diff(ctrl.step_switches[1:]) if len(ctrl.step_switches) > 2 else np.zeros(1)
-        row = {"speed_cmd": speed, "duration_s": duration, "fell": r.fell,
-               "fall_time_s": r.fall_time_s, "mean_speed": mean_speed(times, com, 0.0),
-               "mean_speed_after_5s": mean_speed(times, com, 5.0), "steps": ctrl.steps,
-               "mean_step_time_s": float(steps.mean()), "root_force_max_N": r.root_force_max_N,
-               "wall_s": r.wall_s, "steps_per_s": r.steps_per_s}
-        row["speed_error"] = abs(row["mean_speed"] - speed)
-        row["speed_error_after_5s"] = abs(row["mean_speed_after_5s"] - speed)
-        out.append(row)
-        log(f"walk {speed} m/s, {duration:g} s: {outcome(r)}, mean speed "
-            f"{row['mean_speed']:.3f} (after 5 s {row['mean_speed_after_5s']:.3f}),"
-            f" error {row['speed_error']:.3f} / {row['speed_error_after_5s']:.3f} m/s, "
-            f"{ctrl.steps} steps of {row['mean_step_time_s']:.3f} s, root force max "
-            f"{r.root_force_max_N:.1f} N, {r.wall_s:.0f} s wall")
-    return out
+def walk_at(speed: float, duration: float) -> dict:
+    """The ``walk`` section's row at the commanded ``speed``: ``duration`` s from standing."""
+    r, ctrl, times, com, _ = run(duration, speed=speed)
+    steps = np.diff(ctrl.step_switches[1:]) if len(ctrl.step_switches) > 2 else np.zeros(1)
+    row = {"speed_cmd": speed, "duration_s": duration, "fell": r.fell,
+           "fall_time_s": r.fall_time_s, "mean_speed": mean_speed(times, com, 0.0),
+           "mean_speed_after_5s": mean_speed(times, com, 5.0), "steps": ctrl.steps,
+           "mean_step_time_s": float(steps.mean()), "root_force_max_N": r.root_force_max_N,
+           "wall_s": r.wall_s, "steps_per_s": r.steps_per_s}
+    row["speed_error"] = abs(row["mean_speed"] - speed)
+    row["speed_error_after_5s"] = abs(row["mean_speed_after_5s"] - speed)
+    log(f"walk {speed} m/s, {duration:g} s: {outcome(r)}, mean speed "
+        f"{row['mean_speed']:.3f} (after 5 s {row['mean_speed_after_5s']:.3f}),"
+        f" error {row['speed_error']:.3f} / {row['speed_error_after_5s']:.3f} m/s, "
+        f"{ctrl.steps} steps of {row['mean_step_time_s']:.3f} s, root force max "
+        f"{r.root_force_max_N:.1f} N, {r.wall_s:.0f} s wall")
+    return row
 
 
-def bench_stop() -> list[dict]:
-    out = []
-    for speed in (0.5, 1.0):
-        r, ctrl, times, com, _ = run(14.0, speed=lambda t, s=speed: s if t < 6.0 else 0.0)
-        stood = [t for t in ctrl.stand_switches if t > 6.0]
-        final = mean_speed(times, com, 13.0)
-        row = {"speed_cmd": speed, "fell": r.fell, "mode_at_end": ctrl.mode,
-               "stood_at_s": stood[0] if stood else None, "stand_switches": len(stood),
-               "final_speed": final}
-        out.append(row)
-        log(f"stop from {speed} m/s at 6 s: {'FELL' if r.fell else 'ok'}, stands at "
-            f"{row['stood_at_s']}, mode at 14 s {ctrl.mode}, speed over the last second "
-            f"{final:.3f} m/s")
-    return out
+def stop_from(speed: float) -> dict:
+    """The ``stop`` section's row: 6 s at the commanded ``speed``, then a zero command."""
+    r, ctrl, times, com, _ = run(14.0, speed=lambda t: speed if t < 6.0 else 0.0)
+    stood = [t for t in ctrl.stand_switches if t > 6.0]
+    final = mean_speed(times, com, 13.0)
+    row = {"speed_cmd": speed, "fell": r.fell, "mode_at_end": ctrl.mode,
+           "stood_at_s": stood[0] if stood else None, "stand_switches": len(stood),
+           "final_speed": final}
+    log(f"stop from {speed} m/s at 6 s: {'FELL' if r.fell else 'ok'}, stands at "
+        f"{row['stood_at_s']}, mode at 14 s {ctrl.mode}, speed over the last second "
+        f"{final:.3f} m/s")
+    return row
 
 
-def bench_turn() -> list[dict]:
-    out = []
-    for speed in (0.5, 1.0):
-        r, _, times, com, yaw = run(15.0, speed=speed,
-                                    heading=lambda t: 0.0 if t < 3.0 else 90.0)
-        err = np.abs(np.degrees(yaw) - 90.0)
-        within = np.flatnonzero((times > 3.0) & (err < 5.0))
-        row = {"speed_cmd": speed, "fell": r.fell, "final_heading_deg": float(np.degrees(yaw[-1])),
-               "time_to_5deg_s": float(times[within[0]] - 3.0) if len(within) else None}
-        out.append(row)
-        log(f"turn 90 deg at {speed} m/s: {outcome(r)}, "
-            f"final heading {row['final_heading_deg']:.1f} deg, within 5 deg after "
-            f"{row['time_to_5deg_s']} s")
-    return out
+def turn_at(speed: float) -> dict:
+    """The ``turn`` section's row at the commanded ``speed``: heading 90 degrees away at 3 s."""
+    r, _, times, com, yaw = run(15.0, speed=speed, heading=lambda t: 0.0 if t < 3.0 else 90.0)
+    err = np.abs(np.degrees(yaw) - 90.0)
+    within = np.flatnonzero((times > 3.0) & (err < 5.0))
+    row = {"speed_cmd": speed, "fell": r.fell, "final_heading_deg": float(np.degrees(yaw[-1])),
+           "time_to_5deg_s": float(times[within[0]] - 3.0) if len(within) else None}
+    log(f"turn 90 deg at {speed} m/s: {outcome(r)}, "
+        f"final heading {row['final_heading_deg']:.1f} deg, within 5 deg after "
+        f"{row['time_to_5deg_s']} s")
+    return row
 
 
 def bench_push(forces, times_) -> dict:
@@ -174,11 +169,11 @@ def main(argv=None) -> int:
     sections = args.sections or list(SECTIONS)
     results: dict = {}
     if "walk" in sections:
-        results["walk"] = bench_walk(20.0 if args.quick else 60.0)
+        results["walk"] = [walk_at(v, 20.0 if args.quick else 60.0) for v in SPEEDS]
     if "stop" in sections:
-        results["stop"] = bench_stop()
+        results["stop"] = [stop_from(v) for v in SPEEDS]
     if "turn" in sections:
-        results["turn"] = bench_turn()
+        results["turn"] = [turn_at(v) for v in SPEEDS]
     if "push" in sections:
         forces = (150.0, 200.0) if args.quick else (150.0, 200.0, 250.0, 300.0)
         results["push"] = bench_push(forces, (1.0,) if args.quick else (1.0, 1.3))
