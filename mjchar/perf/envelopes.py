@@ -35,7 +35,7 @@ from mjchar.bench.config import SHARED_BVH
 from mjchar.controllers.core.scenarios.shared import DIRECTIONS
 from mjchar.controllers.core.workers import process_pool
 
-from .report import write_json
+from .report import markdown_table, write_json
 
 SHARED_REAL = SHARED_BVH.parent / "real"
 WALKERS = ("simbicon", "ipm")
@@ -175,8 +175,7 @@ def bar_run(job: tuple) -> dict:
 def bar_table(rows: list[dict]) -> str:
     """Markdown: per body, the bar's runs (:data:`BAR`): the time stood or walked (the fall's
     time), the distance of SIMBICON's walk, IPM's steady speed over the last 10 s."""
-    out = ["| body | static balance 30 s | SIMBICON 60 s | IPM 60 s at 1.0 m/s |",
-           "|---|---|---|---|"]
+    out = []
     for body in dict.fromkeys(r["body"] for r in rows if r["kind"] == "bar"):
         cells = []
         for what in BAR:
@@ -192,8 +191,9 @@ def bar_table(rows: list[dict]) -> str:
                 cells.append(f"{r['sim_time_s']:.0f} s, {r['steady_speed_mps']:.2f} m/s")
             else:
                 cells.append(f"{r['sim_time_s']:.0f} s")
-        out.append(f"| {body} | " + " | ".join(cells) + " |")
-    return "\n".join(out)
+        out.append((body, *cells))
+    return markdown_table(("body", "static balance 30 s", "SIMBICON 60 s", "IPM 60 s at 1.0 m/s"),
+                          out)
 
 
 def _run(job: tuple) -> dict:

@@ -28,7 +28,7 @@ from mjchar.controllers.core.character import Character
 
 from .errors import PerfError, positive_int
 from .physics import step_cost
-from .report import DOCS, entry_parser, machine_line, write_block
+from .report import DOCS, entry_parser, machine_line, markdown_table, write_block
 from .timing import timed
 
 __all__ = ["ENVELOPE_KPS", "ENVELOPE_VARIANTS", "ENVELOPE_GRID", "ENVELOPE_FINER",
@@ -182,15 +182,13 @@ def controller_costs(steps: int = 2000, repeats: int = 7,
 def cost_table(costs: dict, steps: int, repeats: int) -> str:
     """Markdown table of :func:`controller_costs`."""
     dt = next(iter(costs.values()))["timestep_s"]
-    lines = [f"Time step {dt * 1000:g} ms, {steps} steps per measurement in blocks of {BLOCK} "
+    intro = (f"Time step {dt * 1000:g} ms, {steps} steps per measurement in blocks of {BLOCK} "
              f"alternating with a bare `mj_step` loop on a pristine copy of the same model "
-             f"(process CPU time), median of {repeats} repeats; {machine_line()}.",
-             "", "| controller | cost / mj_step | us per step | mj_step us |",
-             "|---|---|---|---|"]
-    for name, c in costs.items():
-        lines.append(f"| {name} | {c['ratio']:.2f} | {c['controller_us']:.1f} | "
-                     f"{c['raw_us']:.1f} |")
-    return "\n".join(lines)
+             f"(process CPU time), median of {repeats} repeats; {machine_line()}.")
+    rows = [(name, f"{c['ratio']:.2f}", f"{c['controller_us']:.1f}", f"{c['raw_us']:.1f}")
+            for name, c in costs.items()]
+    header = ("controller", "cost / mj_step", "us per step", "mj_step us")
+    return f"{intro}\n\n{markdown_table(header, rows)}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -47,7 +47,7 @@ from mjchar.controllers.sampling.trajopt import (
     trajectory_cost,
 )
 
-from .report import entry_parser, machine_line, publish, write_json
+from .report import entry_parser, machine_line, markdown_table, publish, write_json
 from .report import shared_clip as clip
 from .timing import load_average, rounds, timed
 
@@ -199,38 +199,43 @@ def fell(flag: bool, when) -> str:
     return f"yes at {when:.2f} s" if flag else "no"
 
 
+#: the throughput table's rows: (key in the results, label)
+_THROUGHPUT_CASES = (("bare", "bare `mujoco.rollout` (plain model)"),
+                     ("executor", "`LocalExecutor.evaluate` (sensors, checks)"),
+                     ("samcon", "SAMCON (sampling, cost, selection, bookkeeping)"))
+
+
+def _reconstruction_row(r: dict) -> tuple[str, ...]:
+    """A row of the reconstructions' table: the clip (and its cost weights), its length, the
+    run's wall and CPU time, the replay's fall and errors and whether it was deterministic."""
+    w = r["options"].get("weights") or {}
+    note = "".join(f", {k} weight {v:g}" for k, v in w.items())
+    return (f"{r['clip']}{note}", f"{r['duration_s']:.2f} s",
+            f"{r['wall_s']:.0f} s (load {r['load_avg']:.1f})", f"{r['cpu_s']:.0f} s",
+            fell(r["fell"], r["fall_time_s"]), f"{100 * r['tracking_error_m']:.1f} cm",
+            f"{100 * r['final_root_error_m']:.1f} cm", "yes" if r["deterministic"] else "NO")
+
+
 def table(results: dict) -> str:
     lines = [f"Measured by `python -m mjchar.perf.samcon` on {machine_line()}.", ""]
     t = results.get("throughput")
     if t:
+        rows = [(label, f"{t[name]['samples_per_s']:.0f}", f"{t[name]['steps_per_s']:.0f}",
+                 f"{t[name]['samples_per_cpu_s']:.0f}") for name, label in _THROUGHPUT_CASES]
         lines += [f"Throughput ({t['samples']} samples x {t['slices']} slices of "
                   f"{t['steps_per_slice']} steps, {t['threads']} threads, best of {t['rounds']}"
                   f" interleaved rounds, load average {t['load_avg']:.1f}):", "",
-                  "| case | samples/s | steps/s | samples per CPU-s |", "|---|---|---|---|"]
-        for name, label in (("bare", "bare `mujoco.rollout` (plain model)"),
-                            ("executor", "`LocalExecutor.evaluate` (sensors, checks)"),
-                            ("samcon", "SAMCON (sampling, cost, selection, bookkeeping)")):
-            c = t[name]
-            lines.append(f"| {label} | {c['samples_per_s']:.0f} | {c['steps_per_s']:.0f} | "
-                         f"{c['samples_per_cpu_s']:.0f} |")
+                  markdown_table(("case", "samples/s", "steps/s", "samples per CPU-s"), rows)]
         lines += ["", f"SAMCON runs at **{100 * t['fraction_of_bare']:.0f} %** of bare batched-"
                       f"rollout throughput ({100 * t['fraction_of_executor']:.0f} % of the "
                       f"executor's; {100 * t['cpu_fraction_of_bare']:.0f} % per CPU-second).",
                   ""]
     rec = results.get("reconstruct") or []
     if rec:
+        header = ("clip", "length", "wall", "CPU", "fell", "tracking error", "final root error",
+                  "deterministic")
         lines += ["SAMCON reconstructions (open-loop replay, no root force):", "",
-                  "| clip | length | wall | CPU | fell | tracking error | final root error | "
-                  "deterministic |", "|---|---|---|---|---|---|---|---|"]
-        for r in rec:
-            w = r["options"].get("weights") or {}
-            note = "".join(f", {k} weight {v:g}" for k, v in w.items())
-            lines.append(
-                f"| {r['clip']}{note} | {r['duration_s']:.2f} s | {r['wall_s']:.0f} s "
-                f"(load {r['load_avg']:.1f}) | {r['cpu_s']:.0f} s | "
-                f"{fell(r['fell'], r['fall_time_s'])} | "
-                f"{100 * r['tracking_error_m']:.1f} cm | {100 * r['final_root_error_m']:.1f} cm"
-                f" | {'yes' if r['deterministic'] else 'NO'} |")
+                  markdown_table(header, [_reconstruction_row(r) for r in rec])]
         lines += ["", f"Options: `{RECONSTRUCTION_OPTIONS}`, seed "
                       f"{rec[0]['options'].get('seed')}, default cost weights unless noted.", ""]
     c = results.get("cmaes")
