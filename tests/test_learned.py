@@ -195,7 +195,7 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
     assert written and written[0]["iteration"] == 1
     policy = load_policy(out)
     assert policy.meta["training"]["iteration"] == written[-1]["iteration"]
-    key = [(r["eval_fall_rate"], r["disturbed_fall_rate"], -r["eval_survived_s"],
+    key = [(r["eval_fall_rate"], r.get("disturbed_fall_rate", 0.0), -r["eval_survived_s"],
             r["eval_error_m"]) for r in rows]
     assert key[written[-1]["iteration"] - 1] == min(key[:written[-1]["iteration"]])
     col = Collector(setup)
@@ -207,13 +207,15 @@ def test_a_short_learn_run_lowers_the_loss_and_beats_the_zero_action(tmp_path):
     assert sum(r.episode_return for r in learned) > sum(r.episode_return for r in zero)
 
 
-def test_the_kept_network_is_chosen_on_disturbed_episodes_too():
-    """The evaluation adds a fixed validation set of perturbed starts and pushes (eight
-    different directions); a network that falls less there ranks above one that tracks the
-    undisturbed clip a little closer, and a fall on the clip ranks below both."""
+def test_the_kept_network_can_be_chosen_on_disturbed_episodes_too():
+    """With eval_perturbed and eval_pushes (none by default) the evaluation adds a fixed
+    validation set of perturbed starts and pushes (eight different directions); a network that
+    falls less there ranks above one that tracks the undisturbed clip a little closer, and a
+    fall on the clip ranks below both."""
     from mjchar.learn.dagger import LearnOptions, _eval_jobs, _score
 
-    opts = LearnOptions()
+    assert _eval_jobs(LearnOptions(), None)[1] == []
+    opts = LearnOptions(eval_perturbed=4, eval_pushes=8)
     clip, disturbed = _eval_jobs(opts, None)
     assert len(clip) == opts.eval_phases and all(j.push is None and j.perturb is None
                                                  for j in clip)
