@@ -32,7 +32,7 @@ from .timing import load_average, timed
 SIDEWAYS = {"left": 90.0, "right": 270.0}
 
 
-def _spec(policy, controller: str = "policy", **scenario_options) -> RunSpec:
+def policy_spec(policy, controller: str = "policy", **scenario_options) -> RunSpec:
     """The run of ``controller`` tracking ``policy``'s own clip (as ``mjchar run``);
     ``scenario_options``: the track scenario's (``duration``, ``force``, ``seed``...)."""
     p = find_policy(policy)
@@ -61,7 +61,7 @@ def _timed(spec: RunSpec):
 
 
 def loop(policy, duration: float = 20.0) -> dict:
-    r, t = _timed(_spec(policy, duration=duration))
+    r, t = _timed(policy_spec(policy, duration=duration))
     return _summary(r, t)
 
 
@@ -72,8 +72,8 @@ def pushes(policy, after: float = 2.0, force: float = 100.0, settle: float = 3.0
         rows = []
         for k in range(8):
             at = after + k * cycle / 8
-            r, _ = _timed(_spec(policy, duration=at + 0.2 + settle, force=force, direction=deg,
-                                push_time=at, push_duration=0.2))
+            r, _ = _timed(policy_spec(policy, duration=at + 0.2 + settle, force=force,
+                                      direction=deg, push_time=at, push_duration=0.2))
             rows.append({"phase": k / 8, "time_s": round(at, 3), "fell": r.fell,
                          "tracking_error_m": r.tracking_error_m})
         out[name] = {"survived": sum(not x["fell"] for x in rows), "of": 8, "runs": rows}
@@ -83,21 +83,21 @@ def pushes(policy, after: float = 2.0, force: float = 100.0, settle: float = 3.0
 
 def _cycle(policy) -> float:
     """The length of the cycle ``policy`` tracks (s): the reference its runs follow."""
-    return float(_spec(policy, duration=0.1).build().reference.duration)
+    return float(policy_spec(policy, duration=0.1).build().reference.duration)
 
 
 def perturbed(policy, duration: float = 20.0, seeds=range(5)) -> dict:
     rows = []
     for seed in seeds:
-        r, t = _timed(_spec(policy, duration=duration, seed=seed))
+        r, t = _timed(policy_spec(policy, duration=duration, seed=seed))
         rows.append({"seed": seed, **_summary(r, t)})
     return {"no_fall": sum(not x["fell"] for x in rows), "of": len(rows), "runs": rows}
 
 
 def speed(policy, duration: float = 20.0, mpc_seconds: float | None = None) -> dict:
-    r, tp = _timed(_spec(policy, duration=duration))
+    r, tp = _timed(policy_spec(policy, duration=duration))
     sim = duration if mpc_seconds is None else mpc_seconds
-    rm, tm = _timed(_spec(policy, "mpc", duration=sim))
+    rm, tm = _timed(policy_spec(policy, "mpc", duration=sim))
     # per simulated second (a run that falls ends early): wall and CPU seconds of each
     pw, pc = tp.wall_s / r.sim_time_s, tp.cpu_s / r.sim_time_s
     mw, mc = tm.wall_s / rm.sim_time_s, tm.cpu_s / rm.sim_time_s

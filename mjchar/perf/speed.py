@@ -53,8 +53,14 @@ def controller_run_costs(names: Sequence[str] | None = None, *, repeats: int = 3
                  if not (s.kind == "replay" and not s.trajectory_prefixes)]
     out = {}
     for name in names:
-        options = {"duration": MPC_DURATION} if name == "mpc" else {}
-        c = run_cost(RunSpec(name, scenario_options=options), repeats=repeats)
+        if name == "policy":  # a learned policy runs on its own clip: the bundled one's
+            from .policy import policy_spec
+
+            spec = policy_spec(None)
+        else:
+            spec = RunSpec(name, scenario_options={"duration": MPC_DURATION} if name == "mpc"
+                           else {})
+        c = run_cost(spec, repeats=repeats)
         out[name] = c.to_dict()
         log(f"  {name}: {c.ratio:.2f} x mj_step ({min(c.ratios):.2f}-{max(c.ratios):.2f}; "
             f"{c.run_us:.1f} vs {c.bare_us:.1f} us per step)")
@@ -68,7 +74,7 @@ def controllers_table(costs: dict, repeats: int) -> str:
              f"`mj_step` from the states the run visited (spread: smallest and largest ratio).")
     header = ("controller", "scenario", "physics dt", "control dt", "steps", "cost / mj_step",
               "spread", "us per step", "mj_step us")
-    rows = [(name, c["scenario"], f"{c['timestep_s'] * 1000:g} ms",
+    rows = [(name, c["scenario"], f"{c['timestep_s'] * 1000:.3g} ms",
              f"{c['control_dt_s'] * 1000:.3g} ms", c["steps"], f"{c['ratio']:.2f}",
              spread(c["ratios"], ".2f"), f"{c['run_us']:.1f}", f"{c['bare_us']:.1f}")
             for name, c in costs.items()]
