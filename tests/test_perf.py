@@ -145,6 +145,16 @@ def test_speed_tables_state_each_ratio_and_its_spread():
     assert "| native_pd | stand | 2 ms |" in text and "python -m mjchar.perf.speed" in text
 
 
+def test_the_learned_policy_is_costed_on_its_own_clip():
+    """The policy's default run follows the bundled walk, which its file refuses: the speed
+    table runs the bundled policy on the clip it was learned on, as ``mjchar run policy``."""
+    from mjchar.perf import speed
+
+    c = speed.controller_run_costs(["policy"], repeats=1)["policy"]
+    assert c["scenario"] == "track" and c["steps"] > 0 and c["ratio"] > 1.0
+    assert "| policy | track | 1.96 ms |" in speed.controllers_table({"policy": c}, 1)
+
+
 def test_env_shares_and_the_vectorised_path_report_rates():
     r = perf.env_throughput(("mjchar/Stand-v0",), steps=20, repeats=1, bare=True)
     e = r["envs"]["mjchar/Stand-v0"]
