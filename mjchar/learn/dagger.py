@@ -285,8 +285,8 @@ class _LearnRun:
         self.X, self.Y = st["X"], st["Y"]
         self.trainer.load_state(st["trainer"])
         self.best = st.get("best")
-        if self.best is not None and len(self.best) != len(_score(st["curve"][-1])):
-            self.best = None  # a state written before the disturbed episodes were scored
+        if self.best is not None and len(self.best) == 3:  # written before the disturbed
+            self.best = (self.best[0], 0.0, *self.best[1:])  # episodes: none of them fell
         self.curve.rows = st["curve"]
         self.it, self.elapsed0 = st["iteration"], st["elapsed_s"]
         self.labels, self.label_s = st["labels"], st["label_seconds"]
