@@ -238,6 +238,35 @@ def test_the_kept_network_can_be_chosen_on_disturbed_episodes_too():
     assert _score(row(0.0, 0.25, 0.03)) < _score(row(0.0, 0.25, 0.04))
 
 
+def test_fine_tuning_episodes_end_only_on_a_fall_while_recovering():
+    """In a fine-tuning episode the tracking-error end is lifted for ``recovery_seconds`` from a
+    perturbed start: with a threshold any pose passes (0.1 mm) the episode ends on its first
+    step without the window, and on the first step past the window with it."""
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.learn.dagger import LearnOptions
+    from mjchar.learn.finetune import Perturbations
+
+    opts = LearnOptions(perturb_rate=1.0, push_rate=0.0)
+
+    def steps_until_the_end(recovery):
+        env = Perturbations(make_env(LearnSetup(clip="walk", loop=True,
+                                                max_tracking_error=1e-4), episode_seconds=5.0),
+                            opts, 5.0, seed=0, recovery=recovery)
+        env.reset()
+        dt = env.unwrapped.n_substeps * env.unwrapped.character.timestep
+        steps, ended = 0, False
+        while not ended and steps < 100:
+            *_, term, trunc, info = env.step(np.zeros(env.action_space.shape))
+            steps, ended = steps + 1, term or trunc
+        env.close()
+        assert not info["fell"]
+        return steps, dt
+
+    assert steps_until_the_end(0.0)[0] == 1
+    k, dt = steps_until_the_end(0.55)
+    assert k == math.ceil(0.55 / dt) + 1  # the first step that begins past 0.55 s ends it
+
+
 def test_the_ppo_actor_is_the_distilled_network_and_back():
     """The distilled network copied into the PPO actor (the normalisation folded into the first
     layer) and written back as a network gives the network's outputs."""
