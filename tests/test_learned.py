@@ -110,6 +110,22 @@ def test_the_policy_runs_from_its_own_clip_and_tracks_with_no_root_force(walk_po
     assert out["sim_time_s"] == pytest.approx(0.5, abs=0.02)
 
 
+def test_a_policy_run_with_no_clip_follows_its_own_clip(walk_policy):
+    """With no motion the builder runs a policy on the clip it was trained on, looped as it was
+    (``ControllerSpec.own_clip``), from Python as from the CLI; a clip given is used as given."""
+    from mjchar.controllers.learned import PolicyError
+
+    spec = RunSpec("policy", "track", options={"policy": str(walk_policy)},
+                   scenario_options={"duration": 0.2})
+    own = spec.with_own_clip()
+    assert (own.motion, own.loop) == ("walk", True)
+    r = spec.execute()
+    assert not r.fell and r.root_force_max_N == 0.0
+    with pytest.raises(PolicyError, match="trained on clip walk --loop"):
+        dataclasses.replace(spec, motion="walk").execute()  # given, not looped
+    assert RunSpec("mpc", "track").with_own_clip() == RunSpec("mpc", "track")
+
+
 def test_env_and_controller_observe_the_same_numbers():
     """The env's observation is the shared TrackingObserver's, at the same state and time."""
     from mjchar.envs.imitation import ImitationEnv

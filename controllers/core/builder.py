@@ -55,10 +55,11 @@ class RunSpec:
         controller: a registered controller name.
         scenario: a registered scenario it runs (``None``: its default scenario).
         model: ``None`` (the bundled humanoid), an MJCF path or an ``MjModel``.
-        motion: the clip followed where the scenario follows one: ``None`` (the bundled walk),
-            a bundled clip's name (``"walk"``, ``"idle"``), a BVH path, a ``Motion``, or a
-            ``ReferenceMotion`` already prepared for the model (used as it is: ``loop``,
-            ``floor`` and conditioning do not apply).
+        motion: the clip followed where the scenario follows one: ``None`` (the controller's
+            own clip when it has one, a learned policy's: :meth:`with_own_clip`; else the
+            bundled walk), a bundled clip's name (``"walk"``, ``"idle"``), a BVH path, a
+            ``Motion``, or a ``ReferenceMotion`` already prepared for the model (used as it
+            is: ``loop``, ``floor`` and conditioning do not apply).
         loop: follow a seamless cycle cut from the clip, repeated for as long as the run lasts.
         floor: how the clip is placed on the floor (default: the controller's way).
         timestep: physics time step in s (``None``: the controller's).
@@ -129,14 +130,24 @@ class RunSpec:
         ``progress`` (a :class:`~mjchar.progress.Progress`) shows the clip's
         preparation and then the run's simulated time; ``info``: the model's role map when it
         is an ``MjModel`` that does not carry one (default: read from the model)."""
-        self.check()
-        check_model_file(self.model)
-        character = Character(self.model, info=info, timestep=self.timestep)
-        reference = (load_reference(self, character, progress) if self.follows_clip()
+        spec = self.with_own_clip().check()
+        check_model_file(spec.model)
+        character = Character(spec.model, info=info, timestep=spec.timestep)
+        reference = (load_reference(spec, character, progress) if spec.follows_clip()
                      else None)
-        controller = self.make_controller(character, reference)
-        return Run(character, controller, reference, self, frame_callback, self.control_dt,
-                   self.seed, progress)
+        controller = spec.make_controller(character, reference)
+        return Run(character, controller, reference, spec, frame_callback, spec.control_dt,
+                   spec.seed, progress)
+
+    def with_own_clip(self) -> RunSpec:
+        """With no ``motion``, a controller made for one clip (``ControllerSpec.own_clip``: a
+        learned policy) follows that clip, looped as it was made; otherwise (or when the
+        scenario follows no clip) the same spec."""
+        own = self.controller_spec.own_clip
+        if self.motion is not None or own is None or not self.follows_clip():
+            return self
+        motion, loop = own(self.options)
+        return replace(self, motion=motion, loop=bool(loop))
 
     def make_controller(self, character: Character, reference=None, *, target=None):
         """A fresh controller on ``character`` (its time step applied): trackers follow

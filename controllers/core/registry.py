@@ -23,7 +23,7 @@ what fills the registry (no directory scanning, no entry points).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from mjchar.bvh.errors import MjcharError
@@ -190,6 +190,9 @@ class ControllerSpec:
             which can follow the clip's floating stance feet as recorded (grounding the clip
             made hand-of-god's swing toes scuff and catch on 5 of 10 zoo rigs: 2.1 -> 5.8 cm on
             the Unreal rig).
+        own_clip: a controller made for one clip (a learned policy): ``own_clip(options) ->
+            (motion, loop)``, the clip a run follows when it names none, and its looping
+            (:meth:`~mjchar.controllers.core.builder.RunSpec.with_own_clip`).
         tunables: with the ``params`` option, what ``--param`` takes:
             ``tunables(**options) -> [Tunable]`` (:class:`~mjchar.controllers.core.param_fields.
             Tunable`: name, declaration, default, meaning; ``mjchar params`` prints them;
@@ -214,6 +217,7 @@ class ControllerSpec:
     speed_every_body: tuple[float, float] | None = None
     floor: str = "contact"
     tunables: Callable[..., list] | None = None
+    own_clip: Callable[[Mapping], tuple] | None = None
 
     def scenarios(self) -> tuple[str, ...]:
         """The registered scenarios it runs (those asking for one of its :attr:`abilities`), in

@@ -33,7 +33,7 @@ from .observation import TrackingObserver
 from .policy_file import Policy, PolicyError, load_policy
 
 __all__ = ["DEFAULT_POLICY", "PolicyController", "bundled_policies", "find_policy",
-           "make_policy"]
+           "make_policy", "own_clip"]
 
 #: the bundled policy ``mjchar run policy`` runs when none is named
 DEFAULT_POLICY = "walk60"
@@ -139,7 +139,14 @@ def make_policy(character: Character | None = None, target=None, *, policy=None
     return PolicyController(target, policy)
 
 
+def own_clip(options) -> tuple:
+    """``(motion, loop)``: the clip the ``policy`` option's policy (default
+    :data:`DEFAULT_POLICY`) was trained on, and whether it was looped."""
+    policy = find_policy(options.get("policy"))
+    return policy.clip_motion(), bool(policy.meta["clip"].get("loop"))
+
+
 register(ControllerSpec(
     name="policy", label="learned tracking policy (mjchar learn)", kind="balance",
     factory=make_policy, abilities=("track",), default_scenario="track",
-    options=("policy",), bench=("track",)))
+    options=("policy",), bench=("track",), own_clip=own_clip))

@@ -237,10 +237,10 @@ class BenchContext:
         if spec.kind == "replay":
             factory["trajectory"] = self.trajectories[name]
         motion, loop, scenario_options = self.track_motion, False, dict(options or {})
-        if "policy" in spec.options:  # a learned policy follows its own clip, as trained
-            policy = self.policy()
-            factory["policy"] = policy
-            motion, loop = policy.clip_motion(), bool(policy.meta["clip"].get("loop"))
+        if "policy" in spec.options:
+            factory["policy"] = self.policy()
+        if spec.own_clip is not None:  # a learned policy follows its own clip, as trained
+            motion, loop = spec.own_clip(factory)
             if loop and scenario_options.get("duration") is None and scenario == "track":
                 scenario_options["duration"] = self.track_seconds()
         return RunSpec(name, scenario, model=self.base_model, motion=motion, loop=loop,

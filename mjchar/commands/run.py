@@ -162,17 +162,23 @@ def _controller_options(spec, args: argparse.Namespace) -> dict:
 
 
 def _policy_clip(args: argparse.Namespace) -> None:
-    """``mjchar run policy POLICY``: the policy's own clip (and its looping) unless ``--motion``
-    (``--loop``) is given: its bundled name or file, else the copy the policy file carries."""
+    """``mjchar run policy POLICY``: the policy, loaded once; with no ``--motion`` the builder
+    runs it on its own clip, looped as it was trained (``RunSpec.with_own_clip``)."""
     from mjchar.controllers.learned import find_policy
 
-    policy = find_policy(args.trajectory)
-    args.trajectory = policy  # loaded once
-    clip = policy.meta["clip"]
-    if args.loop is None and clip.get("loop"):
-        args.loop = True
-    if args.motion is None:
-        args.motion = policy.clip_motion()
+    args.trajectory = find_policy(args.trajectory)
+
+
+def _motion_label(motion, args: argparse.Namespace) -> str:
+    """The clip a run followed, for its JSON: a name or path, or (a clip a policy file carries)
+    the name the policy was trained on."""
+    import os
+
+    if motion is None:
+        return "bundled walk"
+    if isinstance(motion, str | os.PathLike):
+        return str(motion)
+    return f"{args.trajectory.meta['clip']['name']} (the copy in the policy file)"
 
 
 def describe(args: argparse.Namespace):
@@ -269,7 +275,7 @@ def main(args: argparse.Namespace) -> int:
         else:
             out["model"] = str(args.model) if args.model else "bundled humanoid"
         if built.reference is not None:
-            out["motion"] = str(args.motion) if args.motion else "bundled walk"
+            out["motion"] = _motion_label(built.spec.motion, args)
         if video is not None:
             out["video"] = args.render
             out["video_frames"] = video.frames

@@ -26,6 +26,7 @@ import json
 
 from mjchar.controllers.core.builder import RunSpec, execute
 from mjchar.controllers.learned import find_policy
+from mjchar.controllers.learned.controller import own_clip
 
 from .timing import load_average, timed
 
@@ -37,7 +38,8 @@ def policy_spec(policy, controller: str = "policy", **scenario_options) -> RunSp
     ``scenario_options``: the track scenario's (``duration``, ``force``, ``seed``...)."""
     p = find_policy(policy)
     seed = scenario_options.pop("seed", None)
-    return RunSpec(controller, "track", motion=p.clip_motion(), loop=p.meta["clip"]["loop"],
+    motion, loop = own_clip({"policy": p})
+    return RunSpec(controller, "track", motion=motion, loop=loop,
                    options={"policy": p} if controller == "policy" else {}, seed=seed,
                    scenario_options=scenario_options)
 
