@@ -116,6 +116,13 @@ def run_command(argv: list[str]):
     return args.func(args)
 
 
+def run_json(argv: list[str], capsys) -> dict:
+    """Run an ``mjchar`` subcommand that prints one JSON object (``--json``) as
+    :func:`run_command` does, check it exits 0 and return the object it printed."""
+    assert run_command(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
 @pytest.fixture(scope="session")
 def zoo_humanoids(tmp_path_factory) -> dict[float, str]:
     """The zoo's humanoids: the bundled humanoid's skeleton scaled to 1.5 m / 50 kg and 1.95 m /

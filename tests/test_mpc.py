@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import run_command, shared_clip
+from conftest import run_json, shared_clip
 
 from mjchar import bvh
 from mjchar.bvh.editing.clips import EditingError, make_cyclic
@@ -264,10 +264,7 @@ def test_without_disturbance_the_character_follows_the_chosen_rollout(walk_ref):
 
 
 def test_mjchar_run_mpc(capsys):
-    import json
-
-    assert run_command(["run", "mpc", "--duration", "0.2", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = run_json(["run", "mpc", "--duration", "0.2", "--json"], capsys)
     assert out["controller"] == "mpc" and not out["fell"] and out["tracking_error_m"] < 0.05
 
 
@@ -499,12 +496,9 @@ def test_options_dataclass_defaults_are_valid():
 def test_looped_clip_runs_as_long_as_asked(capsys):
     """``mjchar run --loop``: a cycle of walk60 repeated with its root advanced (hand-of-god:
     fast), well past the clip's own 3 s."""
-    import json
-
     path = str(shared_clip("walk60.bvh"))
-    assert run_command(["run", "hand_of_god", "--motion", path, "--loop", "--duration", "5",
-                        "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = run_json(["run", "hand_of_god", "--motion", path, "--loop", "--duration", "5", "--json"],
+                   capsys)
     assert out["sim_time_s"] == pytest.approx(5.0, abs=0.01) and not out["fell"]
     assert out["distance_m"] > 5.0 and out["tracking_error_m"] < 0.05
 
@@ -531,11 +525,8 @@ def test_a_push_past_the_end_of_the_run_is_refused(walk_ref):
 
 
 def test_mjchar_run_pushes_in_the_track_scenario(capsys):
-    import json
-
-    assert run_command(["run", "hand_of_god", "--duration", "0.6", "--push", "100",
-                        "--push-time", "0.2", "--direction", "left", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = run_json(["run", "hand_of_god", "--duration", "0.6", "--push", "100", "--push-time",
+                    "0.2", "--direction", "left", "--json"], capsys)
     assert out["scenario"] == "track" and out["push_N"] == 100.0
     assert out["push_direction_deg"] == 90.0
 
@@ -624,12 +615,9 @@ def test_slow_survives_perturbed_starts(seed):
 
 
 def test_mjchar_run_pushes_a_replay_too(capsys):
-    import json
-
-    runs = []
-    for extra in ([], ["--push", "300", "--push-time", "0.3", "--direction", "right"]):
-        assert run_command(["run", "samcon_replay", "--duration", "1.0", "--json"] + extra) == 0
-        runs.append(json.loads(capsys.readouterr().out))
-    quiet, pushed = runs
+    quiet, pushed = [run_json(["run", "samcon_replay", "--duration", "1.0", "--json"] + extra,
+                              capsys)
+                     for extra in ([], ["--push", "300", "--push-time", "0.3", "--direction",
+                                        "right"])]
     assert quiet["push_N"] is None and pushed["push_N"] == 300.0
     assert pushed["tracking_error_m"] > quiet["tracking_error_m"] + 0.005

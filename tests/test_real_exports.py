@@ -10,11 +10,9 @@ from two different stretches of its clip gives the same segments.
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from conftest import real_export, run_command, shared_clip
+from conftest import real_export, run_command, run_json, shared_clip
 
 from mjchar import bvh
 from mjchar.bvh.bundled.zoo_layouts import anonymise
@@ -55,9 +53,8 @@ def test_real_export_converts_at_the_defaults(name):
 def test_cli_verify_on_a_real_export(tmp_path, capsys):
     path = real_export("emilya_walk.bvh")
     out = tmp_path / "emilya.xml"
-    assert run_command(["convert", str(path), "-o", str(out), "--joint-model", "full",
-                        "--verify", "--json"]) == 0
-    res = json.loads(capsys.readouterr().out)
+    res = run_json(["convert", str(path), "-o", str(out), "--joint-model", "full", "--verify",
+                    "--json"], capsys)
     assert res["worst_error_mm"] < 1.0 and res["unit"] == "in"
     assert 1.2 <= res["height_m"] <= 2.1
 

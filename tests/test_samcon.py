@@ -8,11 +8,10 @@ benchmark ``python -m mjchar.perf.samcon`` reports its numbers.
 from __future__ import annotations
 
 import copy
-import json
 
 import numpy as np
 import pytest
-from conftest import run_command, shared_clip
+from conftest import run_command, run_json, shared_clip
 
 from mjchar import bvh
 from mjchar.bvh.bundled.assets import motion_path
@@ -391,8 +390,7 @@ def test_trajectory_saved_with_the_first_fingerprint_still_replays(short_run):
 def test_cli_run_replay_plays_a_saved_trajectory(short_run, tmp_path, capsys):
     _, res = short_run
     path = res.trajectory.save(tmp_path / "t.npz")
-    assert run_command(["run", "replay", str(path), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = run_json(["run", "replay", str(path), "--json"], capsys)
     assert out["controller"] == "replay" and out["fell"] is False
     assert out["trajectory"] == str(path)
     with pytest.raises(MjcharError, match="needs the trajectory file"):
@@ -402,10 +400,9 @@ def test_cli_run_replay_plays_a_saved_trajectory(short_run, tmp_path, capsys):
 # -- the CLI ---------------------------------------------------------------------------------------
 def test_cli_samcon_writes_a_replayable_trajectory(tmp_path, capsys):
     out = tmp_path / "walk.npz"
-    assert run_command(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
-                 "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
-                 "--weight", "root=20", "--json"]) == 0
-    info = json.loads(capsys.readouterr().out)
+    info = run_json(["samcon", str(motion_path("walk")), "-o", str(out), "--samples", "32",
+                     "--saved", "8", "--duration", "0.3", "--iterations", "1", "--threads", "2",
+                     "--weight", "root=20", "--json"], capsys)
     # the default sliding window of 2: slices 1 and 2 simulate two slices per sample, the last one
     assert info["replay"]["fell"] is False and info["samples_simulated"] == 32 * (2 + 2 + 1)
     assert not replay(out).fell

@@ -8,11 +8,9 @@ tracking cost than plain PD; a jump clearing 10 cm and landing standing) are slo
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from conftest import run_command, shared_clip
+from conftest import run_command, run_json, shared_clip
 
 from mjchar import bvh
 from mjchar.bvh.bundled.assets import humanoid_path, motion_path
@@ -156,10 +154,9 @@ def test_bad_options(walk_ref):
 # -- the CLI ---------------------------------------------------------------------------------------
 def test_cli_trajopt_tracks_and_saves(tmp_path, capsys):
     out = tmp_path / "t.npz"
-    assert run_command(["trajopt", str(motion_path("walk")), "-o", str(out), "--duration", "0.2",
-                 "--window", "0.2", "--commit", "0.2", "--generations", "2", "--popsize", "6",
-                 "--threads", "2", "--json"]) == 0
-    info = json.loads(capsys.readouterr().out)
+    info = run_json(["trajopt", str(motion_path("walk")), "-o", str(out), "--duration", "0.2",
+                     "--window", "0.2", "--commit", "0.2", "--generations", "2", "--popsize", "6",
+                     "--threads", "2", "--json"], capsys)
     assert info["task"] == "track" and info["replay"]["fell"] is False
     assert out.is_file()
 
