@@ -17,11 +17,12 @@ fine-tuning of pre-trained policies):
 - the training episodes are DAgger's (:class:`Perturbations`): random phases of the clip, some
   from a perturbed start, some with one push, ``episode_seconds`` long, so the reward the actor
   climbs includes recovering;
-- an episode ends past ``max_tracking_error`` of mean joint error, except for
-  ``recovery_seconds`` from a perturbed start or from a push's start, where only a fall ends it:
-  a recovery passes through larger errors (the bundled walk60 policy's did: 15-48 cm after the
-  100 N pushes it survived, and past 12 cm within 0.1-0.7 s of every perturbed start), and a
-  12 cm end there would cut every recovering episode before it recovers.
+- an episode ends past ``max_tracking_error`` of mean joint error; with ``recovery_seconds``
+  (0 by default) not for that long from a perturbed start or from a push's start, where only a
+  fall ends it: a recovery passes through larger errors (the bundled walk60 policy's did:
+  15-48 cm after the 100 N pushes it survived, past 12 cm within 0.1-0.7 s of every perturbed
+  start), and a 12 cm end there cuts every recovering episode before it recovers. An hour of
+  ``mjchar learn`` with 3 s of it made no more robust a policy (docs/learning.md).
 
 PyTorch and stable-baselines3 are imported here only (the ``rl`` extra).
 """
@@ -78,7 +79,7 @@ class FinetuneOptions:
     envs: int | None = None
     episode_seconds: float = 10.0
     max_tracking_error: float = 0.12
-    recovery_seconds: float = 3.0
+    recovery_seconds: float = 0.0
     reward_weights: dict = field(default_factory=lambda: {
         "pose": 0.55, "velocity": 0.1, "end_effector": 0.15, "com": 0.2})
     reward_scales: dict = field(default_factory=lambda: {"com": 40.0})
