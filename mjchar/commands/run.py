@@ -97,7 +97,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         _add_factory_option(p, o, registry)
     p.add_argument("--motion", metavar="CLIP",
                    help="reference motion for track/walk and hand_of_god: a BVH file or a "
-                        "bundled clip's name (walk, idle; default walk)")
+                        "bundled clip's name (walk, idle; default walk; policy: the clip "
+                        "it was trained on, looped as trained)")
     p.add_argument("--loop", action="store_true", default=None,
                    help="track/walk: loop a seamless cycle cut from the motion (its root "
                         "advancing each cycle) for as long as --duration")
