@@ -119,9 +119,10 @@ class Perturbations(gymnasium.Wrapper):
         o, rng = self.opts, self.rng
         options = dict(options or {})
         self.windows = []
+        self.env.unwrapped.max_tracking_error = self.max_error
         if rng.random() < o.perturb_rate:
             options["perturb"] = tuple(float(x) for x in o.perturb)
-            self.windows.append((0.0, self.recovery))
+            self._recover_from(0.0)
         out = self.env.reset(seed=seed, options=options)
         if rng.random() < o.push_rate:
             f, ang = rng.uniform(*o.push_force), rng.uniform(0.0, 2.0 * math.pi)
@@ -129,14 +130,19 @@ class Perturbations(gymnasium.Wrapper):
             self.env.unwrapped.character.pushes.add(
                 self.root, (f * math.cos(ang), f * math.sin(ang), 0.0), o.push_duration,
                 start=t0)
-            self.windows.append((t0, t0 + self.recovery))
+            self._recover_from(t0)
         return out
 
+    def _recover_from(self, t: float) -> None:
+        if self.recovery > 0:  # (none: the env's error end holds throughout, untouched)
+            self.windows.append((t, t + self.recovery))
+
     def step(self, action):
-        env = self.env.unwrapped
-        t = env.character.time
-        recovering = any(a <= t < b for a, b in self.windows)
-        env.max_tracking_error = None if recovering else self.max_error
+        if self.windows:
+            env = self.env.unwrapped
+            t = env.character.time
+            recovering = any(a <= t < b for a, b in self.windows)
+            env.max_tracking_error = None if recovering else self.max_error
         return self.env.step(action)
 
 
