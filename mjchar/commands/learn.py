@@ -57,6 +57,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rl-share", type=fraction("rl share"), default=0.5, metavar="F",
                    help="share of the budget spent fine-tuning the distilled network with PPO "
                         "after DAgger (default 0.5; 0: DAgger only; needs stable-baselines3)")
+    p.add_argument("--perturb-rate", type=fraction("perturb rate"), default=0.3, metavar="F",
+                   help="share of training episodes from a perturbed start (default 0.3)")
+    p.add_argument("--push-rate", type=fraction("push rate"), default=0.3, metavar="F",
+                   help="share of training episodes with one horizontal push in a random "
+                        "direction (default 0.3)")
+    p.add_argument("--validate-perturbed", type=integer("validate perturbed", 0), default=0,
+                   metavar="N", help="perturbed starts among the episodes that choose the kept "
+                                     "network (default 0: undisturbed episodes only)")
+    p.add_argument("--validate-pushes", type=integer("validate pushes", 0), default=0,
+                   metavar="N", help="pushed episodes among the episodes that choose the kept "
+                                     "network (default 0)")
     p.add_argument("--resume", action="store_true",
                    help="continue from POLICY's learn state (its data set, network, curve)")
     p.add_argument("--json", action="store_true", help="print one JSON object, no progress")
@@ -96,7 +107,10 @@ def main(args: argparse.Namespace) -> int:
     opts = LearnOptions(minutes=args.minutes, seed=args.seed, workers=args.workers,
                         executor=args.executor, ray_address=args.ray_address,
                         episodes=args.episodes, episode_seconds=args.episode_seconds,
-                        noise=args.noise, rl_share=args.rl_share)
+                        noise=args.noise, rl_share=args.rl_share,
+                        perturb_rate=args.perturb_rate, push_rate=args.push_rate,
+                        eval_perturbed=args.validate_perturbed,
+                        eval_pushes=args.validate_pushes)
     progress = None if args.json else Progress()
     summary = learn(setup, args.output, opts, resume=args.resume, progress=progress,
                     log=progress)
