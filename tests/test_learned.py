@@ -427,3 +427,34 @@ def test_learn_refuses_a_ray_address_without_ray(tmp_path, capsys):
                  "127.0.0.1:1"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "--executor ray" in err, err
+
+
+def test_learn_passes_its_episode_and_validation_options_on(tmp_path, monkeypatch):
+    """The rates of disturbed training episodes and the disturbed validation set reach
+    ``LearnOptions`` from the command line (the run itself is stubbed: no torch needed)."""
+    import mjchar.learn.dagger as dagger
+    import mjchar.learn.finetune as finetune
+    import mjchar.learn.train as train
+
+    seen = {}
+
+    def fake_learn(setup, out, opts, **kw):
+        seen["opts"] = opts
+        return {"iteration": 0, "labels": 0, "outputs": {"curve": "c.png"}}
+
+    monkeypatch.setattr(dagger, "learn", fake_learn)
+    monkeypatch.setattr(train, "import_torch", lambda: None)
+    monkeypatch.setattr(finetune, "import_sb3", lambda: None)
+    out = str(tmp_path / "p.npz")
+    assert main(["learn", "walk", "-o", out, "--json"]) == 0
+    d = seen["opts"]
+    assert (d.perturb_rate, d.push_rate, d.eval_perturbed, d.eval_pushes) == (0.3, 0.3, 0, 0)
+    assert main(["learn", "walk", "-o", out, "--json", "--perturb-rate", "0.5", "--push-rate",
+                 "0.25", "--validate-perturbed", "4", "--validate-pushes", "8",
+                 "--rl-share", "0.7"]) == 0
+    o = seen["opts"]
+    assert (o.perturb_rate, o.push_rate, o.eval_perturbed, o.eval_pushes, o.rl_share) == (
+        0.5, 0.25, 4, 8, 0.7)
+    with pytest.raises(SystemExit) as e:
+        main(["learn", "walk", "-o", out, "--push-rate", "1.5"])
+    assert e.value.code == 2
