@@ -459,3 +459,18 @@ def test_learn_passes_its_episode_and_validation_options_on(tmp_path, monkeypatc
     with pytest.raises(SystemExit) as e:
         main(["learn", "walk", "-o", out, "--push-rate", "1.5"])
     assert e.value.code == 2
+
+
+def test_the_curve_numbers_are_written_without_matplotlib(tmp_path, monkeypatch):
+    """With matplotlib absent the learning curve's numbers are still written (the picture is
+    not) and learning goes on: the curve is not a reason to stop an hour's run."""
+    import sys
+
+    from mjchar.learn.dagger import _save_curve
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib: ImportError
+    files = {"numbers": tmp_path / "p.curve.json", "curve": tmp_path / "p.curve.png"}
+    rows = [{"wall_s": 6.0, "eval_error_m": 0.05, "eval_fall_rate": 0.5}]
+    _save_curve(files, rows)
+    assert json.loads(files["numbers"].read_text()) == rows
+    assert not files["curve"].exists()

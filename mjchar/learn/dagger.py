@@ -455,11 +455,12 @@ def _save_curve(files: dict, rows: list) -> None:
     from mjchar.bvh.io.files import write_text
 
     write_text(files["numbers"], json.dumps(rows, indent=1) + "\n")
+    from .curve import plot_curve
+
     try:
-        from .curve import plot_curve
+        plot_curve(rows, files["curve"])
     except ImportError:  # matplotlib absent: the numbers are written, the picture is not
-        return
-    plot_curve(rows, files["curve"])
+        pass
 
 
 def with_options(opts: LearnOptions, **kw) -> LearnOptions:
