@@ -448,8 +448,10 @@ def test_learn_passes_its_episode_and_validation_options_on(tmp_path, monkeypatc
     monkeypatch.setattr(finetune, "import_sb3", lambda: None)
     out = str(tmp_path / "p.npz")
     assert main(["learn", "walk", "-o", out, "--json"]) == 0
-    d = seen["opts"]
-    assert (d.perturb_rate, d.push_rate, d.eval_perturbed, d.eval_pushes) == (0.3, 0.3, 0, 0)
+    d, ref = seen["opts"], dagger.LearnOptions()  # the command's defaults are the library's
+    fields = ("minutes", "seed", "episode_seconds", "noise", "rl_share", "perturb_rate",
+              "push_rate", "eval_perturbed", "eval_pushes")
+    assert [getattr(d, f) for f in fields] == [getattr(ref, f) for f in fields]
     assert main(["learn", "walk", "-o", out, "--json", "--perturb-rate", "0.5", "--push-rate",
                  "0.25", "--validate-perturbed", "4", "--validate-pushes", "8",
                  "--rl-share", "0.7"]) == 0
