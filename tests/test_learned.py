@@ -281,7 +281,7 @@ def test_fine_tuning_episodes_end_only_on_a_fall_while_recovering():
 
     assert steps_until_the_end(0.0)[0] == 1
     k, dt = steps_until_the_end(0.35)
-    assert k == math.ceil(0.35 / dt) + 1  # the first step that begins past 0.55 s ends it
+    assert k == math.ceil(0.35 / dt) + 1  # the first step that begins past 0.35 s ends it
 
 
 def test_the_ppo_actor_is_the_distilled_network_and_back():

@@ -9,10 +9,14 @@ from pathlib import Path
 __all__ = ["plot_curve"]
 
 
-def plot_curve(rows: list[dict], path) -> Path:
+def plot_curve(rows: list[dict], path) -> Path | None:
     """Write the curve of ``rows`` (:func:`~mjchar.learn.dagger.learn`'s per-iteration rows) as
-    a PNG at ``path`` (atomically)."""
-    import matplotlib
+    a PNG at ``path`` (atomically); ``None`` and nothing written when matplotlib is absent (the
+    picture is optional: a learning run goes on without it)."""
+    try:
+        import matplotlib
+    except ImportError:
+        return None
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -47,6 +47,7 @@ import numpy as np
 from mjchar.controllers.learned.policy_file import clip_hash, save_policy
 
 from .collect import Episode, LearnSetup, make_env
+from .curve import plot_curve
 from .finetune import FinetuneOptions
 from .train import LearnError, Trainer, import_torch
 from .workers import episode_pool
@@ -455,12 +456,7 @@ def _save_curve(files: dict, rows: list) -> None:
     from mjchar.bvh.io.files import write_text
 
     write_text(files["numbers"], json.dumps(rows, indent=1) + "\n")
-    from .curve import plot_curve
-
-    try:
-        plot_curve(rows, files["curve"])
-    except ImportError:  # matplotlib absent: the numbers are written, the picture is not
-        pass
+    plot_curve(rows, files["curve"])  # (nothing without matplotlib: the numbers suffice)
 
 
 def with_options(opts: LearnOptions, **kw) -> LearnOptions:
