@@ -346,7 +346,8 @@ class _LearnRun:
         # and every fine-tuned network written keeps its input normalisation
         start = load_policy(self.files["policy"]).net
         saved = self.files["rl_state"] if self.stage == "rl" else None
-        tuner = Finetuner(self.setup, start, opts, opts.finetune, saved=saved)
+        tuner = Finetuner(self.setup, start, opts, opts.finetune, saved=saved,
+                          data=(self.X, self.Y))
         self.stage = "rl"
         try:
             last = 0.0  # as in DAgger: a chunk that would not end in time is not begun
@@ -356,8 +357,9 @@ class _LearnRun:
                 train_s = time.perf_counter() - w
                 self.rl_steps = tuner.steps
                 tuner.save(self.files["rl_state"])
+                extra = {} if tuner.cloning is None else {"label_loss": tuner.label_loss()}
                 self._record(pool, tuner.mlp(), progress, log, stage="rl", beta=0.0,
-                             train_s=train_s, rl_steps=tuner.steps)
+                             train_s=train_s, rl_steps=tuner.steps, **extra)
                 last = time.perf_counter() - w
         finally:
             tuner.close()

@@ -22,7 +22,13 @@ fine-tuning of pre-trained policies):
   fall ends it: a recovery passes through larger errors (the bundled walk60 policy's did:
   15-48 cm after the 100 N pushes it survived, past 12 cm within 0.1-0.7 s of every perturbed
   start), and a 12 cm end there cuts every recovering episode before it recovers. An hour of
-  ``mjchar learn`` with 3 s of it made no more robust a policy (docs/learning.md).
+  ``mjchar learn`` with 3 s of it made no more robust a policy (docs/learning.md);
+- with ``bc_steps`` (0 by default) the MPC's labels stay in the objective: after each rollout,
+  before PPO's update, ``bc_steps`` minibatches of ``bc_batch`` (observation, label) pairs of
+  DAgger's data set (perturbed and pushed episodes included) step the actor's mean towards the
+  labels (mean squared error, Adam at ``lr``), so PPO climbs the reward near the planner's
+  actions instead of drifting from them (the behaviour-cloning term of Rajeswaran et al.
+  2018's DAPG, applied between PPO's updates).
 
 PyTorch and stable-baselines3 are imported here only (the ``rl`` extra).
 """
@@ -67,6 +73,8 @@ class FinetuneOptions:
             (:class:`~mjchar.envs.imitation.ImitationEnv`; evaluations use the tracking error,
             not the reward): DeepMimic's, with more weight on the centre of mass and a sharper
             scale, as the tracking error counts the root's drift that the pose term ignores.
+        bc_steps, bc_batch: behaviour-cloning minibatches on the MPC's labels after each
+            rollout, and their size (module docstring); 0: PPO alone.
     """
 
     lr: float = 1e-5
@@ -83,6 +91,8 @@ class FinetuneOptions:
     reward_weights: dict = field(default_factory=lambda: {
         "pose": 0.55, "velocity": 0.1, "end_effector": 0.15, "com": 0.2})
     reward_scales: dict = field(default_factory=lambda: {"com": 40.0})
+    bc_steps: int = 0
+    bc_batch: int = 256
 
 
 def import_sb3():
@@ -190,6 +200,43 @@ def actor_mlp(model, like: MLP) -> MLP:
     return MLP(W, B, like.mean.copy(), like.std.copy())
 
 
+def _actor_mean(model, obs):
+    """The PPO ``model``'s actor mean for a batch of raw observations (a torch tensor)."""
+    policy = model.policy
+    return policy.action_net(policy.mlp_extractor.forward_actor(policy.extract_features(obs)))
+
+
+def _label_cloning(model, data, ft: FinetuneOptions, seed: int):
+    """A stable-baselines3 callback that, at each rollout's end (before PPO's update), takes
+    ``ft.bc_steps`` Adam steps of the actor mean's squared error on minibatches of ``data``."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    X = torch.as_tensor(np.asarray(data[0]), dtype=torch.float32)
+    Y = torch.as_tensor(np.asarray(data[1]), dtype=torch.float32)
+    actor = [*_actor_layers(model), model.policy.action_net]
+    opt = torch.optim.Adam([p for m in actor for p in m.parameters()], lr=ft.lr)
+    rng = np.random.default_rng(seed)
+
+    class LabelCloning(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_end(self) -> None:
+            for _ in range(ft.bc_steps):
+                idx = torch.from_numpy(rng.integers(0, len(X), min(ft.bc_batch, len(X))))
+                loss = torch.mean((_actor_mean(model, X[idx]) - Y[idx]) ** 2)
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+
+        def loss(self) -> float:
+            with torch.no_grad():
+                return float(torch.mean((_actor_mean(model, X) - Y) ** 2))
+
+    return LabelCloning()
+
+
 def _actor_layers(model) -> list:
     import torch
 
@@ -207,16 +254,20 @@ class Finetuner:
             torch's threads.
         ft: PPO's settings.
         saved: a model written by :meth:`save` to continue from (``None``: start from ``net``).
+        data: DAgger's data set ``(X, Y)`` (raw observations, labels in scaled action units)
+            for ``ft.bc_steps``' behaviour cloning (``None``: none).
     """
 
     def __init__(self, setup: LearnSetup, net: MLP, opts, ft: FinetuneOptions | None = None,
-                 *, saved=None):
+                 *, saved=None, data=None):
         import_sb3()
         import torch
         from stable_baselines3 import PPO
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
         self.ft = ft = ft or FinetuneOptions()
+        if ft.bc_steps > 0 and (data is None or len(data[0]) == 0):
+            raise LearnError("bc_steps needs DAgger's data set (data=(X, Y)) to clone")
         self.net = net
         torch.set_num_threads(max(1, int(opts.threads)))
         n = int(ft.envs or os.cpu_count() or 1)
@@ -224,9 +275,11 @@ class Finetuner:
                   for i in range(n)]
         self.env = SubprocVecEnv(makers) if n > 1 else DummyVecEnv(makers)
         self.env.seed(int(opts.seed))
+        self.cloning = None
         if saved is not None:
             self.model = PPO.load(saved, env=self.env, device="cpu")
             self.steps = int(self.model.num_timesteps)
+            self._keep_labels(data, int(opts.seed))
             return
         self.model = PPO(
             "MlpPolicy", self.env, seed=int(opts.seed), device="cpu", learning_rate=ft.lr,
@@ -243,11 +296,22 @@ class Finetuner:
             self.model.learn(total_timesteps=ft.critic_warmup, reset_num_timesteps=False)
             for p in params:
                 p.requires_grad_(True)
+        self._keep_labels(data, int(opts.seed))
+
+    def _keep_labels(self, data, seed: int) -> None:
+        if self.ft.bc_steps > 0:
+            self.cloning = _label_cloning(self.model, data, self.ft, seed)
 
     def train(self, steps: int) -> None:
-        """``steps`` more PPO steps (rounded up to whole rollouts)."""
-        self.model.learn(total_timesteps=int(steps), reset_num_timesteps=False)
+        """``steps`` more PPO steps (rounded up to whole rollouts), with the labels'
+        behaviour cloning after each rollout when ``bc_steps`` asks for it."""
+        self.model.learn(total_timesteps=int(steps), reset_num_timesteps=False,
+                         callback=self.cloning)
         self.steps = int(self.model.num_timesteps)
+
+    def label_loss(self) -> float | None:
+        """The actor mean's squared error on the labels (``None`` without cloning)."""
+        return None if self.cloning is None else self.cloning.loss()
 
     def mlp(self) -> MLP:
         """The actor's mean as a numpy network (:func:`actor_mlp`)."""
