@@ -284,6 +284,35 @@ def test_fine_tuning_episodes_end_only_on_a_fall_while_recovering():
     assert k == math.ceil(0.35 / dt) + 1  # the first step that begins past 0.35 s ends it
 
 
+def test_a_curriculum_grows_the_fine_tuning_disturbances_to_daggers():
+    """With a curriculum the pushes of the first fine-tuning episodes are a quarter of DAgger's
+    force and reach DAgger's range after the ramp; without one they are DAgger's from the
+    start."""
+    from mjchar.learn.collect import LearnSetup, make_env
+    from mjchar.learn.dagger import LearnOptions
+    from mjchar.learn.finetune import Perturbations
+
+    opts = LearnOptions(perturb_rate=0.0, push_rate=1.0, push_force=(60.0, 150.0))
+
+    def forces(ramp):
+        env = Perturbations(make_env(LearnSetup(clip="walk", loop=True)), opts, 4.0, seed=0,
+                            ramp=ramp, ramp_start=0.25)
+        out = []
+        for i in range(6):
+            env.reset(seed=i)
+            (push,) = env.unwrapped.character.pushes.scheduled
+            out.append(float(np.linalg.norm(push.force)))
+        env.close()
+        return out
+
+    ramped, plain = forces(4), forces(0)
+    assert 15.0 <= ramped[0] <= 37.5  # a quarter of 60-150 N
+    assert all(60.0 <= f <= 150.0 for f in ramped[4:] + plain)
+    # the same draws, scaled: 0.25, 0.4375, 0.625, 0.8125, then 1
+    np.testing.assert_allclose(np.array(ramped) / np.array(plain),
+                               [0.25, 0.4375, 0.625, 0.8125, 1.0, 1.0])
+
+
 def test_the_ppo_actor_is_the_distilled_network_and_back():
     """The distilled network copied into the PPO actor (the normalisation folded into the first
     layer) and written back as a network gives the network's outputs."""
@@ -336,6 +365,8 @@ def test_behaviour_cloning_keeps_the_ppo_actor_near_the_labels():
     with pytest.raises(LearnError, match="bc_steps needs"):
         Finetuner(setup, net, LearnOptions(), FinetuneOptions(critic_warmup=0, envs=1,
                                                                n_steps=64, bc_steps=4))
+    with pytest.raises(LearnError, match="curriculum_start 0 "):
+        Finetuner(setup, net, LearnOptions(), FinetuneOptions(envs=1, curriculum_start=0.0))
 
 
 @pytest.mark.slow
