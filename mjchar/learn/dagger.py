@@ -425,6 +425,8 @@ def _line(row: dict) -> str:
     if row.get("stage") == "rl":
         head = (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  PPO steps "
                 f"{row['rl_steps']:8d} ({row['train_s']:.0f} s)")
+        if "label_loss" in row:  # (fine-tuning with behaviour cloning on the labels)
+            head += f"  label loss {row['label_loss']:.4f}"
     else:
         head = (f"it {row['iteration']:3d}  {row['wall_s'] / 60:6.1f} min  beta "
                 f"{row['beta']:.3f}  labels {row['labels']:6d} ({row['labels_per_s']:.2f}/s)  "
