@@ -23,12 +23,12 @@ fine-tuning of pre-trained policies):
   15-48 cm after the 100 N pushes it survived, past 12 cm within 0.1-0.7 s of every perturbed
   start), and a 12 cm end there cuts every recovering episode before it recovers. An hour of
   ``mjchar learn`` with 3 s of it made no more robust a policy (docs/learning.md);
-- with ``curriculum_episodes`` (0 by default) the disturbances grow: in each training env the
-  perturbed starts' noise and the pushes' forces are ``curriculum_start`` of DAgger's at the
-  first episode and reach them linearly after ``curriculum_episodes`` episodes (a curriculum,
-  Bengio et al. 2009), so early PPO updates see recoveries that can succeed; the rates of
-  perturbed and pushed episodes stay DAgger's. The count is each env's own and starts again
-  when a fine-tuning is resumed;
+- with ``curriculum_steps`` (0 by default) the disturbances grow: the perturbed starts' noise
+  and the pushes' forces are ``curriculum_start`` of DAgger's at the first episode and reach
+  them linearly after ``curriculum_steps`` PPO steps (a curriculum, Bengio et al. 2009), so
+  early PPO updates see recoveries that can succeed; the rates of perturbed and pushed episodes
+  stay DAgger's. An episode's size is set at its reset; the count starts again when a
+  fine-tuning is resumed;
 - with ``bc_steps`` (0 by default) the MPC's labels stay in the objective: after each rollout,
   before PPO's update, ``bc_steps`` minibatches of ``bc_batch`` (observation, label) pairs of
   DAgger's data set (perturbed and pushed episodes included) step the actor's mean towards the
@@ -79,7 +79,7 @@ class FinetuneOptions:
             (:class:`~mjchar.envs.imitation.ImitationEnv`; evaluations use the tracking error,
             not the reward): DeepMimic's, with more weight on the centre of mass and a sharper
             scale, as the tracking error counts the root's drift that the pose term ignores.
-        curriculum_episodes, curriculum_start: episodes of each training env over which the
+        curriculum_steps, curriculum_start: PPO steps (over all envs) over which the
             disturbances grow from ``curriculum_start`` of their size to all of it (module
             docstring); 0: full size from the start.
         bc_steps, bc_batch: behaviour-cloning minibatches on the MPC's labels after each
@@ -100,7 +100,7 @@ class FinetuneOptions:
     reward_weights: dict = field(default_factory=lambda: {
         "pose": 0.55, "velocity": 0.1, "end_effector": 0.15, "com": 0.2})
     reward_scales: dict = field(default_factory=lambda: {"com": 40.0})
-    curriculum_episodes: int = 0
+    curriculum_steps: int = 0
     curriculum_start: float = 0.25
     bc_steps: int = 0
     bc_batch: int = 256
@@ -125,15 +125,16 @@ class Perturbations(gymnasium.Wrapper):
     starting uniformly in ``[0.2, episode_seconds - push_duration - 0.5]`` s. The draws come
     from ``numpy.random.default_rng(seed)``. For ``recovery`` s from a perturbed start or a
     push's start the env's ``max_tracking_error`` is lifted (only a fall ends the episode).
-    With ``ramp`` episodes, the perturbation's noise and the push's force are scaled by
-    ``ramp_start`` at the first reset, growing linearly to 1 at reset ``ramp`` (:meth:`scale`).
+    With ``ramp`` steps, the perturbation's noise and the push's force are scaled by
+    ``ramp_start`` at the first reset, growing linearly with this env's steps to 1 after
+    ``ramp`` of them (:meth:`scale`, read at each reset).
     """
 
     def __init__(self, env, opts, seconds: float, seed: int, recovery: float = 0.0,
                  ramp: int = 0, ramp_start: float = 1.0):
         super().__init__(env)
         self.opts, self.seconds, self.recovery = opts, float(seconds), float(recovery)
-        self.ramp, self.ramp_start, self.episodes = int(ramp), float(ramp_start), 0
+        self.ramp, self.ramp_start, self.steps = int(ramp), float(ramp_start), 0
         self.rng = np.random.default_rng(seed)
         ch = env.unwrapped.character
         self.root = ch.model.body(ch.root_body).name
@@ -144,13 +145,12 @@ class Perturbations(gymnasium.Wrapper):
         """The disturbances' size at the next reset, as a fraction of DAgger's."""
         if self.ramp <= 0:
             return 1.0
-        x = min(self.episodes / self.ramp, 1.0)
+        x = min(self.steps / self.ramp, 1.0)
         return self.ramp_start + (1.0 - self.ramp_start) * x
 
     def reset(self, *, seed=None, options=None):
         o, rng = self.opts, self.rng
         k = self.scale()
-        self.episodes += 1
         options = dict(options or {})
         self.windows = []
         self.env.unwrapped.max_tracking_error = self.max_error
@@ -172,6 +172,7 @@ class Perturbations(gymnasium.Wrapper):
             self.windows.append((t, t + self.recovery))
 
     def step(self, action):
+        self.steps += 1
         if self.windows:
             env = self.env.unwrapped
             t = env.character.time
@@ -180,17 +181,19 @@ class Perturbations(gymnasium.Wrapper):
         return self.env.step(action)
 
 
-def training_env(setup: LearnSetup, opts, ft: FinetuneOptions, seed: int):
-    """One training env: Imitation-v0 on the setup's clip with ``ft``'s episodes, termination
-    and reward, and DAgger's perturbations (``opts``: a :class:`~.dagger.LearnOptions`), in a
-    Monitor."""
+def training_env(setup: LearnSetup, opts, ft: FinetuneOptions, seed: int, n_envs: int = 1):
+    """One of ``n_envs`` training envs: Imitation-v0 on the setup's clip with ``ft``'s
+    episodes, termination and reward, and DAgger's perturbations (``opts``: a
+    :class:`~.dagger.LearnOptions`; the curriculum's steps shared among the envs, which step
+    together), in a Monitor."""
     from stable_baselines3.common.monitor import Monitor
 
     env = make_env(replace(setup, max_tracking_error=ft.max_tracking_error),
                    episode_seconds=ft.episode_seconds, reward_weights=dict(ft.reward_weights),
                    reward_scales=dict(ft.reward_scales))
     return Monitor(Perturbations(env, opts, ft.episode_seconds, seed, ft.recovery_seconds,
-                                 ramp=ft.curriculum_episodes, ramp_start=ft.curriculum_start))
+                                 ramp=math.ceil(ft.curriculum_steps / n_envs),
+                                 ramp_start=ft.curriculum_start))
 
 
 def load_actor(model, net: MLP, init_std: float) -> None:
@@ -291,18 +294,18 @@ class Finetuner:
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
         self.ft = ft = ft or FinetuneOptions()
-        if not (0.0 < ft.curriculum_start <= 1.0 and ft.curriculum_episodes >= 0
+        if not (0.0 < ft.curriculum_start <= 1.0 and ft.curriculum_steps >= 0
                 and ft.bc_steps >= 0 and ft.bc_batch >= 1):
             raise LearnError(f"fine-tuning options out of range: curriculum_start "
-                             f"{ft.curriculum_start:g} (in (0, 1]), curriculum_episodes "
-                             f"{ft.curriculum_episodes} and bc_steps {ft.bc_steps} (>= 0), "
+                             f"{ft.curriculum_start:g} (in (0, 1]), curriculum_steps "
+                             f"{ft.curriculum_steps} and bc_steps {ft.bc_steps} (>= 0), "
                              f"bc_batch {ft.bc_batch} (>= 1)")
         if ft.bc_steps > 0 and (data is None or len(data[0]) == 0):
             raise LearnError("bc_steps needs DAgger's data set (data=(X, Y)) to clone")
         self.net = net
         torch.set_num_threads(max(1, int(opts.threads)))
         n = int(ft.envs or os.cpu_count() or 1)
-        makers = [functools.partial(training_env, setup, opts, ft, int(opts.seed) * 1000 + i)
+        makers = [functools.partial(training_env, setup, opts, ft, int(opts.seed) * 1000 + i, n)
                   for i in range(n)]
         self.env = SubprocVecEnv(makers) if n > 1 else DummyVecEnv(makers)
         self.env.seed(int(opts.seed))
