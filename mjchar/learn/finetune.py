@@ -28,13 +28,14 @@ fine-tuning of pre-trained policies):
   them linearly after ``curriculum_steps`` PPO steps (a curriculum, Bengio et al. 2009), so
   early PPO updates see recoveries that can succeed; the rates of perturbed and pushed episodes
   stay DAgger's. An episode's size is set at its reset; the count starts again when a
-  fine-tuning is resumed;
+  fine-tuning is resumed. An hour with it made no more robust a policy (docs/learning.md);
 - with ``bc_steps`` (0 by default) the MPC's labels stay in the objective: after each rollout,
   before PPO's update, ``bc_steps`` minibatches of ``bc_batch`` (observation, label) pairs of
   DAgger's data set (perturbed and pushed episodes included) step the actor's mean towards the
   labels (mean squared error, Adam at ``lr``), so PPO climbs the reward near the planner's
   actions instead of drifting from them (the behaviour-cloning term of Rajeswaran et al.
-  2018's DAPG, applied between PPO's updates).
+  2018's DAPG, applied between PPO's updates). An hour with it tracked closer and recovered
+  less (docs/learning.md).
 
 PyTorch and stable-baselines3 are imported here only (the ``rl`` extra).
 """
