@@ -357,7 +357,8 @@ class _LearnRun:
                 train_s = time.perf_counter() - w
                 self.rl_steps = tuner.steps
                 tuner.save(self.files["rl_state"])
-                extra = {} if tuner.cloning is None else {"label_loss": tuner.label_loss()}
+                loss = tuner.label_loss()
+                extra = {} if loss is None else {"label_loss": loss}
                 self._record(pool, tuner.mlp(), progress, log, stage="rl", beta=0.0,
                              train_s=train_s, rl_steps=tuner.steps, **extra)
                 last = time.perf_counter() - w

@@ -243,8 +243,7 @@ def _label_cloning(model, data, ft: FinetuneOptions, seed: int):
 
     X = torch.as_tensor(np.asarray(data[0]), dtype=torch.float32)
     Y = torch.as_tensor(np.asarray(data[1]), dtype=torch.float32)
-    actor = [*_actor_layers(model), model.policy.action_net]
-    opt = torch.optim.Adam([p for m in actor for p in m.parameters()], lr=ft.lr)
+    opt = torch.optim.Adam(_actor_parameters(model), lr=ft.lr)
     rng = np.random.default_rng(seed)
 
     class LabelCloning(BaseCallback):
@@ -264,6 +263,11 @@ def _label_cloning(model, data, ft: FinetuneOptions, seed: int):
                 return float(torch.mean((_actor_mean(model, X) - Y) ** 2))
 
     return LabelCloning()
+
+
+def _actor_parameters(model) -> list:
+    """The parameters of the PPO ``model``'s actor mean (hidden layers and action head)."""
+    return [p for m in [*_actor_layers(model), model.policy.action_net] for p in m.parameters()]
 
 
 def _actor_layers(model) -> list:
@@ -310,32 +314,26 @@ class Finetuner:
                   for i in range(n)]
         self.env = SubprocVecEnv(makers) if n > 1 else DummyVecEnv(makers)
         self.env.seed(int(opts.seed))
-        self.cloning = None
         if saved is not None:
             self.model = PPO.load(saved, env=self.env, device="cpu")
-            self.steps = int(self.model.num_timesteps)
-            self._keep_labels(data, int(opts.seed))
-            return
-        self.model = PPO(
-            "MlpPolicy", self.env, seed=int(opts.seed), device="cpu", learning_rate=ft.lr,
-            n_epochs=ft.epochs, n_steps=max(1, ft.n_steps // n), batch_size=ft.batch,
-            policy_kwargs={"net_arch": {"pi": list(net.hidden), "vf": list(ft.critic_hidden)},
-                           "activation_fn": torch.nn.ELU})
-        load_actor(self.model, net, ft.init_std)
-        self.steps = 0
-        if ft.critic_warmup > 0:
-            actor = [*_actor_layers(self.model), self.model.policy.action_net]
-            params = [p for m in actor for p in m.parameters()] + [self.model.policy.log_std]
-            for p in params:
-                p.requires_grad_(False)
-            self.model.learn(total_timesteps=ft.critic_warmup, reset_num_timesteps=False)
-            for p in params:
-                p.requires_grad_(True)
-        self._keep_labels(data, int(opts.seed))
-
-    def _keep_labels(self, data, seed: int) -> None:
-        if self.ft.bc_steps > 0:
-            self.cloning = _label_cloning(self.model, data, self.ft, seed)
+        else:
+            self.model = PPO(
+                "MlpPolicy", self.env, seed=int(opts.seed), device="cpu", learning_rate=ft.lr,
+                n_epochs=ft.epochs, n_steps=max(1, ft.n_steps // n), batch_size=ft.batch,
+                policy_kwargs={"net_arch": {"pi": list(net.hidden),
+                                            "vf": list(ft.critic_hidden)},
+                               "activation_fn": torch.nn.ELU})
+            load_actor(self.model, net, ft.init_std)
+            if ft.critic_warmup > 0:
+                params = _actor_parameters(self.model) + [self.model.policy.log_std]
+                for p in params:
+                    p.requires_grad_(False)
+                self.model.learn(total_timesteps=ft.critic_warmup, reset_num_timesteps=False)
+                for p in params:
+                    p.requires_grad_(True)
+        self.steps = int(self.model.num_timesteps) if saved is not None else 0
+        self.cloning = (_label_cloning(self.model, data, ft, int(opts.seed))
+                        if ft.bc_steps > 0 else None)
 
     def train(self, steps: int) -> None:
         """``steps`` more PPO steps (rounded up to whole rollouts), with the labels'
