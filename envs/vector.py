@@ -3,14 +3,14 @@
 ``gymnasium.make_vec("mjchar/Imitation-v0", num_envs=N)`` (and ``mjchar/Stand-v0``) returns a
 :class:`ThreadedVectorEnv`: N ordinary sub-environments (:class:`~mjchar.envs.ImitationEnv` or
 :class:`~mjchar.envs.StandEnv`, each behind Gymnasium's ``TimeLimit`` as ``gymnasium.make`` puts
-it). One call to :meth:`~ThreadedVectorEnv.step` runs every sub-environment's Python in the
-calling thread (its action, then, once its physics is done, reward, observation and
-termination) and their physics (:meth:`Character.advance
-<mjchar.controllers.core.character.Character.advance>`) in a persistent pool of ``num_threads``
-threads: MuJoCo's Python bindings release the GIL inside ``mj_step``, so the sub-environments'
-physics runs at once, beside the Python of those already stepped; no process, no pickling, no
-copy of the observations beyond the batch itself. :meth:`~ThreadedVectorEnv.reset` resets the
-sub-environments in ``num_threads`` contiguous groups, one per thread.
+it). One call to :meth:`~ThreadedVectorEnv.step` splits the sub-environments into
+``num_threads`` contiguous groups and steps each group in a thread of a persistent pool (the
+first group in the calling thread), every sub-environment whole and in turn: its action, its
+physics (:meth:`Character.advance <mjchar.controllers.core.character.Character.advance>`), then
+its reward, observation and termination. MuJoCo's Python bindings release the GIL inside
+``mj_step``, so one thread's physics runs beside another thread's Python; no process, no
+pickling, no copy of the observations beyond the batch itself. :meth:`~ThreadedVectorEnv.reset`
+and the autoresets run in the same groups.
 
 Each sub-environment is the single environment unchanged, seeded as ``SyncVectorEnv`` seeds
 them (``reset(seed=s)``: sub-environment ``i`` gets ``s + i``), so a vector of N gives the
@@ -227,44 +227,29 @@ class ThreadedVectorEnv(VectorEnv):
                            f"their episode: reset them (options['reset_mask']) before step() "
                            f"with autoreset_mode DISABLED")
 
-        # the calling thread runs every sub-environment's Python in order (its action, then,
-        # once its physics is done, reward, observation, termination); the workers run only
-        # the physics (``Character.advance``: MuJoCo without the GIL), so one env's physics
-        # overlaps the others' Python and physics
-        pending = []
-        try:
-            for i, env in enumerate(self.envs):
-                if mode == AutoresetMode.NEXT_STEP and self._autoreset[i]:
-                    self._obs[i], self._infos[i] = env.reset()
-                    self._rewards[i] = 0.0
-                    self._terminations[i] = self._truncations[i] = False
-                    continue
-                base = env.unwrapped
-                ch = base.character
-                ch.begin_step(base._step_begin(a[i]))
-                job = (self._pool.submit(ch.advance, base.n_substeps) if self._pool is not None
-                       else None)
-                pending.append((i, env, base, job))
-            for i, env, base, job in pending:
-                self._finish_step(i, env, base, job, mode)
-            pending.clear()
-        finally:
-            for *_, job in pending:  # an error: let the threads finish before it propagates
-                if job is not None:
-                    job.cancel() or job.exception()
+        # each thread steps its group whole (action, physics, reward, observation): the
+        # Python holds the interpreter, MuJoCo releases it, so one thread's physics overlaps
+        # another's Python (the calling thread steps the first group rather than wait)
+        self._run(lambda i: self._step_one(i, a[i], mode))
         infos = self._batch_infos(range(self.num_envs))
         np.logical_or(self._terminations, self._truncations, out=self._autoreset)
         return ((self._obs.copy() if self.copy else self._obs), self._rewards.copy(),
                 self._terminations.copy(), self._truncations.copy(), infos)
 
-    def _finish_step(self, i: int, env, base, job, mode) -> None:
-        """Sub-environment ``i`` after its physics: what its ``step`` returns, into the batch."""
+    def _step_one(self, i: int, action, mode) -> None:
+        """Sub-environment ``i``'s step (or, under ``NEXT_STEP`` after its episode ended, its
+        reset), into the batch; runs in the thread of ``i``'s group."""
+        env = self.envs[i]
+        if mode == AutoresetMode.NEXT_STEP and self._autoreset[i]:
+            self._obs[i], self._infos[i] = env.reset()
+            self._rewards[i] = 0.0
+            self._terminations[i] = self._truncations[i] = False
+            return
+        base = env.unwrapped
         ch = base.character
+        ch.begin_step(base._step_begin(action))
         try:
-            if job is None:
-                ch.advance(base.n_substeps)
-            else:
-                job.result()
+            ch.advance(base.n_substeps)
             ch.end_step()
         except SimulationDiverged as e:
             obs, r, term, trunc, info = base._step_diverged(e)
