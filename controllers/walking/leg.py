@@ -25,6 +25,11 @@ def wrap_angle(a: float) -> float:
 def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
     """World rotation vector (rad) of ``R_des R^T`` (its quaternion's arithmetic on Python
     floats: numpy's element-wise IEEE operations without its per-call overhead)."""
+    return np.array(rotation_error3(R_des, R))
+
+
+def rotation_error3(R_des: np.ndarray, R: np.ndarray) -> list[float]:
+    """:func:`rotation_error` as a list of three Python floats."""
     E = R_des @ R.T
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, E.ravel())
@@ -33,9 +38,9 @@ def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
         w, x, y, z = -w, -x, -y, -z
     s = math.sqrt(x * x + y * y + z * z)
     if s < 1e-12:
-        return np.array([2.0 * x, 2.0 * y, 2.0 * z])
+        return [2.0 * x, 2.0 * y, 2.0 * z]
     k = 2.0 * math.atan2(s, w) / s
-    return np.array([x * k, y * k, z * k])
+    return [x * k, y * k, z * k]
 
 
 def inverse3(A: np.ndarray) -> np.ndarray:
