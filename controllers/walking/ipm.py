@@ -115,19 +115,30 @@ from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
 from .ipm_torques import Damping, GravityCompensation, limit_stance_ankle, limit_stance_yaw
-from .leg import Leg, inverse3, rotation_error3, wrap_angle
+from .leg import (
+    Leg,
+    index_selector,
+    inverse3,
+    mat_quat,
+    matvec3,
+    quat_about,
+    quat_error,
+    quat_mul,
+    solve3,
+    wrap_angle,
+)
 from .rig_map import child_hinges
 from .swing import (
     SwingTrajectory,
     frame_from_axes3,
     hinge_leg_ik,
-    rotation_about,
     rotation_z,
     two_link_ik3,
 )
 
 _LEFT, _RIGHT = 0, 1
-_Y = np.array([0.0, 1.0, 0.0])
+_Y = (0.0, 1.0, 0.0)
+_Z = (0.0, 0.0, 1.0)
 
 
 class IPMController:
@@ -205,8 +216,9 @@ class IPMController:
         # hinges acting directly on the pelvis other than the hips (the spine), (joints, dofs)
         # per body; only 3-dof joints are mapped to a world torque
         thighs = {lg.thigh for lg in self._legs}
-        self._pelvis_children = [(ch.dof_joint[dofs], dofs) for dofs
-                                 in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
+        self._pelvis_children = [(index_selector(ch.dof_joint[dofs]), index_selector(dofs))
+                                 for dofs in child_hinges(ch, self._pelvis, thighs)
+                                 if len(dofs) == 3]
         # per-dof data for PD and gravity compensation (all but the stance leg, per swing leg)
         self._act = np.flatnonzero(ch.actuated)
         legs = np.concatenate([lg.all for lg in self._legs])
@@ -248,12 +260,17 @@ class IPMController:
             d[sw.ankle] = tr.swing_ankle_kd
             d[st.ankle] = tr.ankle_kd
             d[self._upper] = self._upper_kd
-            self._damping.append(Damping(ch, d, np.concatenate([sw.hip, st.hip]), st.ankle))
+            self._damping.append(Damping(ch, d, [sw.hip, st.hip], st.ankle))
         self._jac_buffers = [(np.zeros((3, ch.nv)), np.zeros((3, ch.nv))) for _ in range(3)]
         self._stance_leg_mask = [np.isin(np.arange(ch.nv), self._legs[1 - i].leg).astype(float)
                                  for i in range(2)]
         self._pelvis_kd = np.array([[-tr.pelvis_kd], [-tr.pelvis_kd], [-tr.pelvis_yaw_kd]])
         self._heading_cache = (None, None, None)
+        # the inverse of each thigh's rest frame (R_thigh = F thigh_rest^T), as a quaternion
+        self._thigh_rest_inv = {}
+        for lg in self._legs:
+            w, x, y, z = mat_quat(lg.thigh_rest)
+            self._thigh_rest_inv[lg.side] = [w, -x, -y, -z]
         self._pelvis_cache = (None, None)
         standing = ch.poses.standing()
         soles = ch.poses.kinematics(standing).site_positions
@@ -612,11 +629,11 @@ class IPMController:
         self._stopping = (not self._wants_to_walk(ch, t) and abs(vd) < 0.05
                           and abs(vh[0]) < 2 * p.standing.stop_speed)
         # 1. foot placement and 2. the swing foot's target, reached by the swing leg's IK
-        R_thigh_des, flexion, R_sw_foot = self._swing_leg_targets(
+        q_thigh_des, flexion, q_sw_foot = self._swing_leg_targets(
             ch, sw, (cx, cy), f, vh, max(cz - ground, 0.3), (sx, sy), ground, vd)
         # 3. tracking: legs and upper body, then the pelvis through the stance hip
-        jr_thigh = self._track_swing_leg(ch, t, sw, st, R_thigh_des, flexion, tau, D)
-        self._track_feet(ch, sw, st, R_sw_foot, tau, D)
+        jr_thigh = self._track_swing_leg(ch, t, sw, st, q_thigh_des, flexion, tau, D)
+        self._track_feet(ch, sw, st, q_sw_foot, tau, D)
         # 4. gravity compensation on everything but the stance leg
         if p.tracking.gravity_compensation:
             gravity = self._gravity[self._swing]
@@ -627,24 +644,25 @@ class IPMController:
         tau = D.damped(ch, tau, p.tracking.implicit_damping)
         return self._stance_limits(ch, st, tau)
 
-    def _heading_frame(self) -> tuple[np.ndarray, list[float], dict]:
-        """``(R, pole, offsets)`` for the heading target: ``R = rotation_z(heading_target)``, its
-        x axis ``pole`` and ``offsets[side]``, the leg's sole site offset turned by ``R`` (kept
-        while the heading target stays)."""
+    def _heading_frame(self) -> tuple[list[float], list[float], dict]:
+        """``(q, pole, offsets)`` for the heading target: ``q`` the quaternion of
+        ``R = rotation_z(heading_target)``, its x axis ``pole`` and ``offsets[side]``, the leg's
+        sole site offset turned by ``R`` (kept while the heading target stays)."""
         h = self.heading_target
         if self._heading_cache[0] != h:
             R = rotation_z(h)
-            self._heading_cache = (h, R, (R[:, 0].tolist(),
-                                          {lg.side: (R @ lg.site_offset).tolist()
-                                           for lg in self._legs}))
+            self._heading_cache = (h, quat_about(_Z, h), (R[:, 0].tolist(),
+                                                         {lg.side: (R @ lg.site_offset).tolist()
+                                                          for lg in self._legs}))
         return self._heading_cache[1], *self._heading_cache[2]
 
     def _swing_leg_targets(self, ch: Character, sw: Leg, c, f, vh, h: float, stance_xy,
-                           ground: float, vd: float) -> tuple[np.ndarray, float, np.ndarray]:
-        """Foot placement (step 1) and the swing foot's target (step 2): ``(R_thigh_des,
-        flexion, R_sw_foot)``, the swing thigh's world orientation and knee flexion that put its
-        ankle at the target (analytic IK), and the swing foot's orientation. ``c``, ``f``,
-        ``stance_xy``: the COM's, the heading's and the stance sole's horizontal (x, y)."""
+                           ground: float, vd: float) -> tuple[list, float, list]:
+        """Foot placement (step 1) and the swing foot's target (step 2): ``(q_thigh_des,
+        flexion, q_sw_foot)``, the swing thigh's world orientation (a quaternion) and knee
+        flexion that put its ankle at the target (analytic IK), and the swing foot's
+        orientation. ``c``, ``f``, ``stance_xy``: the COM's, the heading's and the stance sole's
+        horizontal (x, y)."""
         p = self.params
         s = ch.state
         lx, ly = -f[1], f[0]
@@ -659,27 +677,30 @@ class IPMController:
         y = c[1] + r0 * f[1] + r1 * ly
         z = ground + self.trajectory.height(self.phase, self._T)
         self.swing_target = np.array([x, y, z])
-        R_foot_des, pole, site_offsets = self._heading_frame()
+        q_foot_des, pole, site_offsets = self._heading_frame()
         so = site_offsets[sw.side]
         ankle_target = [x - so[0], y - so[1], z - so[2]]
-        R_sw_foot = R_foot_des
+        q_sw_foot = q_foot_des
         if self._foot > 0 and p.feet.toe_up > 0 and self.phase < p.feet.toe_up_phase:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
             xp = self.phase / p.feet.toe_up_phase
             toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(xp))
-            R_sw_foot = R_foot_des @ rotation_about(_Y, -toe_up)
+            q_sw_foot = quat_mul(q_foot_des, quat_about(_Y, -toe_up))
         hip_pos = s.joint_anchors[sw.hip_jnt[0]].tolist()
         if sw.planar:
             thigh_dir, axis, flexion = two_link_ik3(hip_pos, ankle_target, sw.l1, sw.l2, pole)
-            R_thigh_des = np.array(frame_from_axes3(thigh_dir, axis)) @ sw.thigh_rest.T
+            F = frame_from_axes3(thigh_dir, axis)
+            # R_thigh_des = F thigh_rest^T
+            q_thigh_des = quat_mul(mat_quat(F[0] + F[1] + F[2]), self._thigh_rest_inv[sw.side])
         else:
             R_thigh_des, flexion = hinge_leg_ik(np.array(hip_pos), np.array(ankle_target),
                                                 sw.bone1, sw.bone2, sw.knee_axis,
                                                 np.array(pole))
-        return R_thigh_des, flexion, R_sw_foot
+            q_thigh_des = mat_quat(R_thigh_des)
+        return q_thigh_des, flexion, q_sw_foot
 
     def _track_swing_leg(self, ch: Character, t: float, sw: Leg, st: Leg,
-                         R_thigh_des: np.ndarray, flexion: float, tau: np.ndarray,
+                         q_thigh_des: list, flexion: float, tau: np.ndarray,
                          D: Damping) -> np.ndarray:
         """PD on the swing thigh (world frame) and knee towards the IK targets, with their
         velocities by finite differences (feed-forward: no lag from the damping), and on the
@@ -690,20 +711,20 @@ class IPMController:
         qpos = s.qpos
         w_des, flex_rate = (0.0, 0.0, 0.0), 0.0
         if self._prev_swing is not None and tr.feedforward:
-            R_prev, flex_prev, t_prev = self._prev_swing
+            q_prev, flex_prev, t_prev = self._prev_swing
             if t > t_prev:
                 step = t - t_prev
-                w_des = [x / step for x in rotation_error3(R_thigh_des, R_prev)]
+                w_des = [x / step for x in quat_error(q_thigh_des, q_prev)]
                 flex_rate = (flexion - flex_prev) / step
                 n = math.sqrt(w_des[0] * w_des[0] + w_des[1] * w_des[1] + w_des[2] * w_des[2])
                 if n > tr.max_target_rate:
                     w_des = [x * (tr.max_target_rate / n) for x in w_des]
                 flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
-        self._prev_swing = (R_thigh_des, flexion, t)
-        e = rotation_error3(R_thigh_des, s.body_rotations[sw.thigh])
+        self._prev_swing = (q_thigh_des, flexion, t)
+        e = quat_error(q_thigh_des, s.body_quaternions[sw.thigh].tolist())
         kp, kd = tr.hip_kp, tr.hip_kd
-        axes = s.joint_axes[sw.hip_jnt]                      # (3, 3) rows = hinge axes
-        tau[sw.hip] = axes @ [kp * e[i] + kd * w_des[i] for i in range(3)]
+        axes = s.joint_axes[sw.hip_jnt_sel]                  # (3, 3) rows = hinge axes
+        tau[sw.hip_sel] = matvec3(axes.tolist(), [kp * e[i] + kd * w_des[i] for i in range(3)])
         _, jr_thigh = ch.dynamics.point_jacobian(sw.thigh, s.body_positions[sw.thigh],
                                                  self._jac_buffers[0])
         np.matmul(axes, jr_thigh, out=D.W[:3])               # the rows of sw.hip: kd A^T J_r
@@ -717,23 +738,23 @@ class IPMController:
         tau[st.knee_dof] = self._knee_kp * (knee_target - float(qpos[st.knee_q]))
         return jr_thigh
 
-    def _track_feet(self, ch: Character, sw: Leg, st: Leg, R_sw_foot: np.ndarray,
+    def _track_feet(self, ch: Character, sw: Leg, st: Leg, q_sw_foot: list,
                     tau: np.ndarray, D: Damping) -> None:
-        """PD on both feet in the world frame (the swing foot to ``R_sw_foot``, the stance foot
+        """PD on both feet in the world frame (the swing foot to ``q_sw_foot``, the stance foot
         flat at its own yaw) and the stance foot's push-off late in stance (the upper body's
         joint-space PD is in ``tau`` already)."""
         p = self.params
         tr = p.tracking
         s = ch.state
-        for leg, R_des, kp in ((sw, R_sw_foot, tr.swing_ankle_kp), (st, None, tr.ankle_kp)):
-            R_foot = s.body_rotations[leg.foot]
-            if R_des is None:  # stance foot: flat, keep its own yaw
-                R_des = rotation_z(heading_yaw(R_foot))
-            A = s.joint_axes[leg.ankle_jnt]                  # rows = hinge axes
-            tau[leg.ankle] = A @ [kp * x for x in rotation_error3(R_des, R_foot)]
+        for leg, q_des, kp in ((sw, q_sw_foot, tr.swing_ankle_kp), (st, None, tr.ankle_kp)):
+            if q_des is None:  # stance foot: flat, keep its own yaw
+                q_des = quat_about(_Z, heading_yaw(s.body_rotations[leg.foot]))
+            A = s.joint_axes[leg.ankle_jnt_sel]              # rows = hinge axes
+            e = quat_error(q_des, s.body_quaternions[leg.foot].tolist())
+            tau[leg.ankle_sel] = matvec3(A.tolist(), [kp * e[0], kp * e[1], kp * e[2]])
             if leg is st and self._foot > 0:
                 # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
-                n = A @ R_foot[:, 2]                         # the foot's vertical on the hinges
+                n = A @ s.body_rotations[leg.foot][:, 2]     # the foot's vertical on the hinges
                 extra = self._foot * (p.feet.ankle_yaw_kd - tr.ankle_kd)
                 np.multiply.outer(extra * n, n, out=D.B)    # the block on st.ankle
                 D.has_block = True
@@ -745,7 +766,7 @@ class IPMController:
             self._push_w = self._foot * smoothstep(x)
             R_foot = s.body_rotations[st.foot]
             moment = p.feet.push_off * self._push_w * self.mass * GRAVITY
-            tau[st.ankle] += s.joint_axes[st.ankle_jnt] @ (R_foot[:, 1] * moment)
+            tau[st.ankle_sel] += s.joint_axes[st.ankle_jnt_sel] @ (R_foot[:, 1] * moment)
 
     def _track_pelvis(self, ch: Character, sw: Leg, st: Leg, jr_thigh: np.ndarray, vd: float,
                       tau: np.ndarray, D: Damping) -> None:
@@ -758,25 +779,27 @@ class IPMController:
         s = ch.state
         lean = p.upper.lean * vd
         key = (self.heading_target, lean)
-        if self._pelvis_cache[0] != key:
-            self._pelvis_cache = (key, rotation_z(self.heading_target) @ rotation_about(_Y, lean))
-        R_p_des = self._pelvis_cache[1]
-        R_p = s.body_rotations[self._pelvis]
+        if self._pelvis_cache[0] != key:  # R_p_des = rotation_z(heading) rotation_about(y, lean)
+            self._pelvis_cache = (key, quat_mul(quat_about(_Z, self.heading_target),
+                                                quat_about(_Y, lean)))
         _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis],
                                              self._jac_buffers[1])
         # -(kp e + kd omega_des) per axis (kp, kd: horizontal, horizontal, yaw)
-        e = rotation_error3(R_p_des, R_p)
+        e = quat_error(self._pelvis_cache[1], s.body_quaternions[self._pelvis].tolist())
         kp, ykp, ykd = tr.pelvis_kp, tr.pelvis_yaw_kp, tr.pelvis_yaw_kd
-        T0 = np.array([-(kp * e[0]), -(kp * e[1]), -(ykp * e[2] + ykd * self._heading_rate)])
+        # minus the swing hip's world torque
+        t_sw = solve3(s.joint_axes[sw.hip_jnt_sel].tolist(), tau[sw.hip_sel].tolist())
+        T0 = [-(kp * e[0]) - t_sw[0], -(kp * e[1]) - t_sw[1],
+              -(ykp * e[2] + ykd * self._heading_rate) - t_sw[2]]
         DT = self._pelvis_kd * jr_p                           # world torque rows on qdot
-        T0 -= inverse3(s.joint_axes[sw.hip_jnt]) @ tau[sw.hip]
         DT -= tr.hip_kd * jr_thigh
         for jnts, dofs in self._pelvis_children:  # their damping is per dof (D.d)
             inv = inverse3(s.joint_axes[jnts])
-            T0 -= inv @ tau[dofs]
+            t_c = (inv @ tau[dofs]).tolist()
+            T0 = [T0[0] - t_c[0], T0[1] - t_c[1], T0[2] - t_c[2]]
             DT[:, dofs] -= inv * D.d[dofs]
-        A_st = s.joint_axes[st.hip_jnt]                       # rows = hinge axes
-        tau[st.hip] = A_st @ T0
+        A_st = s.joint_axes[st.hip_jnt_sel]                   # rows = hinge axes
+        tau[st.hip_sel] = matvec3(A_st.tolist(), T0)
         np.matmul(A_st, DT, out=D.W[3:])                      # the rows of st.hip
 
     def _virtual_force(self, ch: Character, t: float, st: Leg, c: np.ndarray, cxy, f, vh,

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.character import Character
 from .ipm_params import GRAVITY
-from .leg import Leg, inverse3
+from .leg import Leg, index_selector, matvec3, solve3
 
 try:  # np.linalg.solve's own kernel: the same LAPACK solve without the wrapper's checks
     from numpy.linalg._umath_linalg import solve1 as _solve
@@ -33,12 +33,19 @@ class GravityCompensation:
         self._bodies = ch.dof_body[dofs]
         self._joints = ch.dof_joint[dofs]
         self._weight = GRAVITY * np.array([ch.dynamics.subtree_mass(b) for b in self._bodies])
+        # flat indices into the (n, 3) state arrays: (x, y) of each subtree COM and joint
+        # anchor, (y, x) of each joint axis; the weight with the signs of a_x l_y - a_y l_x
+        xy = np.array([0, 1])
+        self._com_xy = 3 * self._bodies[:, None] + xy
+        self._jnt_xy = 3 * self._joints[:, None] + xy
+        self._jnt_yx = 3 * self._joints[:, None] + xy[::-1]
+        self._signed_weight = self._weight[:, None] * np.array([-1.0, 1.0])
 
     def __call__(self, s) -> np.ndarray:
-        lever = s.subtree_coms[self._bodies] - s.joint_anchors[self._joints]
-        ax = s.joint_axes[self._joints]
-        # a . (lever x z) = a_x lever_y - a_y lever_x
-        return self._weight * (ax[:, 0] * lever[:, 1] - ax[:, 1] * lever[:, 0])
+        lever = np.take(s.subtree_coms, self._com_xy) - np.take(s.joint_anchors, self._jnt_xy)
+        # a . (lever x z) = a_x lever_y - a_y lever_x: (a_y l_x, a_x l_y) weighted (-1, +1)
+        ayx = np.take(s.joint_axes, self._jnt_yx)
+        return np.add.reduce(ayx * lever * self._signed_weight, axis=1)
 
 
 class Damping:
@@ -48,20 +55,33 @@ class Damping:
 
     per-dof damping ``d`` ``(nv,)`` (fixed: the gains); a symmetric block ``B`` on the hinges
     ``block_dofs`` of one joint (the stance foot's twist damping), used while
-    :attr:`has_block`; and full rows ``W`` ``(k, nv)`` on the dofs ``rows`` (the hips': a
-    world-frame PD term's damping acts on every dof that turns its body), written every
-    physics step. :meth:`clear` drops the block for the next step.
+    :attr:`has_block`; and full rows ``W`` ``(k, nv)`` on the dofs ``rows``, given in groups
+    (the hips': a world-frame PD term's damping acts on every dof that turns its body), written
+    every physics step. The rows and the block are on different dofs. :meth:`clear` drops the
+    block for the next step.
     """
 
-    def __init__(self, ch: Character, d: np.ndarray, rows: np.ndarray, block_dofs: np.ndarray):
+    def __init__(self, ch: Character, d: np.ndarray, rows: list[np.ndarray],
+                 block_dofs: np.ndarray):
         nv = ch.nv
-        self.rows = np.asarray(rows, dtype=int)
+        self.rows = np.concatenate([np.asarray(r, dtype=int) for r in rows])
         self.block_dofs = np.asarray(block_dofs, dtype=int)
+        if np.intersect1d(self.rows, self.block_dofs).size:
+            raise ValueError("Damping: the full rows and the block share dofs")
         self.d = np.array(d, dtype=float)
         self.W = np.zeros((len(self.rows), nv))
         self.B = np.zeros((len(self.block_dofs), len(self.block_dofs)))
         self.has_block = False
         self.u = np.zeros(nv)  # the velocity the damping was evaluated at in the last step
+        # D itself, dense, for its products (one matrix-vector product each): the diagonal is
+        # fixed, the rows are copied from W and the block added at every step
+        self._D = np.diag(self.d)
+        ends = np.cumsum([len(r) for r in rows]).tolist()
+        self._groups = [(index_selector(r), slice(e - len(r), e)) for r, e in zip(rows, ends,
+                                                                                  strict=True)]
+        b = index_selector(self.block_dofs)
+        self._block = (b, b) if isinstance(b, slice) else np.ix_(b, b)
+        self._block_d = self._D[self._block].copy()
         dyn = ch.dynamics
         # M + dt (diag(d) + B) in the mass matrix's sparse layout: the diagonal part is fixed;
         # the block's lower triangle (diagonal included) goes where MuJoCo stores it
@@ -80,14 +100,13 @@ class Damping:
     def clear(self) -> None:
         self.has_block = False
 
-    def times(self, u: np.ndarray) -> np.ndarray:
-        """``(nv,)`` ``D u`` for ``u`` ``(nv,)``."""
-        out = self.d * u
-        out[self.rows] += self.W @ u
-        if self.has_block:
-            b = self.block_dofs
-            out[b] += self.B @ u[b]
-        return out
+    def matrix(self) -> np.ndarray:
+        """``(nv, nv)`` ``D`` as it stands (a view, valid until the next change)."""
+        D = self._D
+        for dofs, rows in self._groups:
+            D[dofs] = self.W[rows]
+        D[self._block] = self._block_d + self.B if self.has_block else self._block_d
+        return D
 
     def damped(self, ch: Character, tau: np.ndarray, implicit: bool) -> np.ndarray:
         """``tau - D qdot``; with ``implicit`` the damping at the next step's velocity (stable
@@ -103,17 +122,21 @@ class Damping:
             qddot = y - Z (I + dt W Z)^-1 dt W y,    y = A^-1 rhs,  Z = A^-1 P^T
         """
         qvel = ch.state.qvel
+        D = self.matrix()
         if not implicit:
             self.u[:] = qvel
-            return tau - self.times(qvel)
+            return tau - D @ qvel
         dt = ch.timestep
         if dt != self._dt:  # the time step changed since reset
             self._dt = dt
             self._add_d = ch.dynamics.mass_addition(dt * self.d)
         dyn = ch.dynamics
         rhs = self._rhs
-        rhs[0] = tau - self.times(qvel) - dyn.bias_forces() + dyn.passive_forces()
-        rhs[0] += dyn.constraint_forces()
+        r = rhs[0]
+        np.subtract(tau, D @ qvel, out=r)
+        r -= dyn.bias_forces()
+        r += dyn.passive_forces()
+        r += dyn.constraint_forces()
         add = self._add_d
         if self.has_block:
             add = self._add
@@ -121,27 +144,26 @@ class Damping:
             add[self._block_adr] += dt * self.B.ravel()[self._block_flat]
         X = dyn.solve_mass_plus(rhs, add)
         y, Z = X[0], X[1:]                          # Z: rows A^-1 e_r (A is symmetric)
-        W = self.W
-        corr = _solve(self._eye + dt * (W @ Z.T), dt * (W @ y))
+        W = dt * self.W
+        corr = _solve(self._eye + W @ Z.T, W @ y)
         u = self.u
         np.subtract(y, corr @ Z, out=u)
         u *= dt
         u += qvel
-        return tau - self.times(u)
+        return tau - D @ u
 
 
 def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: float) -> float:
     """Yaw moment (N m) the stance foot can hold: ``friction x m g x r``, with ``r`` the mean
     distance of its floor contact points from their centroid (a flat foot ~0.1 m, a foot on its
     toes or heel much less), at most ``limit``."""
-    pts = ch.contacts.ground_points(st.sole_bodies)
-    if len(pts) < 2:
-        return 0.0
-    # the mean distance from the centroid: pts.mean(axis=0), norm(axis=1), .mean() in numpy's
-    # own reductions (their summation order), without their wrappers' per-call overhead
+    pts = ch.contacts.ground_points(st.sole_bodies).tolist()
     k = len(pts)
-    d = pts - np.add.reduce(pts, axis=0) / k
-    r = float(np.add.reduce(np.sqrt(np.add.reduce(d * d, axis=1))) / k)
+    if k < 2:
+        return 0.0
+    mx = sum(p[0] for p in pts) / k
+    my = sum(p[1] for p in pts) / k
+    r = sum(math.sqrt((p[0] - mx) ** 2 + (p[1] - my) ** 2) for p in pts) / k
     return min(limit, friction * mass * GRAVITY * r)
 
 
@@ -149,12 +171,13 @@ def limit_stance_yaw(ch: Character, st: Leg, tau: np.ndarray, friction: float, l
                      mass: float) -> None:
     """Clamp the vertical component of the stance hip's world torque in ``tau`` to what the
     stance foot holds before it spins on the ground (:func:`yaw_capacity`)."""
-    A_st = ch.state.joint_axes[st.hip_jnt]
-    T_st = inverse3(A_st) @ tau[st.hip]
-    lim = yaw_capacity(ch, st, friction, limit, mass) if abs(T_st[2]) > 2.0 else math.inf
-    if abs(T_st[2]) > lim:
-        T_st[2] = math.copysign(lim, T_st[2])
-        tau[st.hip] = A_st @ T_st
+    A_st = ch.state.joint_axes[st.hip_jnt_sel].tolist()     # rows = hinge axes
+    T_st = solve3(A_st, tau[st.hip_sel].tolist())
+    if abs(T_st[2]) > 2.0:
+        lim = yaw_capacity(ch, st, friction, limit, mass)
+        if abs(T_st[2]) > lim:
+            T_st[2] = math.copysign(lim, T_st[2])
+            tau[st.hip_sel] = matvec3(A_st, T_st)
 
 
 def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back: float,
@@ -163,11 +186,12 @@ def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back
     .. ``fwd``, roll within ``+-roll``, each metres x ``weight``) so the foot holds it without
     rolling."""
     s = ch.state
-    A = s.joint_axes[st.ankle_jnt].T
-    T = inverse3(A.T) @ tau[st.ankle]
-    R_foot = s.body_rotations[st.foot]
-    roll_m, pitch_m, yaw_m = (R_foot.T @ T).tolist()
+    A = s.joint_axes[st.ankle_jnt_sel].tolist()              # rows = hinge axes
+    T = solve3(A, tau[st.ankle_sel].tolist())                # the world moment
+    R = s.body_rotations[st.foot].tolist()
+    # in the foot's frame (R^T T)
+    roll_m, pitch_m, yaw_m = (R[0][j] * T[0] + R[1][j] * T[1] + R[2][j] * T[2] for j in range(3))
     # the moment on the foot about +y (toes down) shifts the pressure forward
     pitch_m = min(max(pitch_m, -back * weight), fwd * weight)
     roll_m = min(max(roll_m, -roll * weight), roll * weight)
-    tau[st.ankle] = A.T @ (R_foot @ np.array([roll_m, pitch_m, yaw_m]))
+    tau[st.ankle_sel] = matvec3(A, matvec3(R, [roll_m, pitch_m, yaw_m]))
