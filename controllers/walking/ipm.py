@@ -58,6 +58,10 @@ step's velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-
 
     (M + dt D) qddot = tau0 - D qdot - C + tau_ext,    tau = tau0 - D (qdot + dt qddot)
 
+solved without forming ``M + dt D`` (:class:`~.ipm_torques.Damping`: MuJoCo's sparse
+factorisation of ``M`` plus the diagonal and the stance foot's twist block, the hips' full rows
+by the Woodbury identity).
+
 Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
 counter-clockwise), each a number or a function of time. The speed target follows the command at
 ``speed.acceleration``; the heading target turns at ``turning.rate`` (less when fast); swing
