@@ -142,12 +142,11 @@ class Damping:
             add = self._add
             add[:] = self._add_d
             add[self._block_adr] += dt * self.B.ravel()[self._block_flat]
-        X = dyn.solve_mass_plus(rhs, add)
-        y, Z = X[0], X[1:]                          # Z: rows A^-1 e_r (A is symmetric)
-        W = dt * self.W
-        corr = _solve(self._eye + W @ Z.T, W @ y)
+        X = dyn.solve_mass_plus(rhs, add)           # rows: y, then Z^T (rows A^-1 e_r)
+        WX = (dt * self.W) @ X.T                    # (k, 1 + k): dt W y, dt W Z
+        corr = _solve(self._eye + WX[:, 1:], WX[:, 0])
         u = self.u
-        np.subtract(y, corr @ Z, out=u)
+        np.subtract(X[0], corr @ X[1:], out=u)      # qddot
         u *= dt
         u += qvel
         return tau - D @ u
