@@ -640,8 +640,7 @@ class IPMController:
         self._track_feet(ch, sw, st, q_sw_foot, tau, D)
         # 4. gravity compensation on everything but the stance leg
         if p.tracking.gravity_compensation:
-            gravity = self._gravity[self._swing]
-            tau[gravity.dofs] += gravity(s)
+            self._gravity[self._swing].add_to(tau, s)
         self._track_pelvis(ch, sw, st, jr_thigh, vd, tau, D)
         # 5. virtual COM force through the stance leg
         self._virtual_force(ch, t, st, c, (cx, cy), f, vh, (sx, sy), vd, tau)

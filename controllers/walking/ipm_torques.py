@@ -26,26 +26,41 @@ class GravityCompensation:
     centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with axis ``a_j`` at
     ``p_j``, subtree mass ``M_j`` and subtree COM ``C_j``; the dofs' bodies, joints and weights
     ``M_j g`` are looked up once. Call it with the Character's state for the ``(len(dofs),)``
-    torques."""
+    torques, or :meth:`add_to` a ``(nv,)`` torque vector."""
 
     def __init__(self, ch: Character, dofs: np.ndarray):
         self.dofs = dofs
         self._bodies = ch.dof_body[dofs]
         self._joints = ch.dof_joint[dofs]
         self._weight = GRAVITY * np.array([ch.dynamics.subtree_mass(b) for b in self._bodies])
-        # flat indices into the (n, 3) state arrays: (x, y) of each subtree COM and joint
-        # anchor, (y, x) of each joint axis; the weight with the signs of a_x l_y - a_y l_x
+        # over every dof, weightless outside ``dofs`` (add_to: no gather and scatter)
+        weight = np.zeros(ch.nv)
+        weight[dofs] = self._weight
+        self._full = self._flat(np.arange(ch.nv), ch.dof_body, ch.dof_joint, weight)
+        self._sel = self._flat(np.arange(len(dofs)), self._bodies, self._joints, self._weight)
+
+    @staticmethod
+    def _flat(rows, bodies, joints, weight):
+        """Flat indices into the ``(n, 3)`` state arrays: (x, y) of each subtree COM and joint
+        anchor, (y, x) of each joint axis; the weight with the signs of ``a_x l_y - a_y l_x``."""
         xy = np.array([0, 1])
-        self._com_xy = 3 * self._bodies[:, None] + xy
-        self._jnt_xy = 3 * self._joints[:, None] + xy
-        self._jnt_yx = 3 * self._joints[:, None] + xy[::-1]
-        self._signed_weight = self._weight[:, None] * np.array([-1.0, 1.0])
+        b, j = np.asarray(bodies)[rows], np.asarray(joints)[rows]
+        return (3 * b[:, None] + xy, 3 * j[:, None] + xy, 3 * j[:, None] + xy[::-1],
+                np.asarray(weight)[rows, None] * np.array([-1.0, 1.0]))
+
+    @staticmethod
+    def _torques(s, flat) -> np.ndarray:
+        com_xy, jnt_xy, jnt_yx, signed_weight = flat
+        lever = np.take(s.subtree_coms, com_xy) - np.take(s.joint_anchors, jnt_xy)
+        # a . (lever x z) = a_x lever_y - a_y lever_x: (a_y l_x, a_x l_y) weighted (-1, +1)
+        return np.add.reduce(np.take(s.joint_axes, jnt_yx) * lever * signed_weight, axis=1)
 
     def __call__(self, s) -> np.ndarray:
-        lever = np.take(s.subtree_coms, self._com_xy) - np.take(s.joint_anchors, self._jnt_xy)
-        # a . (lever x z) = a_x lever_y - a_y lever_x: (a_y l_x, a_x l_y) weighted (-1, +1)
-        ayx = np.take(s.joint_axes, self._jnt_yx)
-        return np.add.reduce(ayx * lever * self._signed_weight, axis=1)
+        return self._torques(s, self._sel)
+
+    def add_to(self, tau: np.ndarray, s) -> None:
+        """Add the torques to ``tau`` ``(nv,)`` (zero on the other dofs)."""
+        tau += self._torques(s, self._full)
 
 
 class Damping:
