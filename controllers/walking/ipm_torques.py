@@ -175,9 +175,15 @@ def yaw_capacity(ch: Character, st: Leg, friction: float, limit: float, mass: fl
     k = len(pts)
     if k < 2:
         return 0.0
-    mx = sum(p[0] for p in pts) / k
-    my = sum(p[1] for p in pts) / k
-    r = sum(math.sqrt((p[0] - mx) ** 2 + (p[1] - my) ** 2) for p in pts) / k
+    sx = sy = 0.0
+    for x, y in pts:
+        sx += x
+        sy += y
+    mx, my = sx / k, sy / k
+    r = 0.0
+    for x, y in pts:
+        r += math.sqrt((x - mx) ** 2 + (y - my) ** 2)
+    r /= k
     return min(limit, friction * mass * GRAVITY * r)
 
 
@@ -204,7 +210,10 @@ def limit_stance_ankle(ch: Character, st: Leg, tau: np.ndarray, fwd: float, back
     T = solve3(A, tau[st.ankle_sel].tolist())                # the world moment
     R = s.body_rotations[st.foot].tolist()
     # in the foot's frame (R^T T)
-    roll_m, pitch_m, yaw_m = (R[0][j] * T[0] + R[1][j] * T[1] + R[2][j] * T[2] for j in range(3))
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+    roll_m = r00 * T[0] + r10 * T[1] + r20 * T[2]
+    pitch_m = r01 * T[0] + r11 * T[1] + r21 * T[2]
+    yaw_m = r02 * T[0] + r12 * T[1] + r22 * T[2]
     # the moment on the foot about +y (toes down) shifts the pressure forward
     pitch_m = min(max(pitch_m, -back * weight), fwd * weight)
     roll_m = min(max(roll_m, -roll * weight), roll * weight)
