@@ -21,6 +21,9 @@ except ImportError:  # pragma: no cover - numpy's layout changed
     _solve = np.linalg.solve
 
 
+_PAIR_SUM = np.ones(2)
+
+
 class GravityCompensation:
     """Torques holding up the links below ``dofs`` (an upward ``m g`` at each dof's subtree
     centre of mass): ``tau_j = a_j . ((C_j - p_j) x M_j g z)`` for dof ``j`` with axis ``a_j`` at
@@ -51,9 +54,9 @@ class GravityCompensation:
     @staticmethod
     def _torques(s, flat) -> np.ndarray:
         com_xy, jnt_xy, jnt_yx, signed_weight = flat
-        lever = np.take(s.subtree_coms, com_xy) - np.take(s.joint_anchors, jnt_xy)
+        lever = s.subtree_coms.ravel().take(com_xy) - s.joint_anchors.ravel().take(jnt_xy)
         # a . (lever x z) = a_x lever_y - a_y lever_x: (a_y l_x, a_x l_y) weighted (-1, +1)
-        return np.add.reduce(np.take(s.joint_axes, jnt_yx) * lever * signed_weight, axis=1)
+        return (s.joint_axes.ravel().take(jnt_yx) * lever * signed_weight) @ _PAIR_SUM
 
     def __call__(self, s) -> np.ndarray:
         return self._torques(s, self._sel)
