@@ -292,6 +292,31 @@ def test_sparse_mass_solve_equals_dense(humanoid):
     np.testing.assert_allclose(M, M.T, atol=1e-12)
 
 
+def test_sparse_mass_solve_with_a_joint_block_equals_dense(humanoid):
+    """``solve_mass_plus``: ``M`` plus a diagonal and a symmetric block on one joint's hinges,
+    several right-hand sides at once, as the dense solve."""
+    rng = np.random.default_rng(1)
+    humanoid.reset(standing(humanoid), rng.normal(0, 0.3, humanoid.nv))
+    dyn = humanoid.dynamics
+    M = dyn.mass_matrix()
+    d = rng.uniform(0, 1, humanoid.nv)
+    dofs = humanoid.joint_dofs(humanoid.role("left_ankle"))
+    a = rng.normal(size=(len(dofs), len(dofs)))
+    B = a @ a.T
+    add = dyn.mass_addition(d)
+    adr = dyn.block_addresses(dofs)
+    low = np.tril_indices(len(dofs))
+    add[adr[low]] += B[low]
+    Y = rng.normal(size=(3, humanoid.nv))
+    dense = M + np.diag(d)
+    dense[np.ix_(dofs, dofs)] += B
+    np.testing.assert_allclose(dyn.solve_mass_plus(Y, add), np.linalg.solve(dense, Y.T).T,
+                               rtol=1e-9, atol=1e-12)
+    other = humanoid.joint_dofs(humanoid.role("right_ankle"))
+    with pytest.raises(ValueError, match="not on one branch"):
+        dyn.block_addresses([int(dofs[0]), int(other[0])])
+
+
 # -- contacts ------------------------------------------------------------------------------------
 def test_feet_contacts_and_support_polygon(humanoid):
     humanoid.reset(standing(humanoid))

@@ -185,6 +185,40 @@ def test_toe_up_ankle_limit_weight_follows_the_speed():
     assert late.ankle_back_weight(1.2) == late.speed_blend(1.2) == 1.0
 
 
+@pytest.mark.parametrize("speed", [1.0, 1.4])  # 1.4: with the stance foot's twist block
+def test_the_implicit_damping_equals_the_dense_solve(character, speed):
+    """Mid-walk, :class:`~.ipm_torques.Damping` (sparse factorisation, the hips' rows by
+    Woodbury) gives the torques of the dense ``(M + dt D) qddot = rhs`` solve."""
+    from mjchar.controllers.walking import ipm_torques
+
+    ctrl = make_ipm(character, speed=speed, calibration="none")
+    seen, calls = [], [0]
+    real = ipm_torques.Damping.damped
+
+    def check(self, ch, tau, implicit):
+        out = real(self, ch, tau, implicit)
+        calls[0] += 1
+        if ch.time > 2.0 and calls[0] % 10 == 0:  # 20 steps from 2 s to 4 s
+            D = np.diag(self.d)
+            D[self.rows] = self.W
+            if self.has_block:
+                D[np.ix_(self.block_dofs, self.block_dofs)] += self.B
+            dyn, v, dt = ch.dynamics, ch.state.qvel, ch.timestep
+            rhs = (tau - D @ v - dyn.bias_forces() + dyn.passive_forces()
+                   + dyn.constraint_forces())
+            qacc = np.linalg.solve(dyn.mass_matrix() + dt * D, rhs)
+            np.testing.assert_allclose(out, tau - D @ (v + dt * qacc), rtol=0, atol=1e-9)
+            seen.append(self.has_block)
+        return out
+
+    ipm_torques.Damping.damped = check
+    try:
+        run_walk(character, ctrl, 4.0)
+    finally:
+        ipm_torques.Damping.damped = real
+    assert len(seen) >= 19 and any(seen) == (speed > 1.2)
+
+
 def test_act_before_reset_raises():
     with pytest.raises(IPMError):
         IPMController().act(None, 0.0)

@@ -14,7 +14,7 @@ def heading_yaw(R: np.ndarray) -> float:
     """Heading (rad) of a body orientation: the yaw of its x axis (its facing direction)
     projected on the floor. ``R``: a ``(3, 3)`` rotation matrix or MuJoCo's row-major ``(9,)``
     ``xmat`` row."""
-    m = np.asarray(R).reshape(-1)
+    m = R.ravel() if isinstance(R, np.ndarray) else np.asarray(R).reshape(-1)
     return math.atan2(m[3], m[0])
 
 

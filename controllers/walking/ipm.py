@@ -58,6 +58,10 @@ step's velocity as stable PD does (Tan, Liu, Turk 2011), generalised to the non-
 
     (M + dt D) qddot = tau0 - D qdot - C + tau_ext,    tau = tau0 - D (qdot + dt qddot)
 
+solved without forming ``M + dt D`` (:class:`~.ipm_torques.Damping`: MuJoCo's sparse
+factorisation of ``M`` plus the diagonal and the stance foot's twist block, the hips' full rows
+by the Woodbury identity).
+
 Commands: a desired forward speed (m/s) and a desired heading (degrees, world yaw: 0 = +X,
 counter-clockwise), each a number or a function of time. The speed target follows the command at
 ``speed.acceleration``; the heading target turns at ``turning.rate`` (less when fast); swing
@@ -114,20 +118,31 @@ from ..core.geometry import heading_yaw, point_in_polygon_margin, smoothstep
 from ..core.registry import ControllerSpec, register
 from .calibration import overrides_for
 from .ipm_params import GRAVITY, TUNED_LEG_LENGTH, IPMError, IPMParams, ipm_step_offset, schedule
-from .ipm_torques import GravityCompensation, damped, limit_stance_ankle, limit_stance_yaw
-from .leg import Leg, inverse3, rotation_error, wrap_angle
+from .ipm_torques import Damping, GravityCompensation, limit_stance_ankle, limit_stance_yaw
+from .leg import (
+    Leg,
+    index_selector,
+    inverse3,
+    mat_quat,
+    matvec3,
+    quat_about,
+    quat_error,
+    quat_mul,
+    solve3,
+    wrap_angle,
+)
 from .rig_map import child_hinges
 from .swing import (
     SwingTrajectory,
-    frame_from_axes,
+    frame_from_axes3,
     hinge_leg_ik,
-    rotation_about,
     rotation_z,
-    two_link_ik,
+    two_link_ik3,
 )
 
 _LEFT, _RIGHT = 0, 1
-_Y = np.array([0.0, 1.0, 0.0])
+_Y = (0.0, 1.0, 0.0)
+_Z = (0.0, 0.0, 1.0)
 
 
 class IPMController:
@@ -205,8 +220,9 @@ class IPMController:
         # hinges acting directly on the pelvis other than the hips (the spine), (joints, dofs)
         # per body; only 3-dof joints are mapped to a world torque
         thighs = {lg.thigh for lg in self._legs}
-        self._pelvis_children = [(ch.dof_joint[dofs], dofs) for dofs
-                                 in child_hinges(ch, self._pelvis, thighs) if len(dofs) == 3]
+        self._pelvis_children = [(index_selector(ch.dof_joint[dofs]), index_selector(dofs))
+                                 for dofs in child_hinges(ch, self._pelvis, thighs)
+                                 if len(dofs) == 3]
         # per-dof data for PD and gravity compensation (all but the stance leg, per swing leg)
         self._act = np.flatnonzero(ch.actuated)
         legs = np.concatenate([lg.all for lg in self._legs])
@@ -227,8 +243,39 @@ class IPMController:
         self._upper_kp = kp[self._upper] * s
         self._upper_kd = kd[self._upper] * s
         self._limits = ch.actuation.torque_limits()
+        self._neg_limits = -self._limits
         self.upper_pose = self._upper_body_pose(ch)
         self._q_upper = self.upper_pose[self._upper_q]
+        # the same over every dof (zero gain elsewhere): the upper body's PD in three products
+        self._upper_kp_nv = np.zeros(ch.nv)
+        self._upper_kp_nv[self._upper] = self._upper_kp
+        self._upper_qadr_nv = np.zeros(ch.nv, dtype=np.intp)
+        self._upper_qadr_nv[self._upper] = self._upper_q
+        self._q_upper_nv = self.upper_pose[self._upper_qadr_nv]
+        # the damping of the PD terms per swing leg (ipm_torques.Damping): per dof the knees',
+        # the feet's and the upper body's; full rows on both hips (swing hip, then stance hip);
+        # the stance foot's twist block
+        tr = self.params.tracking
+        self._damping = []
+        for i, sw in enumerate(self._legs):
+            st = self._legs[1 - i]
+            d = np.zeros(ch.nv)
+            d[sw.knee_dof] = d[st.knee_dof] = tr.knee_kd
+            d[sw.ankle] = tr.swing_ankle_kd
+            d[st.ankle] = tr.ankle_kd
+            d[self._upper] = self._upper_kd
+            self._damping.append(Damping(ch, d, [sw.hip, st.hip], st.ankle))
+        self._jac_buffers = [(np.zeros((3, ch.nv)), np.zeros((3, ch.nv))) for _ in range(3)]
+        self._stance_leg_mask = [np.isin(np.arange(ch.nv), self._legs[1 - i].leg).astype(float)
+                                 for i in range(2)]
+        self._pelvis_kd = np.array([[-tr.pelvis_kd], [-tr.pelvis_kd], [-tr.pelvis_yaw_kd]])
+        self._heading_cache = (None, None, None)
+        # the inverse of each thigh's rest frame (R_thigh = F thigh_rest^T), as a quaternion
+        self._thigh_rest_inv = {}
+        for lg in self._legs:
+            w, x, y, z = mat_quat(lg.thigh_rest)
+            self._thigh_rest_inv[lg.side] = [w, -x, -y, -z]
+        self._pelvis_cache = (None, None)
         standing = ch.poses.standing()
         soles = ch.poses.kinematics(standing).site_positions
         self._root_above_soles = float(standing[ch.root_qpos[2]] - np.mean(
@@ -348,6 +395,7 @@ class IPMController:
         self._turning = t - self._turned <= self.params.turning.hold
         self.phase = 0.0
         self._liftoff = self._foot_offset(ch, swing)
+        self._liftoff_xy = tuple(self._liftoff.tolist())
         self._prev_swing = None
         self._step_com0 = ch.state.com()
         self._knee0 = min(float(ch.state.qpos[self._legs[1 - swing].knee_q]),
@@ -562,129 +610,157 @@ class IPMController:
     def _step_torques(self, ch: Character, t: float) -> np.ndarray:
         """``(nv,)`` stepping torques, in the steps of the module docstring. Every PD term is
         split into a part that depends on the position, ``tau``, and a linear damping
-        ``-D qdot`` (:func:`~.ipm_torques.damped`: with ``tracking.implicit_damping`` at the next
-        step's velocity)."""
+        ``-D qdot`` (:class:`~.ipm_torques.Damping`: with ``tracking.implicit_damping`` at the
+        next step's velocity). Vectors of three are Python floats here (``c``, ``f`` and the
+        like: the same arithmetic without numpy's cost per call)."""
         p = self.params
         s = ch.state
         sw = self._legs[self._swing]
         st = self._legs[1 - self._swing]
-        tau = np.zeros(ch.nv)
-        D = np.zeros((ch.nv, ch.nv))
+        D = self._damping[self._swing]
+        D.clear()
+        # 3. (in part) joint-space PD on the upper body and the toes: zero on every other dof
+        tau = self._upper_kp_nv * (self._q_upper_nv - s.qpos[self._upper_qadr_nv])
         c = s.com()
-        v = s.com_velocity()
-        f, l = self._heading_axes(ch)
-        vh = np.array([v @ f, v @ l])
-        ground = float(s.site_positions[st.site][2])
+        cx, cy, cz = c.tolist()
+        vx, vy, _ = s.com_velocity().tolist()
+        yaw = heading_yaw(s.body_rotations[self._pelvis])
+        f = (math.cos(yaw), math.sin(yaw))  # heading axes: f = (f0, f1, 0), l = (-f1, f0, 0)
+        vh = (vx * f[0] + vy * f[1], vy * f[0] - vx * f[1])
+        sx, sy, ground = s.site_positions[st.site].tolist()
         vd = self.speed_target
         # coming to a stop: the next foot lands at standing width
         self._stopping = (not self._wants_to_walk(ch, t) and abs(vd) < 0.05
                           and abs(vh[0]) < 2 * p.standing.stop_speed)
         # 1. foot placement and 2. the swing foot's target, reached by the swing leg's IK
-        R_thigh_des, flexion, R_sw_foot = self._swing_leg_targets(
-            ch, sw, st, c, f, l, vh, max(c[2] - ground, 0.3), ground, vd)
+        q_thigh_des, flexion, q_sw_foot = self._swing_leg_targets(
+            ch, sw, (cx, cy), f, vh, max(cz - ground, 0.3), (sx, sy), ground, vd)
         # 3. tracking: legs and upper body, then the pelvis through the stance hip
-        A_sw = self._track_swing_leg(ch, t, sw, st, R_thigh_des, flexion, tau, D)
-        self._track_feet_and_upper_body(ch, sw, st, R_sw_foot, tau, D)
+        jr_thigh = self._track_swing_leg(ch, t, sw, st, q_thigh_des, flexion, tau, D)
+        self._track_feet(ch, sw, st, q_sw_foot, tau, D)
         # 4. gravity compensation on everything but the stance leg
         if p.tracking.gravity_compensation:
-            gravity = self._gravity[self._swing]
-            tau[gravity.dofs] += gravity(s)
-        self._track_pelvis(ch, sw, st, A_sw, vd, tau, D)
+            self._gravity[self._swing].add_to(tau, s)
+        self._track_pelvis(ch, sw, st, jr_thigh, vd, tau, D)
         # 5. virtual COM force through the stance leg
-        self._virtual_force(ch, t, st, c, f, l, vh, vd, tau)
-        tau = damped(ch, tau, D, p.tracking.implicit_damping)
+        self._virtual_force(ch, t, st, c, (cx, cy), f, vh, (sx, sy), vd, tau)
+        tau = D.damped(ch, tau, p.tracking.implicit_damping)
         return self._stance_limits(ch, st, tau)
 
-    def _swing_leg_targets(self, ch: Character, sw: Leg, st: Leg, c, f, l, vh, h: float,
-                           ground: float, vd: float) -> tuple[np.ndarray, float, np.ndarray]:
-        """Foot placement (step 1) and the swing foot's target (step 2): ``(R_thigh_des,
-        flexion, R_sw_foot)``, the swing thigh's world orientation and knee flexion that put its
-        ankle at the target (analytic IK), and the swing foot's orientation."""
+    def _heading_frame(self) -> tuple[list[float], list[float], dict]:
+        """``(q, pole, offsets)`` for the heading target: ``q`` the quaternion of
+        ``R = rotation_z(heading_target)``, its x axis ``pole`` and ``offsets[side]``, the leg's
+        sole site offset turned by ``R`` (kept while the heading target stays)."""
+        h = self.heading_target
+        if self._heading_cache[0] != h:
+            R = rotation_z(h)
+            self._heading_cache = (h, quat_about(_Z, h), (R[:, 0].tolist(),
+                                                         {lg.side: (R @ lg.site_offset).tolist()
+                                                          for lg in self._legs}))
+        return self._heading_cache[1], *self._heading_cache[2]
+
+    def _swing_leg_targets(self, ch: Character, sw: Leg, c, f, vh, h: float, stance_xy,
+                           ground: float, vd: float) -> tuple[list, float, list]:
+        """Foot placement (step 1) and the swing foot's target (step 2): ``(q_thigh_des,
+        flexion, q_sw_foot)``, the swing thigh's world orientation (a quaternion) and knee
+        flexion that put its ankle at the target (analytic IK), and the swing foot's
+        orientation. ``c``, ``f``, ``stance_xy``: the COM's, the heading's and the stance sole's
+        horizontal (x, y)."""
         p = self.params
         s = ch.state
-        stance_lat = float((s.site_positions[st.site][:2] - c[:2]) @ l[:2])
+        lx, ly = -f[1], f[0]
+        stance_lat = (stance_xy[0] - c[0]) * lx + (stance_xy[1] - c[1]) * ly
         offset = self.foot_placement(vh, h, self._swing, vd, stance_lat)
         self.last_offset = offset
-        rel = self.trajectory.horizontal(self.phase, self._liftoff, offset)
-        xy = np.array([c[0] + rel[0] * f[0] + rel[1] * l[0], c[1] + rel[0] * f[1] + rel[1] * l[1]])
-        site_target = np.array([xy[0], xy[1],
-                                ground + self.trajectory.height(self.phase, self._T)])
-        self.swing_target = site_target
-        R_foot_des = rotation_z(self.heading_target)
-        ankle_target = site_target - R_foot_des @ sw.site_offset
-        R_sw_foot = R_foot_des
+        o0, o1 = offset.tolist()
+        w = self.trajectory.liftoff_weight(self.phase)
+        r0 = w * self._liftoff_xy[0] + (1.0 - w) * o0
+        r1 = w * self._liftoff_xy[1] + (1.0 - w) * o1
+        x = c[0] + r0 * f[0] + r1 * lx
+        y = c[1] + r0 * f[1] + r1 * ly
+        z = ground + self.trajectory.height(self.phase, self._T)
+        self.swing_target = np.array([x, y, z])
+        q_foot_des, pole, site_offsets = self._heading_frame()
+        so = site_offsets[sw.side]
+        ankle_target = [x - so[0], y - so[1], z - so[2]]
+        q_sw_foot = q_foot_des
         if self._foot > 0 and p.feet.toe_up > 0 and self.phase < p.feet.toe_up_phase:
             # toes up early in the swing (easing to flat): the trailing toe leaves the floor
-            x = self.phase / p.feet.toe_up_phase
-            toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(x))
-            R_sw_foot = R_foot_des @ rotation_about(_Y, -toe_up)
-        hip_pos = s.joint_anchors[sw.hip_jnt[0]]
-        pole = R_foot_des[:, 0]
+            xp = self.phase / p.feet.toe_up_phase
+            toe_up = self._foot * p.feet.toe_up * (1.0 - smoothstep(xp))
+            q_sw_foot = quat_mul(q_foot_des, quat_about(_Y, -toe_up))
+        hip_pos = s.joint_anchors[sw.hip_jnt[0]].tolist()
         if sw.planar:
-            thigh_dir, axis, flexion = two_link_ik(hip_pos, ankle_target, sw.l1, sw.l2, pole)
-            R_thigh_des = frame_from_axes(thigh_dir, axis) @ sw.thigh_rest.T
+            thigh_dir, axis, flexion = two_link_ik3(hip_pos, ankle_target, sw.l1, sw.l2, pole)
+            F = frame_from_axes3(thigh_dir, axis)
+            # R_thigh_des = F thigh_rest^T
+            q_thigh_des = quat_mul(mat_quat(F[0] + F[1] + F[2]), self._thigh_rest_inv[sw.side])
         else:
-            R_thigh_des, flexion = hinge_leg_ik(hip_pos, ankle_target, sw.bone1, sw.bone2,
-                                                sw.knee_axis, pole)
-        return R_thigh_des, flexion, R_sw_foot
+            R_thigh_des, flexion = hinge_leg_ik(np.array(hip_pos), np.array(ankle_target),
+                                                sw.bone1, sw.bone2, sw.knee_axis,
+                                                np.array(pole))
+            q_thigh_des = mat_quat(R_thigh_des)
+        return q_thigh_des, flexion, q_sw_foot
 
     def _track_swing_leg(self, ch: Character, t: float, sw: Leg, st: Leg,
-                         R_thigh_des: np.ndarray, flexion: float, tau: np.ndarray,
-                         D: np.ndarray) -> np.ndarray:
+                         q_thigh_des: list, flexion: float, tau: np.ndarray,
+                         D: Damping) -> np.ndarray:
         """PD on the swing thigh (world frame) and knee towards the IK targets, with their
         velocities by finite differences (feed-forward: no lag from the damping), and on the
-        stance knee; returns the swing hip's hinge axes as rows."""
+        stance knee; returns the swing thigh's rotational Jacobian ``(3, nv)``."""
         p = self.params
         tr = p.tracking
         s = ch.state
         qpos = s.qpos
-        w_des, flex_rate = np.zeros(3), 0.0
+        w_des, flex_rate = (0.0, 0.0, 0.0), 0.0
         if self._prev_swing is not None and tr.feedforward:
-            R_prev, flex_prev, t_prev = self._prev_swing
+            q_prev, flex_prev, t_prev = self._prev_swing
             if t > t_prev:
-                w_des = rotation_error(R_thigh_des, R_prev) / (t - t_prev)
-                flex_rate = (flexion - flex_prev) / (t - t_prev)
-                n = math.sqrt(float(w_des @ w_des))
+                step = t - t_prev
+                w_des = [x / step for x in quat_error(q_thigh_des, q_prev)]
+                flex_rate = (flexion - flex_prev) / step
+                n = math.sqrt(w_des[0] * w_des[0] + w_des[1] * w_des[1] + w_des[2] * w_des[2])
                 if n > tr.max_target_rate:
-                    w_des *= tr.max_target_rate / n
+                    w_des = [x * (tr.max_target_rate / n) for x in w_des]
                 flex_rate = max(-tr.max_target_rate, min(tr.max_target_rate, flex_rate))
-        self._prev_swing = (R_thigh_des, flexion, t)
-        R_thigh = s.body_rotations[sw.thigh]
-        A_sw = s.joint_axes[sw.hip_jnt].T                    # (3, 3) columns = hinge axes
-        tau[sw.hip] = A_sw.T @ (tr.hip_kp * rotation_error(R_thigh_des, R_thigh)
-                                + tr.hip_kd * w_des)
-        _, jr_thigh = ch.dynamics.point_jacobian(sw.thigh, s.body_positions[sw.thigh])
-        D[sw.hip] = tr.hip_kd * (A_sw.T @ jr_thigh)
-        tau[sw.knee_dof] = tr.knee_kp * (flexion - qpos[sw.knee_q]) + tr.knee_kd * flex_rate
+        self._prev_swing = (q_thigh_des, flexion, t)
+        e = quat_error(q_thigh_des, s.body_quaternions[sw.thigh].tolist())
+        kp, kd = tr.hip_kp, tr.hip_kd
+        axes = s.joint_axes[sw.hip_jnt_sel]                  # (3, 3) rows = hinge axes
+        tau[sw.hip_sel] = matvec3(axes.tolist(), [kp * e[i] + kd * w_des[i] for i in range(3)])
+        _, jr_thigh = ch.dynamics.point_jacobian(sw.thigh, s.body_positions[sw.thigh],
+                                                 self._jac_buffers[0])
+        np.matmul(axes, jr_thigh, out=D.W[:3])               # the rows of sw.hip: kd A^T J_r
+        D.W[:3] *= kd
+        tau[sw.knee_dof] = (tr.knee_kp * (flexion - float(qpos[sw.knee_q]))
+                            + tr.knee_kd * flex_rate)
         knee_target = p.stance.knee
         if self._knee_ramp > 0:  # from the landing flexion to stance.knee, no impulse
             x = min(self.phase / self._knee_ramp, 1.0)
             knee_target += (self._knee0 - p.stance.knee) * (1.0 - smoothstep(x))
-        tau[st.knee_dof] = self._knee_kp * (knee_target - qpos[st.knee_q])
-        D[sw.knee_dof, sw.knee_dof] = D[st.knee_dof, st.knee_dof] = tr.knee_kd
-        return A_sw
+        tau[st.knee_dof] = self._knee_kp * (knee_target - float(qpos[st.knee_q]))
+        return jr_thigh
 
-    def _track_feet_and_upper_body(self, ch: Character, sw: Leg, st: Leg, R_sw_foot: np.ndarray,
-                                   tau: np.ndarray, D: np.ndarray) -> None:
-        """PD on both feet in the world frame (the swing foot to ``R_sw_foot``, the stance foot
-        flat at its own yaw), the stance foot's push-off late in stance, and joint-space PD on
-        the upper body."""
+    def _track_feet(self, ch: Character, sw: Leg, st: Leg, q_sw_foot: list,
+                    tau: np.ndarray, D: Damping) -> None:
+        """PD on both feet in the world frame (the swing foot to ``q_sw_foot``, the stance foot
+        flat at its own yaw) and the stance foot's push-off late in stance (the upper body's
+        joint-space PD is in ``tau`` already)."""
         p = self.params
         tr = p.tracking
         s = ch.state
-        for leg, R_des, kp, kd in ((sw, R_sw_foot, tr.swing_ankle_kp, tr.swing_ankle_kd),
-                                   (st, None, tr.ankle_kp, tr.ankle_kd)):
-            R_foot = s.body_rotations[leg.foot]
-            if R_des is None:  # stance foot: flat, keep its own yaw
-                R_des = rotation_z(heading_yaw(R_foot))
-            A = s.joint_axes[leg.ankle_jnt].T
-            tau[leg.ankle] = A.T @ (kp * rotation_error(R_des, R_foot))
-            D[leg.ankle, leg.ankle] = kd
+        for leg, q_des, kp in ((sw, q_sw_foot, tr.swing_ankle_kp), (st, None, tr.ankle_kp)):
+            if q_des is None:  # stance foot: flat, keep its own yaw
+                q_des = quat_about(_Z, heading_yaw(s.body_rotations[leg.foot]))
+            A = s.joint_axes[leg.ankle_jnt_sel]              # rows = hinge axes
+            e = quat_error(q_des, s.body_quaternions[leg.foot].tolist())
+            tau[leg.ankle_sel] = matvec3(A.tolist(), [kp * e[0], kp * e[1], kp * e[2]])
             if leg is st and self._foot > 0:
                 # the leg's twist over the planted foot: damped harder (no yaw stiffness there)
-                n = A.T @ R_foot[:, 2]                    # the foot's vertical on the hinges
-                extra = self._foot * (p.feet.ankle_yaw_kd - kd)
-                D[np.ix_(leg.ankle, leg.ankle)] += extra * np.outer(n, n)
+                n = A @ s.body_rotations[leg.foot][:, 2]     # the foot's vertical on the hinges
+                extra = self._foot * (p.feet.ankle_yaw_kd - tr.ankle_kd)
+                np.multiply.outer(extra * n, n, out=D.B)    # the block on st.ankle
+                D.has_block = True
         # push-off: late in stance a toes-down moment on the stance foot lifts its heel, so the
         # trailing leg lengthens instead of the hip sinking over a flat foot
         self._push_w = 0.0
@@ -693,58 +769,59 @@ class IPMController:
             self._push_w = self._foot * smoothstep(x)
             R_foot = s.body_rotations[st.foot]
             moment = p.feet.push_off * self._push_w * self.mass * GRAVITY
-            tau[st.ankle] += s.joint_axes[st.ankle_jnt] @ (R_foot[:, 1] * moment)
-        up = self._upper
-        tau[up] = self._upper_kp * (self._q_upper - s.qpos[self._upper_q])
-        D[up, up] = self._upper_kd
+            tau[st.ankle_sel] += s.joint_axes[st.ankle_jnt_sel] @ (R_foot[:, 1] * moment)
 
-    def _track_pelvis(self, ch: Character, sw: Leg, st: Leg, A_sw: np.ndarray, vd: float,
-                      tau: np.ndarray, D: np.ndarray) -> None:
+    def _track_pelvis(self, ch: Character, sw: Leg, st: Leg, jr_thigh: np.ndarray, vd: float,
+                      tau: np.ndarray, D: Damping) -> None:
         """The pelvis PD-controlled in the world frame through the stance hip, which takes the
         difference: ``T_stance = -T_pelvis - T_swing_hip - T_spine``, each as its position part
-        and its damping rows."""
+        and its damping rows (the swing hip's world damping is ``hip_kd`` times its thigh's
+        rotational Jacobian ``jr_thigh``)."""
         p = self.params
         tr = p.tracking
         s = ch.state
         lean = p.upper.lean * vd
-        R_p_des = rotation_z(self.heading_target) @ rotation_about(_Y, lean)
-        R_p = s.body_rotations[self._pelvis]
-        _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis])
-        # -(kp e + kd omega_des) per axis (kp, kd: horizontal, horizontal, yaw), on floats
-        e = rotation_error(R_p_des, R_p).tolist()
-        kp, kd, ykp, ykd = tr.pelvis_kp, tr.pelvis_kd, tr.pelvis_yaw_kp, tr.pelvis_yaw_kd
-        T0 = np.array([-(kp * e[0] + kd * 0.0), -(kp * e[1] + kd * 0.0),
-                       -(ykp * e[2] + ykd * self._heading_rate)])
-        DT = np.array([[-kd], [-kd], [-ykd]]) * jr_p          # world torque rows on qdot
-        inv = inverse3(A_sw.T)
-        T0 -= inv @ tau[sw.hip]
-        DT -= inv @ D[sw.hip]
-        for jnts, dofs in self._pelvis_children:
+        key = (self.heading_target, lean)
+        if self._pelvis_cache[0] != key:  # R_p_des = rotation_z(heading) rotation_about(y, lean)
+            self._pelvis_cache = (key, quat_mul(quat_about(_Z, self.heading_target),
+                                                quat_about(_Y, lean)))
+        _, jr_p = ch.dynamics.point_jacobian(self._pelvis, s.body_positions[self._pelvis],
+                                             self._jac_buffers[1])
+        # -(kp e + kd omega_des) per axis (kp, kd: horizontal, horizontal, yaw)
+        e = quat_error(self._pelvis_cache[1], s.body_quaternions[self._pelvis].tolist())
+        kp, ykp, ykd = tr.pelvis_kp, tr.pelvis_yaw_kp, tr.pelvis_yaw_kd
+        # minus the swing hip's world torque
+        t_sw = solve3(s.joint_axes[sw.hip_jnt_sel].tolist(), tau[sw.hip_sel].tolist())
+        T0 = [-(kp * e[0]) - t_sw[0], -(kp * e[1]) - t_sw[1],
+              -(ykp * e[2] + ykd * self._heading_rate) - t_sw[2]]
+        DT = self._pelvis_kd * jr_p                           # world torque rows on qdot
+        DT -= tr.hip_kd * jr_thigh
+        for jnts, dofs in self._pelvis_children:  # their damping is per dof (D.d)
             inv = inverse3(s.joint_axes[jnts])
-            T0 -= inv @ tau[dofs]
-            DT -= inv @ D[dofs]
-        A_st = s.joint_axes[st.hip_jnt]                       # rows = hinge axes
-        tau[st.hip] = A_st @ T0
-        D[st.hip] = A_st @ DT
+            t_c = (inv @ tau[dofs]).tolist()
+            T0 = [T0[0] - t_c[0], T0[1] - t_c[1], T0[2] - t_c[2]]
+            DT[:, dofs] -= inv * D.d[dofs]
+        A_st = s.joint_axes[st.hip_jnt_sel]                   # rows = hinge axes
+        tau[st.hip_sel] = matvec3(A_st.tolist(), T0)
+        np.matmul(A_st, DT, out=D.W[3:])                      # the rows of st.hip
 
-    def _virtual_force(self, ch: Character, t: float, st: Leg, c, f, l, vh, vd: float,
-                       tau: np.ndarray) -> None:
-        """Speed control (step 5): a virtual force on the COM realised by the stance leg,
+    def _virtual_force(self, ch: Character, t: float, st: Leg, c: np.ndarray, cxy, f, vh,
+                       stance_xy, vd: float, tau: np.ndarray) -> None:
+        """Speed control (step 5): a virtual force on the COM ``c`` realised by the stance leg,
         ``tau -= J^T F``."""
         p = self.params
-        s = ch.state
         vcd = float(self.lateral_speed(t) or 0.0)
-        dc = (c[:2] - s.site_positions[st.site][:2]) @ l[:2]
+        dc = (cxy[0] - stance_xy[0]) * -f[1] + (cxy[1] - stance_xy[1]) * f[0]
         side = 1.0 if self._swing == _LEFT else -1.0
         fs = self.mass * p.force.sagittal * (vd - vh[0])
         fc = self.mass * (p.force.coronal_pos * (side * p.force.coronal_offset - dc)
                           + p.force.coronal_vel * (vcd - vh[1]))
         fs = max(-p.force.max_sagittal, min(p.force.max_sagittal, fs))
         fc = max(-p.force.max_coronal, min(p.force.max_coronal, fc))
-        F = np.array([fs * fi + fc * li for fi, li in zip(f.tolist(), l.tolist(), strict=True)])
-        self.last_force = F
-        jacp, _ = ch.dynamics.point_jacobian(st.foot, c)
-        tau[st.leg] -= jacp[:, st.leg].T @ F
+        F = [fs * f[0] - fc * f[1], fs * f[1] + fc * f[0], 0.0]
+        self.last_force = np.array(F)
+        jacp, _ = ch.dynamics.point_jacobian(st.foot, c, self._jac_buffers[2])
+        tau -= self._stance_leg_mask[self._swing] * (self.last_force @ jacp)
 
     def _stance_limits(self, ch: Character, st: Leg, tau: np.ndarray) -> np.ndarray:
         """What the stance foot holds (its yaw moment; its ankle moment, wider at push-off,
@@ -761,7 +838,9 @@ class IPMController:
                 fwd += self._push_w * max(self._ball[st.side] - fwd, 0.0)
             limit_stance_ankle(ch, st, tau, fwd, back, roll, self.mass * GRAVITY)
         tau[ch.root_dofs] = 0.0
-        return np.clip(tau, -self._limits, self._limits)
+        np.minimum(tau, self._limits, out=tau)
+        np.maximum(tau, self._neg_limits, out=tau)
+        return tau
 
 
 def make_ipm(character: Character | None = None, speed=0.0, heading=None, *,

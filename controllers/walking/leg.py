@@ -25,6 +25,11 @@ def wrap_angle(a: float) -> float:
 def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
     """World rotation vector (rad) of ``R_des R^T`` (its quaternion's arithmetic on Python
     floats: numpy's element-wise IEEE operations without its per-call overhead)."""
+    return np.array(rotation_error3(R_des, R))
+
+
+def rotation_error3(R_des: np.ndarray, R: np.ndarray) -> list[float]:
+    """:func:`rotation_error` as a list of three Python floats."""
     E = R_des @ R.T
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, E.ravel())
@@ -33,9 +38,9 @@ def rotation_error(R_des: np.ndarray, R: np.ndarray) -> np.ndarray:
         w, x, y, z = -w, -x, -y, -z
     s = math.sqrt(x * x + y * y + z * z)
     if s < 1e-12:
-        return np.array([2.0 * x, 2.0 * y, 2.0 * z])
+        return [2.0 * x, 2.0 * y, 2.0 * z]
     k = 2.0 * math.atan2(s, w) / s
-    return np.array([x * k, y * k, z * k])
+    return [x * k, y * k, z * k]
 
 
 def inverse3(A: np.ndarray) -> np.ndarray:
@@ -48,6 +53,76 @@ def inverse3(A: np.ndarray) -> np.ndarray:
     return np.array([[co[0] / det, (c * h - b * i) / det, (b * f - c * e) / det],
                      [co[1] / det, (a * i - c * g) / det, (c * d - a * f) / det],
                      [co[2] / det, (b * g - a * h) / det, (a * e - b * d) / det]])
+
+
+def solve3(A: list[list[float]], b: list[float]) -> list[float]:
+    """``inverse3(A) @ b`` for a ``(3, 3)`` matrix ``A`` given as rows of Python floats and
+    ``b`` three floats (Cramer's rule; the pseudo-inverse when ``A`` is singular)."""
+    (a, b_, c), (d, e, f), (g, h, i) = A
+    co0, co1, co2 = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * co0 + b_ * co1 + c * co2
+    if abs(det) < 1e-12:
+        return (np.linalg.pinv(np.array(A)) @ np.array(b)).tolist()
+    x, y, z = b
+    return [(co0 * x + (c * h - b_ * i) * y + (b_ * f - c * e) * z) / det,
+            (co1 * x + (a * i - c * g) * y + (c * d - a * f) * z) / det,
+            (co2 * x + (b_ * g - a * h) * y + (a * e - b_ * d) * z) / det]
+
+
+def matvec3(A: list[list[float]], x: list[float]) -> list[float]:
+    """``A @ x`` for a ``(3, 3)`` matrix given as rows of Python floats and three floats."""
+    return [r[0] * x[0] + r[1] * x[1] + r[2] * x[2] for r in A]
+
+
+def quat_mul(p: list[float], q: list[float]) -> list[float]:
+    """The quaternion product ``p q`` (``(w, x, y, z)`` as Python floats)."""
+    p0, p1, p2, p3 = p
+    q0, q1, q2, q3 = q
+    return [p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0]
+
+
+def quat_about(axis: tuple[float, float, float], angle: float) -> list[float]:
+    """Unit quaternion of the rotation about the unit ``axis`` by ``angle`` rad."""
+    s = math.sin(0.5 * angle)
+    return [math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s]
+
+
+def quat_error(q_des: list[float], q: list[float]) -> list[float]:
+    """:func:`rotation_error` of two orientations given as unit quaternions: the world
+    rotation vector (rad) of ``q_des q^-1``, three Python floats."""
+    p0, p1, p2, p3 = q_des
+    q0, q1, q2, q3 = q
+    w = p0 * q0 + p1 * q1 + p2 * q2 + p3 * q3
+    x = q0 * p1 - p0 * q1 - (p2 * q3 - p3 * q2)
+    y = q0 * p2 - p0 * q2 - (p3 * q1 - p1 * q3)
+    z = q0 * p3 - p0 * q3 - (p1 * q2 - p2 * q1)
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-12:
+        return [2.0 * x, 2.0 * y, 2.0 * z]
+    k = 2.0 * math.atan2(s, w) / s
+    return [x * k, y * k, z * k]
+
+
+def mat_quat(R) -> list[float]:
+    """Unit quaternion ``(w, x, y, z)`` of a rotation matrix (``(3, 3)`` or row-major nine
+    numbers), as Python floats (``mju_mat2Quat``)."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.asarray(R, dtype=float).reshape(9))
+    return q.tolist()
+
+
+def index_selector(idx: np.ndarray) -> slice | np.ndarray:
+    """Integer indices as a slice when they are a consecutive ascending run (a view to read and
+    a cheaper write), else as they are."""
+    idx = np.asarray(idx, dtype=int)
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
 
 
 class Leg:
@@ -70,6 +145,8 @@ class Leg:
         self.hip, self.knee, self.ankle, self.toe = (j.hip_dofs, j.knee_dofs, j.ankle_dofs,
                                                      j.toe_dofs)
         self.leg = np.concatenate([self.hip, self.knee, self.ankle])
+        # the same as slices where they are consecutive (index_selector)
+        self.hip_sel, self.ankle_sel = index_selector(self.hip), index_selector(self.ankle)
         self.all = np.concatenate([self.leg, self.toe])
         for role, name, dofs, n in (("hip", self.hip_name, self.hip, 3),
                                     ("knee", self.knee_name, self.knee, 1),
@@ -93,6 +170,8 @@ class Leg:
             raise IPMError(f"site {side}_foot is not on the {side} ankle body")
         self.hip_jnt = ch.dof_joint[self.hip]
         self.ankle_jnt = ch.dof_joint[self.ankle]
+        self.hip_jnt_sel = index_selector(self.hip_jnt)
+        self.ankle_jnt_sel = index_selector(self.ankle_jnt)
         self.knee_q = ch.joint_qpos(self.knee_name)[0]
         self.knee_dof = int(self.knee[0])
         # geometry: the bones (model constants) and the knee's hinge axis in the thigh's frame

@@ -133,27 +133,51 @@ def two_link_ik(hip: np.ndarray, target: np.ndarray, l1: float, l2: float, pole:
         ``(3,)`` unit knee hinge axis (positive flexion about it swings the shank away from the
         pole, i.e. backwards), ``flexion`` the knee flexion angle (rad, 0 = straight leg).
     """
+    thigh, axis, flexion = two_link_ik3(np.asarray(hip, dtype=float).tolist(),
+                                        np.asarray(target, dtype=float).tolist(), l1, l2,
+                                        np.asarray(pole, dtype=float).tolist(),
+                                        min_reach=min_reach, max_extension=max_extension)
+    return np.array(thigh), np.array(axis), flexion
+
+
+def two_link_ik3(hip: list[float], target: list[float], l1: float, l2: float,
+                 pole: list[float], *, min_reach: float = 0.05, max_extension: float = 0.999
+                 ) -> tuple[list[float], list[float], float]:
+    """:func:`two_link_ik` on 3-vectors given as Python floats (``(thigh, axis, flexion)``
+    with ``thigh`` and ``axis`` as lists): the arithmetic of a controller's every physics step,
+    without numpy's per-call overhead."""
     if not (l1 > 0 and l2 > 0):
         raise SwingError(f"leg lengths must be positive, got {l1}, {l2}")
-    hip = np.asarray(hip, dtype=float)
-    r = np.asarray(target, dtype=float) - hip
-    D = math.sqrt(float(r @ r))
+    r = [target[0] - hip[0], target[1] - hip[1], target[2] - hip[2]]
+    D = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     if not math.isfinite(D):
         raise SwingError("two_link_ik: non-finite hip or target")
     lo = max(min_reach, abs(l1 - l2) + 1e-6)
     hi = max_extension * (l1 + l2)
-    r_hat = r / D if D > 1e-9 else np.array([0.0, 0.0, -1.0])
+    rh = [x / D for x in r] if D > 1e-9 else [0.0, 0.0, -1.0]
     D = min(max(D, lo), hi)
-    rh = r_hat.tolist()
-    axis = _unit3(cross3(np.asarray(pole, dtype=float).tolist(), rh))
+    axis = _unit3(cross3(pole, rh))
     if not any(axis):  # pole parallel to the leg: any perpendicular will do
         axis = _unit3(cross3([0.0, 0.0, 1.0] if abs(rh[2]) < 0.9 else [1.0, 0.0, 0.0], rh))
     cos_knee = (l1 * l1 + l2 * l2 - D * D) / (2 * l1 * l2)
     flexion = math.pi - math.acos(min(max(cos_knee, -1.0), 1.0))
     cos_hip = (l1 * l1 + D * D - l2 * l2) / (2 * l1 * D)
     alpha = math.acos(min(max(cos_hip, -1.0), 1.0))
-    thigh = rotation_about(axis, -alpha) @ r_hat
-    return thigh, np.array(axis), flexion
+    # r_hat turned by -alpha about the (unit) axis, Rodrigues: r c + (k x r) s + k (k . r)(1 - c)
+    c, s = math.cos(-alpha), math.sin(-alpha)
+    kr = axis[0] * rh[0] + axis[1] * rh[1] + axis[2] * rh[2]
+    kxr = cross3(axis, rh)
+    thigh = [rh[i] * c + kxr[i] * s + axis[i] * kr * (1.0 - c) for i in range(3)]
+    return thigh, axis, flexion
+
+
+def frame_from_axes3(primary: list[float], secondary: list[float]) -> list[list[float]]:
+    """:func:`frame_from_axes` on 3-vectors given as Python floats, the frame as rows."""
+    a = _unit3(primary)
+    k = a[0] * secondary[0] + a[1] * secondary[1] + a[2] * secondary[2]
+    b = _unit3([si - ai * k for si, ai in zip(secondary, a, strict=True)])
+    c = cross3(a, b)
+    return [[a[0], b[0], c[0]], [a[1], b[1], c[1]], [a[2], b[2], c[2]]]
 
 
 def frame_from_axes(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
@@ -168,8 +192,8 @@ def frame_from_axes(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
     return np.array([[al[0], b[0], c[0]], [al[1], b[1], c[1]], [al[2], b[2], c[2]]])
 
 
-__all__ = ["SwingTrajectory", "SwingError", "two_link_ik", "frame_from_axes", "rotation_about",
-           "rotation_z", "cross"]
+__all__ = ["SwingTrajectory", "SwingError", "two_link_ik", "two_link_ik3", "frame_from_axes",
+           "frame_from_axes3", "rotation_about", "rotation_z", "cross"]
 
 
 def hinge_leg_ik(hip: np.ndarray, target: np.ndarray, bone1: np.ndarray, bone2: np.ndarray,

@@ -76,6 +76,47 @@ class Dynamics:
         mujoco.mj_solveM(self._model, sd, x, np.ascontiguousarray(rhs, dtype=float).reshape(1, -1))
         return x[0]
 
+    def mass_addition(self, diagonal: np.ndarray) -> np.ndarray:
+        """A diagonal matrix ``diag(diagonal)`` (``diagonal`` ``(nv,)``) in the layout of MuJoCo's
+        sparse mass matrix (``MjData.M``; -0.0 off the diagonal), to add to ``M`` in
+        :meth:`solve_mass_plus`."""
+        add = np.full(len(self._data.M), -0.0)
+        add[self._M_diag] = diagonal
+        return add
+
+    def block_addresses(self, dofs: np.ndarray) -> np.ndarray:
+        """``(k, k)`` addresses in MuJoCo's sparse mass matrix (``MjData.M``) of the entries
+        ``M[i, j]`` of the dofs ``dofs`` ``(k,)`` (both triangles point at the one stored
+        entry), to add a symmetric block to ``M`` in :meth:`solve_mass_plus`. The dofs must lie
+        on one branch of the tree (each an ancestor of the next, as the hinges of one joint), so
+        that every pair is stored."""
+        m = self._model
+        dofs = np.asarray(dofs, dtype=int)
+        out = np.empty((len(dofs), len(dofs)), dtype=np.intp)
+        for a, i in enumerate(dofs.tolist()):
+            for b, j in enumerate(dofs.tolist()):
+                r, col = max(i, j), min(i, j)
+                start = int(m.M_rowadr[r])
+                cols = m.M_colind[start:start + int(m.M_rownnz[r])].tolist()
+                if col not in cols:
+                    raise ValueError(f"dofs {i} and {j} are not on one branch: M[{i}, {j}] is not "
+                                     "stored")
+                out[a, b] = start + cols.index(col)
+        return out
+
+    def solve_mass_plus(self, rhs: np.ndarray, addition: np.ndarray) -> np.ndarray:
+        """``(n, nv)`` solutions ``X`` of ``(M(q) + A) x = rhs_i`` for every row of ``rhs``
+        ``(n, nv)``, with ``A`` a symmetric matrix of ``M``'s sparsity given in its sparse
+        layout (``addition``: :meth:`mass_addition`, plus blocks at :meth:`block_addresses`):
+        one sparse ``L^T D L`` factorisation (``mj_factorM``) and one ``mj_solveM`` for every
+        row, as :meth:`solve_mass`."""
+        sd = self._scratch
+        np.add(self._data.M, addition, out=sd.M)
+        mujoco.mj_factorM(self._model, sd)
+        x = np.empty_like(rhs)
+        mujoco.mj_solveM(self._model, sd, x, rhs)
+        return x
+
     def bias_forces(self) -> np.ndarray:
         """``(nv,)`` Coriolis, centrifugal and gravity forces C(q, qdot) (``qfrc_bias``)."""
         return self._data.qfrc_bias.copy()

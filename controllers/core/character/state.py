@@ -37,6 +37,8 @@ class State:
             is its BVH joint).
         body_rotations: ``(nbody, 3, 3)`` world rotation matrices of the bodies (columns: the
             body's x, y, z axes).
+        body_quaternions: ``(nbody, 4)`` the same orientations as unit quaternions
+            ``(w, x, y, z)``.
         body_angular_velocities: ``(nbody, 3)`` world angular velocities of the bodies (rad/s).
         subtree_coms: ``(nbody, 3)`` world centre of mass of each body's subtree (m).
         joint_axes: ``(njnt, 3)`` world axes of the MuJoCo joints (unit; hinges).
@@ -60,6 +62,7 @@ class State:
         self.qvel = _read_only(d.qvel)
         self.body_positions = _read_only(d.xpos)
         self.body_rotations = _read_only(d.xmat.reshape(-1, 3, 3))
+        self.body_quaternions = _read_only(d.xquat)
         self.body_angular_velocities = _read_only(d.cvel[:, :3])
         self.subtree_coms = _read_only(d.subtree_com)
         self.joint_axes = _read_only(d.xaxis)
