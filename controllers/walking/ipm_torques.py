@@ -15,12 +15,6 @@ from ..core.character import Character
 from .ipm_params import GRAVITY
 from .leg import Leg, index_selector, matvec3, solve3
 
-try:  # np.linalg.solve's own kernel: the same LAPACK solve without the wrapper's checks
-    from numpy.linalg._umath_linalg import solve1 as _solve
-except ImportError:  # pragma: no cover - numpy's layout changed
-    _solve = np.linalg.solve
-
-
 _PAIR_SUM = np.ones(2)
 
 
@@ -162,7 +156,7 @@ class Damping:
             add[self._block_adr] += dt * self.B.ravel()[self._block_flat]
         X = dyn.solve_mass_plus(rhs, add)           # rows: y, then Z^T (rows A^-1 e_r)
         WX = (dt * self.W) @ X.T                    # (k, 1 + k): dt W y, dt W Z
-        corr = _solve(self._eye + WX[:, 1:], WX[:, 0])
+        corr = np.linalg.solve(self._eye + WX[:, 1:], WX[:, 0])
         u = self.u
         np.subtract(X[0], corr @ X[1:], out=u)      # qddot
         u *= dt
