@@ -132,6 +132,7 @@ from .leg import (
     wrap_angle,
 )
 from .rig_map import child_hinges
+from .standing import arms_down_pose, standing_pose
 from .swing import (
     SwingTrajectory,
     frame_from_axes3,
@@ -223,7 +224,20 @@ class IPMController:
         self._pelvis_children = [(index_selector(ch.dof_joint[dofs]), index_selector(dofs))
                                  for dofs in child_hinges(ch, self._pelvis, thighs)
                                  if len(dofs) == 3]
-        # per-dof data for PD and gravity compensation (all but the stance leg, per swing leg)
+        self._index_dofs(ch)
+        standing = ch.poses.standing()
+        soles = ch.poses.kinematics(standing).site_positions
+        self._root_above_soles = float(standing[ch.root_qpos[2]] - np.mean(
+            [soles[lg.site][2] for lg in self._legs]))
+        anchors = ch.state.joint_anchors
+        self.stand_width = float(np.linalg.norm(anchors[self._legs[0].hip_jnt[0]]
+                                                - anchors[self._legs[1].hip_jnt[0]]))
+        self._reset_commands(ch)
+
+    def _index_dofs(self, ch: Character) -> None:
+        """The per-dof data of the torques, looked up once: the upper body's dofs (every
+        actuated dof off the legs, and the toes), its PD gains and pose, the gravity
+        compensation and the damping per swing leg, scratch buffers."""
         self._act = np.flatnonzero(ch.actuated)
         legs = np.concatenate([lg.all for lg in self._legs])
         upper = np.setdiff1d(self._act, legs)
@@ -244,7 +258,7 @@ class IPMController:
         self._upper_kd = kd[self._upper] * s
         self._limits = ch.actuation.torque_limits()
         self._neg_limits = -self._limits
-        self.upper_pose = self._upper_body_pose(ch)
+        self.upper_pose = arms_down_pose(ch, self.params.upper.arm_abduction)
         self._q_upper = self.upper_pose[self._upper_q]
         # the same over every dof (zero gain elsewhere): the upper body's PD in three products
         self._upper_kp_nv = np.zeros(ch.nv)
@@ -276,21 +290,13 @@ class IPMController:
             w, x, y, z = mat_quat(lg.thigh_rest)
             self._thigh_rest_inv[lg.side] = [w, -x, -y, -z]
         self._pelvis_cache = (None, None)
-        standing = ch.poses.standing()
-        soles = ch.poses.kinematics(standing).site_positions
-        self._root_above_soles = float(standing[ch.root_qpos[2]] - np.mean(
-            [soles[lg.site][2] for lg in self._legs]))
-        anchors = ch.state.joint_anchors
-        self.stand_width = float(np.linalg.norm(anchors[self._legs[0].hip_jnt[0]]
-                                                - anchors[self._legs[1].hip_jnt[0]]))
-        self._stopping = False
-        self._turning = False
-        # commands and state
+
+    def _reset_commands(self, ch: Character) -> None:
+        """The commands and the state at the start: standing, at the current heading."""
         self._start_yaw = heading_yaw(ch.state.body_rotations[self._pelvis])
         self.heading_target = self._start_yaw
-        self.speed_target = 0.0
-        self.speed_bias = 0.0
-        self._heading_rate = 0.0
+        self.speed_target = self.speed_bias = self._heading_rate = 0.0
+        self._stopping = self._turning = False
         self._turned = -math.inf
         self._last_t = ch.time
         self.steps = 0
@@ -306,23 +312,6 @@ class IPMController:
         self._walk_cache = (None, False)
         # always settle on both feet first (the start pose may not even touch the floor yet)
         self._start_standing(ch, ch.time)
-
-    def _upper_body_pose(self, ch: Character) -> np.ndarray:
-        """``(nq,)`` the rest pose with the arms hanging (shoulders turned by IK)."""
-        q = ch.poses.rest()
-        for side, sgn in (("left", 1.0), ("right", -1.0)):
-            sh = ch.role(f"{side}_shoulder", required=False)
-            hand = ch.role(f"{side}_wrist", required=False)
-            if sh is None or hand is None:
-                continue
-            x = ch.poses.kinematics(q).body_positions
-            p_sh = x[ch.body_id(sh)]
-            p_hand = x[ch.body_id(hand)]
-            arm = float(np.linalg.norm(p_hand - p_sh))
-            a = self.params.upper.arm_abduction
-            target = p_sh + arm * np.array([0.0, sgn * math.sin(a), -math.cos(a)])
-            q = ch.poses.solve_ik(q, [(hand, target, None)], ch.joint_dofs(sh))
-        return q
 
     # -- commands -----------------------------------------------------------------------------
     def desired_speed(self, t: float) -> float:
@@ -413,69 +402,11 @@ class IPMController:
         self.stand_switches.append(t)
 
     def _standing_pose(self, ch: Character) -> np.ndarray:
-        """``(nq,)`` a standing pose for the feet where they are: upper body as
-        :attr:`upper_pose`, pelvis upright at the current heading, legs by IK."""
-        s = ch.state
-        q = s.qpos.copy()
-        up = self._upper_q
-        q[up] = self.upper_pose[up]
-        yaw = heading_yaw(s.body_rotations[self._pelvis])
-        q[ch.root_qpos[3:7]] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
-        # pelvis over the middle of the feet (COM offset kept) at standing height
-        soles = np.array([s.site_positions[lg.site] for lg in self._legs])
-        q[ch.root_qpos[:2]] += soles[:, :2].mean(axis=0) - s.com()[:2]
-        q[ch.root_qpos[2]] = min(q[ch.root_qpos[2]], soles[:, 2].mean() + self._root_above_soles)
-        # knees bent like the stance knee while walking (no sudden drop when a step starts):
-        # seed hip and ankle pitch with half the flexion each, lower the pelvis, then IK
-        k = self.params.stance.knee
-        drop = 0.0
-        for lg in self._legs:
-            q[lg.knee_q] = k
-            knee_axis = self._rest_axes[ch.dof_joint[lg.knee_dof]]
-            for dofs in (lg.hip, lg.ankle):  # the hinge nearest the knee's axis: the pitch
-                cos = self._rest_axes[ch.dof_joint[dofs]] @ knee_axis
-                i = int(np.argmax(np.abs(cos)))
-                if abs(cos[i]) > 0.7:
-                    q[ch.dof_qpos[dofs[i]]] = -0.5 * k * math.copysign(1.0, cos[i])
-            drop = max(drop, lg.l1 + lg.l2 - math.hypot(
-                lg.l1 * math.cos(0.5 * k) + lg.l2 * math.cos(0.5 * k), 0.0))
-        q[ch.root_qpos[2]] -= drop
-        # feet flat on the floor where they are (a foot still on its heel or toes is laid flat)
-        touch = {}
-        for gc in ch.contacts.ground():
-            touch[gc.body] = min(touch.get(gc.body, math.inf), float(gc.position[2]))
-        targets = []
-        for lg in self._legs:
-            fy = heading_yaw(s.body_rotations[lg.foot])
-            ground = min(touch.get(lg.ankle_name, math.inf), touch.get(lg.toe_name, math.inf),
-                         float(s.site_positions[lg.site][2]))
-            R = rotation_z(fy)
-            ankle = s.site_positions[lg.site].copy() - R @ lg.site_offset
-            ankle[2] = ground - lg.site_offset[2]
-            targets.append((lg.foot, ankle,
-                            np.array([math.cos(fy / 2), 0.0, 0.0, math.sin(fy / 2)])))
-        # every ankle within the reach of its leg at that knee flexion: a foot laid flat from its
-        # toes (a perturbed start) may sit lower than the straight leg reaches from this pelvis
-        # height; an unreachable target sends the IK through the straight knee's singularity to
-        # wound-up angles (a hip at 48 rad) that the PD then spins the leg towards
-        q[ch.root_qpos[2]] -= self._reach_drop(ch, q, [a for _, a, _ in targets], k)
-        dofs = np.concatenate([lg.leg for lg in self._legs])
-        return ch.poses.solve_ik(q, targets, dofs)
-
-    def _reach_drop(self, ch: Character, q: np.ndarray, ankles: list, knee: float) -> float:
-        """How far (m) to lower the pelvis of pose ``q`` so each leg reaches its ankle target
-        (``ankles``, world, left then right) with the knee bent ``knee`` rad: the reach is
-        :meth:`Leg.reach`, hip joint to ankle joint (0 when both already reach)."""
-        anchors = ch.poses.kinematics(q).joint_anchors
-        drop = 0.0
-        for lg, ankle in zip(self._legs, ankles, strict=True):
-            reach = lg.reach(knee)
-            d = anchors[lg.hip_jnt[0]] - ankle
-            horizontal = float(d[0] ** 2 + d[1] ** 2)
-            if horizontal >= reach ** 2:
-                continue  # out of reach sideways: lowering does not help
-            drop = max(drop, float(d[2]) - math.sqrt(reach ** 2 - horizontal))
-        return drop
+        """``(nq,)`` a standing pose for the feet where they are
+        (:func:`~.standing.standing_pose`): upper body as :attr:`upper_pose`, knees bent as
+        the stance knee while walking."""
+        return standing_pose(ch, self._legs, self._upper_q, self.upper_pose, self._rest_axes,
+                             self._root_above_soles, self.params.stance.knee)
 
     def _foot_offset(self, ch: Character, side: int) -> np.ndarray:
         """``(2,)`` (sagittal, coronal) offset of a foot sole from the COM, heading frame."""
