@@ -427,6 +427,10 @@ def test_cost_over_time_matches_the_cost_per_control(walk_ref):
                    for i in range(c.T)]
     np.testing.assert_allclose(c.cost.joint_error(res.sites, f, np.arange(c.T)),
                                np.mean(per_control, axis=0), rtol=1e-12)
+    both = c.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, f,
+                            np.arange(c.T), joint_error=True)  # the planner's one pass
+    np.testing.assert_array_equal(both[0], whole)
+    np.testing.assert_allclose(both[1], np.mean(per_control, axis=0), rtol=1e-12)
     c.close()
 
 

@@ -617,13 +617,13 @@ class MpcController:
         if T1 <= 0 or T1 >= T:
             res = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls,
                                                          self.k_plan))
-            return (self._costs(res, off, applied, grid.features, rows),
-                    self.cost.joint_error(res.sites, grid.features, rows), N * T * self.k_plan)
+            c, err = self._costs(res, off, applied, grid.features, rows)
+            return c, err, N * T * self.k_plan
         n_keep = min(N, max(2, int(math.ceil(o.keep * N))))
         first = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls[:, :T1],
                                                        self.k_plan))
         steps = N * T1 * self.k_plan
-        c1 = self._costs(first, off[:, :T1], applied, grid.features, rows[:T1])
+        c1 = self._costs(first, off[:, :T1], applied, grid.features, rows[:T1])[0]
         c1 = np.where(first.ok, c1, np.inf)  # a diverged candidate cannot be continued
         keep = np.sort(np.argsort(c1, kind="stable")[:n_keep])
         keep = keep[np.isfinite(c1[keep])]
@@ -633,8 +633,7 @@ class MpcController:
         near = first.take(keep)
         whole = near.then(self._executor.evaluate(RolloutRequest(
             self._tail_model, near.final_states, controls[keep, T1:], self.k_tail)))
-        c[keep] = self._costs(whole, off[keep], applied, grid.features, rows)
-        err[keep] = self.cost.joint_error(whole.sites, grid.features, rows)
+        c[keep], err[keep] = self._costs(whole, off[keep], applied, grid.features, rows)
         return c, err, steps + len(keep) * (T - T1) * self.k_tail
 
     def _boost(self) -> float:
@@ -649,18 +648,19 @@ class MpcController:
         return float(np.clip(c[-1] / max(self._mean_cost, 1e-9), 1.0, o.max_boost))
 
     def _costs(self, res, off: np.ndarray, applied: np.ndarray, feats,
-               rows: np.ndarray) -> np.ndarray:
-        """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts
-        ``res`` of the offsets ``off (N, T, nu)`` against feature rows ``rows (T,)``."""
-        c = self.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, feats,
-                                rows)
+               rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``((N,) costs, (N,) mean joint errors (m))`` of the rollouts ``res`` of the offsets
+        ``off (N, T, nu)`` against feature rows ``rows (T,)``: the mean tracking cost +
+        smoothness + graded fall penalty, and the tracking metric's quantity."""
+        c, err = self.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, feats,
+                                     rows, joint_error=True)
         c = np.where(np.isfinite(c), c, 1e3).mean(axis=1)
         if self.options.smoothness > 0:
             prev = np.concatenate([np.broadcast_to(applied, (off.shape[0], 1, off.shape[2])),
                                    off], axis=1)
             d = np.diff(prev, axis=1) / np.where(self.widths > 0, self.widths, 1.0)
             c = c + self.options.smoothness * (d * d).mean(axis=2).sum(axis=1)
-        return c + fall_penalty(self.cost, res)
+        return c + fall_penalty(self.cost, res), err
 
     def _update(self, Xs: np.ndarray, c: np.ndarray, X: np.ndarray, sigma: np.ndarray):
         """The new nominal knots and CEM's sigma from candidates ``Xs (N, K, nu)`` and their
