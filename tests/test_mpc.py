@@ -89,48 +89,51 @@ def test_control_dt_must_be_whole_physics_steps(character, walk_ref):
 
 def test_the_planning_model_has_its_own_time_step(character, walk_ref):
     """plan_timestep changes the rollout model's step only: the character keeps its own, the
-    rest of the physics is checked to be the character's. By default it is twice the
-    character's with the character's own solver; the fast solver is a sparse Jacobian without
-    warm start; the character's own step and solver make the rollouts exact."""
+    rest of the physics is checked to be the character's. By default it is the coarsest
+    divisor of the control at which the contacts keep their time constant (0.005 s here) with
+    the fast solver, a sparse Jacobian without warm start; the character's own step and solver
+    make the rollouts exact."""
     import mujoco
 
     from mjchar.controllers.sampling.trajectory import model_fingerprint
 
     c = make_mpc(character, walk_ref, **FAST)
     c.reset(character)
-    assert c.options.plan_solver == "exact"  # the default: the character's own solver
-    assert c._rmodel.model.opt.disableflags == 0
-    c.options.plan_solver = "fast"
-    c.reset(character)
+    assert c.options.plan_solver == "fast"  # the default
     m = c._rmodel.model
-    assert m.opt.timestep == 0.004 and character.model.opt.timestep == 0.002
-    assert (c.k, c.k_plan) == (10, 5)
+    assert m.opt.timestep == 0.005 and character.model.opt.timestep == 0.002
+    assert (c.k, c.k_plan) == (10, 4)
     assert m.opt.jacobian == mujoco.mjtJacobian.mjJAC_SPARSE
     assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_WARMSTART
     assert character.model.opt.disableflags == 0  # the character's own physics untouched
     c.act(character, 0.0)  # one replanning step: rollouts of k_plan steps per control
-    assert c.stats["physics_steps"] == 8 * 10 * 5
-    c.options.plan_timestep = 0.002  # the character's own step and solver: the same physics
+    assert c.stats["physics_steps"] == 8 * 10 * 4
     c.options.plan_solver = "exact"
+    c.reset(character)
+    assert c._rmodel.model.opt.disableflags == 0
+    c.options.plan_timestep = 0.002  # the character's own step and solver: the same physics
     c.reset(character)
     assert c._rmodel.model.opt.timestep == 0.002 and c.k_plan == 10
     assert model_fingerprint(c._rmodel.model) == model_fingerprint(character.model)
     c.close()
 
 
-@pytest.mark.parametrize(("timestep", "control_dt", "expected"), [
-    (0.002, 0.02, 0.004),  # twice the character's step
-    (0.005, 0.02, 0.01),  # another model's step: twice it as well
-    (0.004, 0.02, 0.004),  # 0.008 does not divide the control: the character's own
-    (0.002, 0.002, 0.002),  # one physics step per control: the character's own
+@pytest.mark.parametrize(("contact", "control_dt", "expected"), [
+    (0.01, 0.02, 0.005),  # the converter's contacts: half their time constant
+    (0.02, 0.02, 0.01),  # softer contacts: the joint limits' 0.02 s bound it as well
+    (0.012, 0.02, 0.005),  # 0.006 does not divide the control: the next finer divisor
+    (0.003, 0.02, 0.002),  # stiffer than two model steps: the model's own step
+    (0.01, 0.002, 0.002),  # one physics step per control: the model's own
 ])
-def test_default_planning_step_follows_the_model(timestep, control_dt, expected):
+def test_default_planning_step_follows_the_model(contact, control_dt, expected):
     from mjchar.controllers.sampling.mpc import plan_timestep
 
+    m = Character().model
+    m.geom_solref[:, 0] = contact
     o = MpcOptions(control_dt=control_dt, horizon=10 * control_dt, replan=control_dt)
-    assert plan_timestep(o, timestep) == pytest.approx(expected)
+    assert plan_timestep(o, m) == pytest.approx(expected)
     o.plan_timestep = 0.001
-    assert plan_timestep(o, timestep) == 0.001  # given: taken as it is
+    assert plan_timestep(o, m) == 0.001  # given: taken as it is
 
 
 def test_a_model_without_a_file_is_refused(walk_ref):
@@ -424,6 +427,10 @@ def test_cost_over_time_matches_the_cost_per_control(walk_ref):
                    for i in range(c.T)]
     np.testing.assert_allclose(c.cost.joint_error(res.sites, f, np.arange(c.T)),
                                np.mean(per_control, axis=0), rtol=1e-12)
+    both = c.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, f,
+                            np.arange(c.T), joint_error=True)  # the planner's one pass
+    np.testing.assert_array_equal(both[0], whole)
+    np.testing.assert_allclose(both[1], np.mean(per_control, axis=0), rtol=1e-12)
     c.close()
 
 
@@ -463,7 +470,7 @@ def test_early_termination_and_the_coarse_tail(walk_ref):
     c.reset(ch)
     assert c._tail_model.model.opt.timestep == 0.01 and (c.T_near, c.k_tail) == (4, 2)
     p = c.plan(ch.state.get_physics(), 0.0)
-    assert p.physics_steps == 8 * 4 * 5 + 4 * 6 * 2
+    assert p.physics_steps == 8 * 4 * 4 + 4 * 6 * 2  # the near part at 0.005 s, the tail at 0.01
     c.close()
     _, a, _ = _track(Character(), walk_ref, 0.2, **o)
     _, b, _ = _track(Character(), walk_ref, 0.2, **{**o, "threads": 1})

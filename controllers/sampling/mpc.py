@@ -27,7 +27,10 @@ The plan, with MJPC's symbols:
   simulated from the current state in one batch (:mod:`mjchar.controllers.sampling.rollout`, every
   core, deterministic) on the *planning model*: the character's physics (checked by
   :func:`~mjchar.controllers.sampling.trajectory.model_fingerprint`) at the time step
-  ``plan_timestep``, by default twice the character's (half the rollout physics). When even
+  ``plan_timestep``, by default the coarsest divisor of the control interval at which the
+  model's contacts and joint limits keep their own time constants (0.005 s, 4 steps per
+  control, on a model with 0.01 s contacts), with a sparse constraint Jacobian and no solver
+  warm start (``plan_solver="fast"``). When even
   the cheapest candidate's rollout stays further from the clip than ``second_batch`` (its mean
   joint position error over the horizon, the tracking metric's quantity; 5 cm by default),
   ``N`` more candidates are drawn around the same nominal and the update takes both batches:
@@ -89,9 +92,9 @@ from .executors import LocalExecutor
 from .planning import (
     MPC_STANCE_HEIGHT,
     PLAN_SOLVERS,
-    PLAN_STEP_RATIO,
     MpcError,
     ReferenceGrid,
+    coarsest_plan_step,
     model_file,
     planning_model,
     whole_multiple,
@@ -108,7 +111,7 @@ from .tracking import (
 )
 from .trajopt import KnotSpline
 
-__all__ = ["MPC_STANCE_HEIGHT", "MPC_WIDTHS", "PLAN_SOLVERS", "PLAN_STEP_RATIO", "UPDATES",
+__all__ = ["MPC_STANCE_HEIGHT", "MPC_WIDTHS", "PLAN_SOLVERS", "UPDATES",
            "MpcController", "MpcError", "MpcOptions", "Plan", "ReferenceGrid", "make_mpc",
            "plan_timestep", "planning_model", "shift_matrix", "stance_height"]
 
@@ -141,13 +144,15 @@ class MpcOptions:
         replan: seconds between replanning steps (a whole number of controls, <= horizon).
         control_dt: seconds per PD-target control (a whole number of physics steps).
         plan_timestep: the time step of the planning model the rollouts run on (``None``:
-            :data:`PLAN_STEP_RATIO` times the character's own, see :func:`plan_timestep`);
-            ``control_dt`` must be a whole number of it. A coarser step makes each rollout
-            cheaper; the character itself still steps at its own time step, and giving that
-            step here makes the rollouts exact.
+            the coarsest divisor of ``control_dt`` at which the model's contacts and limits
+            keep their own time constants, see :func:`plan_timestep`); ``control_dt`` must be
+            a whole number of it. A coarser step makes each rollout cheaper; the character
+            itself still steps at its own time step, and giving that step here (with
+            ``plan_solver="exact"``) makes the rollouts exact.
         plan_solver: the planning model's solver settings, one of :data:`PLAN_SOLVERS`
-            (:func:`planning_model`): ``"exact"`` (the character's own, the default) or
-            ``"fast"`` (cheaper steps; walk60 tracked at 2.51 cm instead of 2.44).
+            (:func:`planning_model`): ``"fast"`` (the default: a sparse constraint Jacobian
+            and no solver warm start, the same physics to the solver's tolerance at about
+            0.85 of the step cost) or ``"exact"`` (the character's own).
         near: seconds of the horizon every candidate is rolled out over before the cheapest
             go on (a whole number of controls; 0 or the horizon: no split, the default).
             Only the ``keep`` fraction cheapest so far (fallen candidates last) is rolled on
@@ -187,7 +192,7 @@ class MpcOptions:
     replan: float = time(0.04, gt=0, le=5)
     control_dt: float = time(0.02, gt=0, le=0.1)
     plan_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
-    plan_solver: str = choice("exact", PLAN_SOLVERS)
+    plan_solver: str = choice("fast", PLAN_SOLVERS)
     near: float = time(0.0, ge=0, le=5)
     keep: float = number(1.0, gt=0, le=1)
     tail_timestep: float | None = time(None, ge=1e-5, le=0.01, optional=True)
@@ -281,14 +286,14 @@ def shift_matrix(n_knots: int, knot_dt: float, shift: float) -> np.ndarray:
     return S
 
 
-def plan_timestep(options: MpcOptions, timestep: float) -> float:
-    """The planning model's time step for a character stepping at ``timestep``: the option, or
-    :data:`PLAN_STEP_RATIO` ``x timestep`` where ``control_dt`` is a whole number of that, else
-    ``timestep``."""
+def plan_timestep(options: MpcOptions, model) -> float:
+    """The planning model's time step for a character of ``model`` (an ``MjModel``): the
+    option, or :func:`~mjchar.controllers.sampling.planning.coarsest_plan_step` (the coarsest
+    divisor of ``control_dt`` at which the model's contacts and limits keep their own time
+    constants, not finer than the model's step)."""
     if options.plan_timestep is not None:
         return float(options.plan_timestep)
-    coarse = PLAN_STEP_RATIO * float(timestep)
-    return coarse if whole_multiple(options.control_dt, coarse) else float(timestep)
+    return coarsest_plan_step(model, options.control_dt)
 
 
 def stance_height(options: MpcOptions, reference) -> float:
@@ -397,7 +402,7 @@ class MpcController:
         kp, kd = ch.actuation.default_gains()
         ch.actuation.set_native_gains(kp, kd)
         source = model_file(ch)
-        plan_dt = plan_timestep(o, ch.timestep)
+        plan_dt = plan_timestep(o, ch.model)
         tail_dt = plan_dt if o.tail_timestep is None else float(o.tail_timestep)
         key = (source, plan_dt, tail_dt, o.plan_solver)
         if self._rm_key != key:
@@ -612,13 +617,13 @@ class MpcController:
         if T1 <= 0 or T1 >= T:
             res = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls,
                                                          self.k_plan))
-            return (self._costs(res, off, applied, grid.features, rows),
-                    self.cost.joint_error(res.sites, grid.features, rows), N * T * self.k_plan)
+            c, err = self._costs(res, off, applied, grid.features, rows)
+            return c, err, N * T * self.k_plan
         n_keep = min(N, max(2, int(math.ceil(o.keep * N))))
         first = self._executor.evaluate(RolloutRequest(self._rmodel, state, controls[:, :T1],
                                                        self.k_plan))
         steps = N * T1 * self.k_plan
-        c1 = self._costs(first, off[:, :T1], applied, grid.features, rows[:T1])
+        c1 = self._costs(first, off[:, :T1], applied, grid.features, rows[:T1])[0]
         c1 = np.where(first.ok, c1, np.inf)  # a diverged candidate cannot be continued
         keep = np.sort(np.argsort(c1, kind="stable")[:n_keep])
         keep = keep[np.isfinite(c1[keep])]
@@ -628,8 +633,7 @@ class MpcController:
         near = first.take(keep)
         whole = near.then(self._executor.evaluate(RolloutRequest(
             self._tail_model, near.final_states, controls[keep, T1:], self.k_tail)))
-        c[keep] = self._costs(whole, off[keep], applied, grid.features, rows)
-        err[keep] = self.cost.joint_error(whole.sites, grid.features, rows)
+        c[keep], err[keep] = self._costs(whole, off[keep], applied, grid.features, rows)
         return c, err, steps + len(keep) * (T - T1) * self.k_tail
 
     def _boost(self) -> float:
@@ -644,18 +648,19 @@ class MpcController:
         return float(np.clip(c[-1] / max(self._mean_cost, 1e-9), 1.0, o.max_boost))
 
     def _costs(self, res, off: np.ndarray, applied: np.ndarray, feats,
-               rows: np.ndarray) -> np.ndarray:
-        """``(N,)`` mean tracking cost + smoothness + graded fall penalty of the rollouts
-        ``res`` of the offsets ``off (N, T, nu)`` against feature rows ``rows (T,)``."""
-        c = self.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, feats,
-                                rows)
+               rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``((N,) costs, (N,) mean joint errors (m))`` of the rollouts ``res`` of the offsets
+        ``off (N, T, nu)`` against feature rows ``rows (T,)``: the mean tracking cost +
+        smoothness + graded fall penalty, and the tracking metric's quantity."""
+        c, err = self.cost.over_time(res.qpos, res.qvel, res.com, res.com_vel, res.sites, feats,
+                                     rows, joint_error=True)
         c = np.where(np.isfinite(c), c, 1e3).mean(axis=1)
         if self.options.smoothness > 0:
             prev = np.concatenate([np.broadcast_to(applied, (off.shape[0], 1, off.shape[2])),
                                    off], axis=1)
             d = np.diff(prev, axis=1) / np.where(self.widths > 0, self.widths, 1.0)
             c = c + self.options.smoothness * (d * d).mean(axis=2).sum(axis=1)
-        return c + fall_penalty(self.cost, res)
+        return c + fall_penalty(self.cost, res), err
 
     def _update(self, Xs: np.ndarray, c: np.ndarray, X: np.ndarray, sigma: np.ndarray):
         """The new nominal knots and CEM's sigma from candidates ``Xs (N, K, nu)`` and their

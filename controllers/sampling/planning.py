@@ -31,8 +31,9 @@ from .tracking import (
 )
 from .trajectory import model_fingerprint
 
-__all__ = ["MPC_STANCE_HEIGHT", "PLAN_SOLVERS", "PLAN_STEP_RATIO", "MpcError", "ReferenceGrid",
-           "model_file", "planning_model", "whole_multiple"]
+__all__ = ["MPC_STANCE_HEIGHT", "PLAN_SOLVERS", "MpcError", "ReferenceGrid",
+           "constraint_time_constant", "coarsest_plan_step", "model_file", "planning_model",
+           "whole_multiple"]
 
 #: the planning model's solver settings: ``"fast"`` (sparse constraint Jacobian, no solver warm
 #: start: the same physics to the solver's tolerance, cheaper steps) or ``"exact"`` (the
@@ -43,13 +44,6 @@ PLAN_SOLVERS = ("fast", "exact")
 #: (the raw-mocap 12 % labels it 5 cm up and gives it half the weight); measured closed loop
 #: on walk60, walk_forward and walk_and_turn_right at 2, 3, 6 and 12 % (docs/mpc.md)
 MPC_STANCE_HEIGHT = 0.03
-#: the planning model's default time step in character time steps: 2 halves the rollout physics
-#: (1.7x the real-time factor) and met every bar of docs/mpc.md on the bundled humanoid (0.004 s;
-#: 16/16 pushes, the 60 s loop, the clips, the perturbed starts); used when ``control_dt`` is a
-#: whole number of it, else the character's own step
-PLAN_STEP_RATIO = 2
-
-
 def whole_multiple(span: float, step: float) -> bool:
     """Whether ``span`` is a whole number (>= 1) of ``step`` (to 1e-6 of a step)."""
     n = span / step
@@ -58,6 +52,39 @@ def whole_multiple(span: float, step: float) -> bool:
 
 class MpcError(MjcharError):
     """The MPC was given settings it cannot use (sizes, times, an unknown update)."""
+
+
+def constraint_time_constant(model: mujoco.MjModel) -> float | None:
+    """The shortest time constant (s) of ``model``'s constraints: its contacts (geoms and
+    explicit pairs), limited joints and tendons, and equality constraints (the first ``solref``
+    number where positive; a negative one is a direct stiffness, without a time constant), or
+    of the global override when it is enabled. ``None`` when no constraint has one."""
+    found = [model.geom_solref[:, 0], model.pair_solref[:, 0],
+             model.jnt_solref[model.jnt_limited.astype(bool), 0],
+             model.tendon_solref_lim[model.tendon_limited.astype(bool), 0],
+             model.eq_solref[:, 0]]
+    if model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_OVERRIDE:
+        found.append(np.array([model.opt.o_solref[0]]))
+    v = np.concatenate([np.ravel(a) for a in found])
+    v = v[v > 0]
+    return float(v.min()) if len(v) else None
+
+
+def coarsest_plan_step(model: mujoco.MjModel, control_dt: float) -> float:
+    """The planning model's default time step for a character of ``model`` controlled every
+    ``control_dt`` s: the coarsest whole divisor of ``control_dt`` at which every constraint
+    keeps its own time constant (MuJoCo treats a time constant under two time steps as two
+    time steps, so a coarser step would plan on softer contacts and limits than the
+    character's: half the shortest :func:`constraint_time_constant`), and never finer than
+    the model's own step. 0.005 s for a model with the contacts of 0.01 s the converter
+    writes, stepping at 0.002 s: 4 planning steps per control of 0.02 s instead of 10."""
+    dt = float(model.opt.timestep)
+    tc = constraint_time_constant(model)
+    if tc is None:
+        return dt
+    n = max(1, math.ceil(control_dt / (tc / 2.0) - 1e-6))
+    step = control_dt / n
+    return step if step >= dt * (1 - 1e-9) else dt
 
 
 def planning_model(source, character: Character, timestep: float,

@@ -629,12 +629,14 @@ class RolloutRunner:
         self._datas = [mujoco.MjData(model.model) for _ in range(threads)]
         self._pool = mujoco.rollout.Rollout(nthread=threads if threads > 1 else 0)
         self._slices = state_slices(model.model)
+        self._buffers: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def close(self) -> None:
         """Stop the thread pool (idempotent)."""
         if self._pool is not None:
             self._pool.close()
             self._pool = None
+        self._buffers.clear()
 
     def __enter__(self) -> RolloutRunner:
         return self
@@ -648,27 +650,47 @@ class RolloutRunner:
             raise RolloutError("this RolloutRunner is closed")
         if request.model is not self.model:
             raise RolloutError("the request is for another RolloutModel than this runner's")
+        if request.batch_size <= self.chunk:
+            return self._run_chunk(request)
         parts = [request.take(slice(a, a + self.chunk))
                  for a in range(0, request.batch_size, self.chunk)]
         return RolloutResult.concatenate([self._run_chunk(p) for p in parts])
 
+    def _buffers_for(self, batch: int, nstep: int, ncontrol: int):
+        """``(control, state, sensordata)`` arrays for a chunk of this shape, kept for the next
+        chunk of the same shape: a planner asks for the same batch every planning step, and
+        fresh arrays of this size cost the page faults of a new allocation every time (the
+        results are copied out of them, :meth:`_collect`)."""
+        key = (batch, nstep, ncontrol)
+        buf = self._buffers.get(key)
+        if buf is None:
+            m = self.model.model
+            if len(self._buffers) >= 4:  # a few shapes at most (a planner's near and tail)
+                self._buffers.clear()
+            buf = (np.empty((batch, nstep, ncontrol)), np.empty((batch, nstep, self.model.nstate)),
+                   np.empty((batch, nstep, m.nsensordata)))
+            self._buffers[key] = buf
+        return buf
+
     def _run_chunk(self, req: RolloutRequest) -> RolloutResult:
-        rm, m = req.model, req.model.model
+        m = req.model.model
         batch, horizon, k = req.batch_size, req.horizon, req.steps_per_control
         nstep = horizon * k + 1  # one extra step: its sensors describe the final state
         nu = m.nu
         spec = _CTRL | (_XFRC if req.xfrc_applied is not None else 0)
         ncontrol = mujoco.mj_stateSize(m, spec)
-        control = np.empty((batch, nstep, ncontrol))
-        control[:, :-1, :nu] = np.repeat(req.controls, k, axis=1)
+        control, state, sensordata = self._buffers_for(batch, nstep, ncontrol)
+        # control i held for k steps: a view of the first T k steps as (B, T, k, ncontrol)
+        held = control[:, :-1].reshape(batch, horizon, k, ncontrol)
+        if not np.may_share_memory(held, control):
+            raise RolloutError("internal: the held controls are not a view of the buffer")
+        held[..., :nu] = req.controls[:, :, None, :]
         control[:, -1, :nu] = req.controls[:, -1]
         if req.xfrc_applied is not None:
             xfrc = req.xfrc_applied.reshape(batch, horizon, -1)
-            control[:, :-1, nu:] = np.repeat(xfrc, k, axis=1)
+            held[..., nu:] = xfrc[:, :, None, :]
             control[:, -1, nu:] = xfrc[:, -1]
         state0 = np.ascontiguousarray(req.initial_states)
-        state = np.empty((batch, nstep, rm.nstate))
-        sensordata = np.empty((batch, nstep, m.nsensordata))
         self._pool.rollout([m] * batch, self._datas, state0, control, control_spec=spec,
                            skip_checks=True, nstep=nstep, state=state, sensordata=sensordata)
         return self._collect(req, state0, state, sensordata)

@@ -502,12 +502,14 @@ class TrackingCost:
 
     def over_time(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray,
                   com_vel: np.ndarray, sites: np.ndarray, ref: ReferenceFeatures,
-                  rows: np.ndarray) -> np.ndarray:
+                  rows: np.ndarray, *, joint_error: bool = False):
         """``(B, T)`` weighted cost of whole rollouts in one vectorised pass: state ``t`` of
         every sample (``qpos (B, T, nq)``, ``qvel (B, T, nv)``, ``com, com_vel (B, T, 3)``,
         ``sites (B, T, S, 3)``, e.g. a :class:`RolloutResult`'s) against row ``rows[t]`` of
         ``ref``; the same numbers as :meth:`__call__` per control (to rounding), about twenty
-        times cheaper for a horizon of 35 controls. NaN states cost ``inf``."""
+        times cheaper for a horizon of 35 controls. NaN states cost ``inf``. With
+        ``joint_error``: ``(costs, (B,) mean joint errors)``, the second what
+        :meth:`joint_error` returns (to rounding), from the same pass."""
         w = self.weights
         v = w.velocity
         rows = np.asarray(rows, dtype=int)
@@ -539,7 +541,11 @@ class TrackingCost:
             joints = np.zeros(qpos.shape[:2])
         c = (w.pose * pose + w.root * root + w.end_effector * ee + w.balance * bal
              + w.com * comt + w.joints * joints)
-        return np.where(np.isfinite(c), c, np.inf)
+        c = np.where(np.isfinite(c), c, np.inf)
+        if not joint_error:
+            return c
+        e = joints.mean(axis=1)
+        return c, np.where(np.isfinite(e), e, np.inf)
 
     def fallen(self, result: RolloutResult, upto: int | None = None) -> np.ndarray:
         """``(B,)`` bool: non-foot floor contact, divergence, or root below the fall height at

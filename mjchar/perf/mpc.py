@@ -290,13 +290,14 @@ def _short(r: dict) -> dict:
             "plan_steps_per_sim_s": round(r.get("plan_steps_per_sim_s", 0))}
 
 
-def nominal_steps(options: dict, timestep: float = 0.002) -> float:
-    """Planning-model steps per simulated second the options take at most (every candidate
-    over the whole horizon, or with ``near`` every candidate over the near part and the
-    ``keep`` fraction over the tail at ``tail_timestep``; candidates that diverge in the near
-    part cut the measured figure below this)."""
+def nominal_steps(options: dict, model=None) -> float:
+    """Planning-model steps per simulated second the options take at most on ``model`` (an
+    ``MjModel``; default the bundled humanoid's): every candidate over the whole horizon, or
+    with ``near`` every candidate over the near part and the ``keep`` fraction over the tail at
+    ``tail_timestep``; candidates that diverge in the near part cut the measured figure below
+    this."""
     o = MpcOptions.from_kwargs(**options)
-    plan_dt = plan_timestep(o, timestep)
+    plan_dt = plan_timestep(o, Character().model if model is None else model)
     if 0 < o.near < o.horizon:
         tail_dt = plan_dt if o.tail_timestep is None else float(o.tail_timestep)
         kept = min(o.samples, max(2, int(np.ceil(o.keep * o.samples))))
@@ -346,7 +347,7 @@ def speed(options: dict, duration: float | None = None) -> dict:
            "rtf_cpu": sim / projected, "rtf_cpu_30k": sim / projected * REFERENCE_STEPS / cpu_rate,
            "main_thread_cpu_s": t.thread_s, "rollout_thread_cpu_s": t.cpu_s - t.thread_s,
            "planning_s": st["planning_s"], "plan_steps_per_sim_s": plan_steps,
-           "nominal_plan_steps_per_sim_s": nominal_steps(options, float(ch.model.opt.timestep)),
+           "nominal_plan_steps_per_sim_s": nominal_steps(options, ch.model),
            "bound": threads * wall_rate / steps}
     print("speed", json.dumps(out), flush=True)
     print(f"speed: {sim:.2f} sim s in {t.wall_s:.2f} s wall on {threads} threads, load "
