@@ -33,14 +33,7 @@ def rotation_error3(R_des: np.ndarray, R: np.ndarray) -> list[float]:
     E = R_des @ R.T
     q = np.empty(4)
     mujoco.mju_mat2Quat(q, E.ravel())
-    w, x, y, z = q.tolist()
-    if w < 0:
-        w, x, y, z = -w, -x, -y, -z
-    s = math.sqrt(x * x + y * y + z * z)
-    if s < 1e-12:
-        return [2.0 * x, 2.0 * y, 2.0 * z]
-    k = 2.0 * math.atan2(s, w) / s
-    return [x * k, y * k, z * k]
+    return rotvec_of_quat(*q.tolist())
 
 
 def inverse3(A: np.ndarray) -> np.ndarray:
@@ -99,6 +92,12 @@ def quat_error(q_des: list[float], q: list[float]) -> list[float]:
     x = q0 * p1 - p0 * q1 - (p2 * q3 - p3 * q2)
     y = q0 * p2 - p0 * q2 - (p3 * q1 - p1 * q3)
     z = q0 * p3 - p0 * q3 - (p1 * q2 - p2 * q1)
+    return rotvec_of_quat(w, x, y, z)
+
+
+def rotvec_of_quat(w: float, x: float, y: float, z: float) -> list[float]:
+    """Rotation vector (rad, three Python floats) of the unit quaternion ``(w, x, y, z)``, the
+    short way round."""
     if w < 0:
         w, x, y, z = -w, -x, -y, -z
     s = math.sqrt(x * x + y * y + z * z)
